@@ -1,0 +1,178 @@
+//! One error type for every file of the data contract.
+//!
+//! Every error names the file and, where the fault sits in a particular place, the line and
+//! the column, and says what was expected. Nothing in this crate panics on bad input.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// Where in a file a fault was found. Lines and columns are 1-based, as editors show them.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct Location {
+    pub file: PathBuf,
+    pub line: Option<u64>,
+    /// 1-based column number and, for CSV files, the column's header name.
+    pub column: Option<(u64, Option<String>)>,
+}
+
+impl Location {
+    pub fn file(file: &Path) -> Self {
+        Self {
+            file: file.to_path_buf(),
+            line: None,
+            column: None,
+        }
+    }
+
+    pub fn line(mut self, line: u64) -> Self {
+        self.line = Some(line);
+        self
+    }
+
+    pub fn column(mut self, number: u64, name: Option<&str>) -> Self {
+        self.column = Some((number, name.map(str::to_owned)));
+        self
+    }
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file.display())?;
+        if let Some(line) = self.line {
+            write!(f, ":{line}")?;
+            if let Some((number, _)) = &self.column {
+                write!(f, ":{number}")?;
+            }
+        }
+        if let Some((_, Some(name))) = &self.column {
+            write!(f, " (column `{name}`)")?;
+        }
+        Ok(())
+    }
+}
+
+/// What was wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum DataErrorKind {
+    #[error("cannot read or write the file: {0}")]
+    Io(#[from] std::io::Error),
+    #[error("malformed CSV: {0}")]
+    Csv(String),
+    #[error("the file is empty: expected a header row and at least {needed} data row(s)")]
+    Empty { needed: usize },
+    #[error("expected at least {needed} data rows, found {found}")]
+    TooFewRows { needed: usize, found: usize },
+    #[error("required column `{name}` is missing{}; the header has: {}", suggestion_text(suggestion), available.join(", "))]
+    MissingColumn {
+        name: String,
+        suggestion: Option<String>,
+        available: Vec<String>,
+    },
+    #[error("column `{name}` appears twice in the header")]
+    DuplicateColumn { name: String },
+    #[error("expected a number, found `{found}`")]
+    NotANumber { found: String },
+    #[error("expected a finite number, found `{found}`")]
+    NotFinite { found: String },
+    #[error("time must increase strictly: {current} s follows {previous} s")]
+    TimeNotIncreasing { previous: f64, current: f64 },
+    #[error(
+        "non-uniform sampling: this interval is {found_s} s where the run's sample time is {expected_s} s (off by {:.3} %, tolerance {:.1} %); airsus never resamples silently: resample the file or split it at the gap",
+        100.0 * (found_s - expected_s).abs() / expected_s,
+        100.0 * tolerance
+    )]
+    NonUniformSampling {
+        expected_s: f64,
+        found_s: f64,
+        tolerance: f64,
+    },
+    #[error("expected valve state 0 (closed), 1 (fill) or 2 (exhaust), found `{found}`")]
+    InvalidValve { found: String },
+    #[error("{quantity} must not be negative, found {value}")]
+    Negative { quantity: String, value: f64 },
+    #[error("{quantity} {value} is below absolute vacuum ({min} {unit} gauge)")]
+    BelowVacuum {
+        quantity: String,
+        value: f64,
+        min: f64,
+        unit: &'static str,
+    },
+    #[error("TOML: {0}")]
+    Toml(String),
+    #[error("unknown key `{key}`{}; valid keys here: {}", suggestion_text(suggestion), valid.join(", "))]
+    UnknownKey {
+        key: String,
+        suggestion: Option<String>,
+        valid: Vec<String>,
+    },
+    #[error("missing key `{key}`: {expected}")]
+    MissingKey { key: String, expected: String },
+    #[error("`{key}` = {value}: {reason}")]
+    InvalidValue {
+        key: String,
+        value: String,
+        reason: String,
+    },
+}
+
+fn suggestion_text(suggestion: &Option<String>) -> String {
+    match suggestion {
+        Some(s) => format!(" (did you mean `{s}`?)"),
+        None => String::new(),
+    }
+}
+
+/// A fault in a data-contract file: where, and what.
+#[derive(Debug, thiserror::Error)]
+#[error("{location}: {kind}")]
+pub struct DataError {
+    pub location: Location,
+    #[source]
+    pub kind: DataErrorKind,
+}
+
+impl DataError {
+    pub fn new(location: Location, kind: DataErrorKind) -> Self {
+        Self { location, kind }
+    }
+
+    pub fn in_file(file: &Path, kind: DataErrorKind) -> Self {
+        Self::new(Location::file(file), kind)
+    }
+
+    pub fn io(file: &Path, err: std::io::Error) -> Self {
+        Self::in_file(file, DataErrorKind::Io(err))
+    }
+}
+
+/// The candidate closest to `name`, if it is close enough to be a plausible misspelling.
+pub fn nearest_name<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<String> {
+    let lower = name.to_ascii_lowercase();
+    candidates
+        .into_iter()
+        .map(|c| (strsim::jaro_winkler(&lower, &c.to_ascii_lowercase()), c))
+        .filter(|(score, _)| *score >= 0.8)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, c)| c.to_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn location_renders_file_line_column_and_name() {
+        let loc = Location::file(Path::new("ds1.csv"))
+            .line(12)
+            .column(3, Some("valve"));
+        assert_eq!(loc.to_string(), "ds1.csv:12:3 (column `valve`)");
+    }
+
+    #[test]
+    fn nearest_name_finds_misspellings_only() {
+        let names = ["height_mm", "pressure_kpa", "time_s"];
+        assert_eq!(nearest_name("heigth_mm", names).as_deref(), Some("height_mm"));
+        assert_eq!(nearest_name("Pressure_kPa", names).as_deref(), Some("pressure_kpa"));
+        assert_eq!(nearest_name("valve", names), None);
+    }
+}

@@ -1,0 +1,31 @@
+//! # airsus-data: the data contract
+//!
+//! Readers and writers for every file of SPEC §5 — runs, bellow force maps, tank discharges,
+//! the study file and the truck parameter file — with the exact column and key names fixed
+//! there. Files speak the units engineers log in (kg, kPa gauge, mm); everything this crate
+//! hands out is in SI units (kg, Pa gauge, m, s).
+//!
+//! Bad input is an error, never a panic: every [`DataError`] names the file, and where it can
+//! the line and column, and says what was expected. Writers are atomic (write, then rename).
+//!
+//! This crate knows no models: it sits at the bottom of the workspace.
+
+pub mod atomic;
+pub mod error;
+pub mod lab;
+pub mod run;
+pub mod study;
+pub mod table;
+pub mod time_axis;
+pub mod toml_file;
+pub mod truck;
+pub mod units;
+
+pub use error::{DataError, DataErrorKind, Location};
+pub use lab::{ForceMap, TankDischarge, read_discharge, read_force_map, write_discharge, write_force_map};
+pub use run::{Outputs, Run, RunInputs, RunOutputs, ValveState, read_run, read_run_with, write_run};
+pub use study::{Channel, Role, Study, StudyDischarge, StudyRun, read_study, write_study};
+pub use truck::{
+    BellowParameters, DamperTable, DefaultedKey, Environment, Geometry, LoadedTruck, MassParameters,
+    SlowDynamics, TireParameters, TruckParameters, ValveParameters, read_truck, truck_to_toml, write_truck,
+};

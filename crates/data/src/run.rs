@@ -1,0 +1,366 @@
+//! Runs: drive and loading experiments (SPEC §5, thesis data-sets 1–4).
+//!
+//! The file speaks the units engineers log in (kg, kPa gauge, mm); the program holds SI units
+//! (kg, Pa gauge, m). Conversion happens here and nowhere else.
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::atomic::write_atomically;
+use crate::error::{DataError, DataErrorKind};
+use crate::table::{ColumnSpec, NumericTable, parse_table};
+use crate::time_axis::check_time_axis;
+use crate::units::{PA_PER_KPA, STANDARD_ATMOSPHERE_KPA, m_from_mm, mm_from_m};
+
+/// Column names of the run format, fixed by the data contract.
+pub mod columns {
+    pub const TIME: &str = "time_s";
+    pub const WHEEL_LOAD: &str = "wheel_load_kg";
+    pub const VALVE: &str = "valve";
+    pub const SUPPLY: &str = "supply_kpa";
+    pub const ROAD: &str = "road_mm";
+    pub const HEIGHT: &str = "height_mm";
+    pub const PRESSURE: &str = "pressure_kpa";
+}
+
+/// The 3-state solenoid valve between bellow circuit and supply tank (SPEC §1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ValveState {
+    #[default]
+    Closed = 0,
+    Fill = 1,
+    Exhaust = 2,
+}
+
+impl ValveState {
+    /// The value written in the `valve` column.
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+
+    pub fn from_code(value: f64) -> Option<Self> {
+        match value {
+            v if v == 0.0 => Some(Self::Closed),
+            v if v == 1.0 => Some(Self::Fill),
+            v if v == 2.0 => Some(Self::Exhaust),
+            _ => None,
+        }
+    }
+}
+
+/// Inputs of a run, one value per sample, SI units.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RunInputs {
+    /// `m_tot`: the mass a scale under the modeled wheel shows, kg.
+    pub wheel_load_kg: Vec<f64>,
+    pub valve: Vec<ValveState>,
+    /// Actuator-tank gauge pressure, Pa (measured upstream of the valve).
+    pub supply_gauge_pa: Vec<f64>,
+    /// Road height under the wheel, m.
+    pub road_height_m: Vec<f64>,
+}
+
+/// Measured outputs of a run, one value per sample, SI units.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RunOutputs {
+    /// Axle-to-chassis height as the sensor reads it, m.
+    pub sensor_height_m: Vec<f64>,
+    /// Bellow gauge pressure, Pa.
+    pub bellow_gauge_pa: Vec<f64>,
+}
+
+/// One experiment: a uniform time base, the inputs, and (when measured) the outputs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Run {
+    pub name: String,
+    pub time_s: Vec<f64>,
+    /// The (median) sample interval; every interval is within 1 % of it.
+    pub sample_time_s: f64,
+    pub inputs: RunInputs,
+    /// `None` for an inputs-only file (e.g. a scenario to simulate).
+    pub outputs: Option<RunOutputs>,
+}
+
+impl Run {
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+
+    /// The measured outputs, or an error naming the run when it has none.
+    pub fn measured(&self) -> Result<&RunOutputs, DataError> {
+        self.outputs.as_ref().ok_or_else(|| {
+            DataError::in_file(
+                Path::new(&self.name),
+                DataErrorKind::MissingColumn {
+                    name: format!("{} and {}", columns::HEIGHT, columns::PRESSURE),
+                    suggestion: None,
+                    available: vec!["(inputs only)".to_owned()],
+                },
+            )
+        })
+    }
+}
+
+/// Whether a reader insists on the output columns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outputs {
+    Required,
+    /// Read them when both are present; accept an inputs-only file.
+    IfPresent,
+}
+
+/// Reads a run file whose outputs are required.
+pub fn read_run(path: &Path) -> Result<Run, DataError> {
+    read_run_with(path, Outputs::Required)
+}
+
+pub fn read_run_with(path: &Path, outputs: Outputs) -> Result<Run, DataError> {
+    let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+    parse_run(&bytes, path, outputs)
+}
+
+/// Parses run CSV bytes; `path` names the source in errors and gives the run its name.
+pub fn parse_run(bytes: &[u8], path: &Path, outputs: Outputs) -> Result<Run, DataError> {
+    use columns::*;
+    let mut specs = vec![
+        ColumnSpec::required(TIME),
+        ColumnSpec::required(WHEEL_LOAD),
+        ColumnSpec::required(VALVE),
+        ColumnSpec::required(SUPPLY),
+        ColumnSpec::optional(ROAD, 0.0),
+    ];
+    let with_outputs = match outputs {
+        Outputs::Required => true,
+        Outputs::IfPresent => header_has(bytes, HEIGHT) || header_has(bytes, PRESSURE),
+    };
+    if with_outputs {
+        specs.push(ColumnSpec::required(HEIGHT));
+        specs.push(ColumnSpec::required(PRESSURE));
+    }
+    let table = parse_table(bytes, path, &specs)?;
+    let sample_time_s = check_time_axis(&table, 0, path, 2)?;
+
+    let valve = table.columns[2]
+        .iter()
+        .enumerate()
+        .map(|(row, &v)| {
+            ValveState::from_code(v).ok_or_else(|| {
+                DataError::new(
+                    table.cell_location(path, 2, row),
+                    DataErrorKind::InvalidValve { found: v.to_string() },
+                )
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    check_non_negative(&table, 1, path, "wheel load")?;
+    check_above_vacuum(&table, 3, path, "supply pressure")?;
+
+    let kpa_to_pa = |c: &[f64]| c.iter().map(|v| v * PA_PER_KPA).collect::<Vec<_>>();
+    let inputs = RunInputs {
+        wheel_load_kg: table.columns[1].clone(),
+        valve,
+        supply_gauge_pa: kpa_to_pa(&table.columns[3]),
+        road_height_m: table.columns[4].iter().copied().map(m_from_mm).collect(),
+    };
+    let outputs = if with_outputs {
+        check_above_vacuum(&table, 6, path, "bellow pressure")?;
+        Some(RunOutputs {
+            sensor_height_m: table.columns[5].iter().copied().map(m_from_mm).collect(),
+            bellow_gauge_pa: kpa_to_pa(&table.columns[6]),
+        })
+    } else {
+        None
+    };
+    Ok(Run {
+        name: path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        time_s: table.columns[0].clone(),
+        sample_time_s,
+        inputs,
+        outputs,
+    })
+}
+
+fn header_has(bytes: &[u8], name: &str) -> bool {
+    let first = bytes.split(|&b| b == b'\n').next().unwrap_or_default();
+    String::from_utf8_lossy(first)
+        .split(',')
+        .any(|h| h.trim().trim_matches('"') == name)
+}
+
+pub(crate) fn check_non_negative(table: &NumericTable, index: usize, path: &Path, quantity: &str) -> Result<(), DataError> {
+    match table.columns[index].iter().position(|&v| v < 0.0) {
+        Some(row) => Err(DataError::new(
+            table.cell_location(path, index, row),
+            DataErrorKind::Negative {
+                quantity: quantity.to_owned(),
+                value: table.columns[index][row],
+            },
+        )),
+        None => Ok(()),
+    }
+}
+
+/// A gauge pressure below -1 atm would be a negative absolute pressure: a unit or sign error.
+pub(crate) fn check_above_vacuum(table: &NumericTable, index: usize, path: &Path, quantity: &str) -> Result<(), DataError> {
+    match table.columns[index]
+        .iter()
+        .position(|&v| v <= -STANDARD_ATMOSPHERE_KPA)
+    {
+        Some(row) => Err(DataError::new(
+            table.cell_location(path, index, row),
+            DataErrorKind::BelowVacuum {
+                quantity: quantity.to_owned(),
+                value: table.columns[index][row],
+                min: -STANDARD_ATMOSPHERE_KPA,
+                unit: "kPa",
+            },
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Writes a run in the contract's format and units, atomically. Values are written in Rust's
+/// shortest round-trip form, so a run written and read back is the same to the last bit of the
+/// file units (the SI conversion itself may round in the last place).
+pub fn write_run(path: &Path, run: &Run) -> Result<(), DataError> {
+    let n = run.len();
+    let inputs = &run.inputs;
+    let consistent = inputs.wheel_load_kg.len() == n
+        && inputs.valve.len() == n
+        && inputs.supply_gauge_pa.len() == n
+        && inputs.road_height_m.len() == n
+        && run
+            .outputs
+            .as_ref()
+            .is_none_or(|o| o.sensor_height_m.len() == n && o.bellow_gauge_pa.len() == n);
+    if !consistent {
+        return Err(DataError::in_file(
+            path,
+            DataErrorKind::InvalidValue {
+                key: "run".to_owned(),
+                value: run.name.clone(),
+                reason: "signals of different lengths cannot be written".to_owned(),
+            },
+        ));
+    }
+    write_atomically(path, |w: &mut dyn Write| {
+        use columns::*;
+        write!(w, "{TIME},{WHEEL_LOAD},{VALVE},{SUPPLY},{ROAD}")?;
+        if run.outputs.is_some() {
+            write!(w, ",{HEIGHT},{PRESSURE}")?;
+        }
+        writeln!(w)?;
+        for i in 0..n {
+            write!(
+                w,
+                "{},{},{},{},{}",
+                run.time_s[i],
+                inputs.wheel_load_kg[i],
+                inputs.valve[i].code(),
+                inputs.supply_gauge_pa[i] / PA_PER_KPA,
+                mm_from_m(inputs.road_height_m[i]),
+            )?;
+            if let Some(o) = &run.outputs {
+                write!(
+                    w,
+                    ",{},{}",
+                    mm_from_m(o.sensor_height_m[i]),
+                    o.bellow_gauge_pa[i] / PA_PER_KPA
+                )?;
+            }
+            writeln!(w)?;
+        }
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = "time_s,wheel_load_kg,valve,supply_kpa,height_mm,pressure_kpa\n\
+        0.0,2830,0,850,240.0,350.0\n\
+        0.1,2830,1,850,240.1,350.2\n\
+        0.2,3130,2,849.5,239.0,361.0\n";
+
+    fn parse(text: &str) -> Result<Run, DataError> {
+        parse_run(text.as_bytes(), Path::new("ds1.csv"), Outputs::Required)
+    }
+
+    #[test]
+    fn reads_and_converts_to_si() {
+        let run = parse(GOOD).unwrap();
+        assert_eq!(run.name, "ds1");
+        assert_eq!(run.len(), 3);
+        assert!((run.sample_time_s - 0.1).abs() < 1e-12);
+        assert_eq!(run.inputs.valve, vec![ValveState::Closed, ValveState::Fill, ValveState::Exhaust]);
+        assert_eq!(run.inputs.supply_gauge_pa[2], 849_500.0);
+        assert_eq!(run.inputs.road_height_m, vec![0.0; 3]);
+        let out = run.outputs.as_ref().unwrap();
+        assert!((out.sensor_height_m[1] - 0.2401).abs() < 1e-15);
+        assert_eq!(out.bellow_gauge_pa[2], 361_000.0);
+    }
+
+    #[test]
+    fn invalid_valve_names_cell() {
+        let text = GOOD.replace("0.1,2830,1,", "0.1,2830,3,");
+        let err = parse(&text).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "ds1.csv:3:3 (column `valve`): expected valve state 0 (closed), 1 (fill) or 2 (exhaust), found `3`"
+        );
+        let text = GOOD.replace("0.1,2830,1,", "0.1,2830,0.5,");
+        assert!(matches!(parse(&text).unwrap_err().kind, DataErrorKind::InvalidValve { .. }));
+    }
+
+    #[test]
+    fn negative_load_is_rejected() {
+        let text = GOOD.replace("0.2,3130,", "0.2,-5,");
+        let err = parse(&text).unwrap_err();
+        assert_eq!(err.location.line, Some(4));
+        assert!(err.to_string().contains("wheel load must not be negative"), "{err}");
+    }
+
+    #[test]
+    fn pressure_below_vacuum_is_rejected() {
+        let text = GOOD.replace(",350.2\n", ",-350.2\n");
+        let err = parse(&text).unwrap_err();
+        assert!(err.to_string().contains("bellow pressure -350.2 is below absolute vacuum"), "{err}");
+    }
+
+    #[test]
+    fn inputs_only_file_reads_when_outputs_are_optional() {
+        let text = "time_s,wheel_load_kg,valve,supply_kpa\n0,2830,0,850\n0.1,2830,0,850\n";
+        let run = parse_run(text.as_bytes(), Path::new("s.csv"), Outputs::IfPresent).unwrap();
+        assert!(run.outputs.is_none());
+        assert!(run.measured().is_err());
+        assert!(parse_run(text.as_bytes(), Path::new("s.csv"), Outputs::Required).is_err());
+    }
+
+    #[test]
+    fn write_then_read_round_trips() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ds1.csv");
+        let run = parse(GOOD).unwrap();
+        write_run(&path, &run).unwrap();
+        let back = read_run(&path).unwrap();
+        assert_eq!(back.time_s, run.time_s);
+        assert_eq!(back.inputs.valve, run.inputs.valve);
+        assert_eq!(back.inputs.wheel_load_kg, run.inputs.wheel_load_kg);
+        for (a, b) in back.inputs.supply_gauge_pa.iter().zip(&run.inputs.supply_gauge_pa) {
+            assert!((a - b).abs() <= 1e-9 * b.abs());
+        }
+        let (o1, o2) = (back.outputs.unwrap(), run.outputs.unwrap());
+        for (a, b) in o1.sensor_height_m.iter().zip(&o2.sensor_height_m) {
+            assert!((a - b).abs() <= 1e-15);
+        }
+    }
+}

@@ -1,0 +1,843 @@
+//! Truck parameter files (SPEC §5): the nominal physical parameters of one corner.
+//!
+//! Sections and keys are fixed by the contract. A key marked *est* in the SPEC may be omitted:
+//! the pipeline estimates it, and the loader reports which built-in value it used instead.
+//! Values are checked for plausibility at load time, which catches unit slips (a height in mm,
+//! a temperature in °C, a pressure in Pa) before they become a strange simulation.
+//!
+//! The optional `[slow_dynamics]` section is ours (the SPEC allows models with more parameters
+//! to add their own): the OE model of thesis Table 5.4/5.5 and its force scale `k_sd`.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde::Deserialize;
+
+use crate::atomic::write_text_atomically;
+use crate::error::{DataError, DataErrorKind, Location};
+use crate::toml_file::{TableSchema, check_keys, deserialize, find_key_line, parse_toml};
+use crate::units::PA_PER_KPA;
+
+/// Ambient conditions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Environment {
+    pub gravity_m_s2: f64,
+    pub gas_constant_j_mol_k: f64,
+    /// Gas temperature, assumed equal to ambient (thesis 3.1.3).
+    pub temperature_k: f64,
+    /// Absolute ambient pressure, Pa.
+    pub ambient_pressure_pa: f64,
+}
+
+/// Lever geometry (thesis Fig 2.4/2.5).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Geometry {
+    /// Chassis bottom to hinge, m.
+    pub h0_m: f64,
+    /// Hinge to axle along the lever, m.
+    pub l1_m: f64,
+    /// Axle to bellow centre along the lever, m.
+    pub l2_m: f64,
+    /// Axle to damper, m.
+    pub l3_m: f64,
+    /// `k_scl`: static flex of the leaf-spring lever per newton on the wheel (eq 3.14), m/N.
+    pub lever_compliance_m_per_n: f64,
+}
+
+impl Geometry {
+    /// Lever gain `k_l = (l1 + l2) / l1` (thesis 3.1.1).
+    pub fn lever_gain(&self) -> f64 {
+        (self.l1_m + self.l2_m) / self.l1_m
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct MassParameters {
+    /// `m2`: unsprung mass, kg.
+    pub unsprung_kg: f64,
+    /// `I_g`: lever inertia about the hinge, kg m².
+    pub lever_inertia_kg_m2: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct TireParameters {
+    /// `k_w`, N/m (eq 3.15).
+    pub stiffness_n_per_m: f64,
+}
+
+/// Damper force against extension velocity (+ = extension/rebound), piecewise affine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DamperTable {
+    pub velocity_m_s: Vec<f64>,
+    pub force_n: Vec<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct BellowParameters {
+    /// `p0..p4` of `A_eff(h) = Σ p_i h^i` (eq 5.4), h in m, area in m².
+    pub effective_area_poly_m2: [f64; 5],
+    /// `A0, A1` of the mean cross-section `A(h) = A0 + A1 h` (eq 5.1), m² and m.
+    pub cross_section_m2: [f64; 2],
+    /// `k_f`: hinge friction, N s/m (QCM 1).
+    pub hinge_friction_n_s_per_m: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValveParameters {
+    /// `R_flow1`, fill channel, Pa s/mol (eq 3.19).
+    pub fill_resistance_pa_s_per_mol: f64,
+    /// `R_flow2`, exhaust channel, Pa s/mol (eq 3.19).
+    pub exhaust_resistance_pa_s_per_mol: f64,
+}
+
+/// The slow-dynamics OE block of Model 2 extended (thesis 4.2.1, Tables 5.4/5.5).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SlowDynamics {
+    /// Numerator `b1..b_nb` of `B(q)/F(q)`.
+    pub oe_b: Vec<f64>,
+    /// Denominator `f1..f_nf` (the leading 1 is implicit).
+    pub oe_f: Vec<f64>,
+    /// Input delay in samples.
+    pub oe_nk: usize,
+    /// Sample time the OE model was identified at, s.
+    pub oe_sample_time_s: f64,
+    /// `k_sd`, the scale from the OE output to the extra bellow force. `None`: one tenth of the
+    /// bellow force at the initial condition (thesis Table 5.9), computed by the model.
+    pub force_scale: Option<f64>,
+}
+
+impl Default for SlowDynamics {
+    fn default() -> Self {
+        Self {
+            oe_b: vec![-8.672e-8],
+            oe_f: vec![-0.997],
+            oe_nk: 2,
+            oe_sample_time_s: 0.1,
+            force_scale: None,
+        }
+    }
+}
+
+/// All parameters of one corner, SI units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TruckParameters {
+    pub environment: Environment,
+    pub geometry: Geometry,
+    pub mass: MassParameters,
+    pub tire: TireParameters,
+    pub damper: DamperTable,
+    pub bellow: BellowParameters,
+    pub valve: ValveParameters,
+    pub slow_dynamics: SlowDynamics,
+}
+
+impl TruckParameters {
+    /// The SPEC's reference truck: a 4x2 tractor's rear drive axle, with the corrected
+    /// effective-area coefficient `p1 = 0.8362` (thesis Table 5.2 prints 0.08362).
+    pub fn reference() -> Self {
+        Self {
+            environment: Environment {
+                gravity_m_s2: 9.81,
+                gas_constant_j_mol_k: 8.314462618,
+                temperature_k: 293.15,
+                ambient_pressure_pa: 101.325 * PA_PER_KPA,
+            },
+            geometry: Geometry {
+                h0_m: 0.10,
+                l1_m: 0.62,
+                l2_m: 0.28,
+                l3_m: 0.12,
+                lever_compliance_m_per_n: 2.0e-7,
+            },
+            mass: MassParameters {
+                unsprung_kg: 520.0,
+                lever_inertia_kg_m2: 200.0,
+            },
+            tire: TireParameters {
+                stiffness_n_per_m: 1.8e6,
+            },
+            damper: DamperTable {
+                velocity_m_s: vec![-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0],
+                force_n: vec![-6000.0, -4000.0, -1500.0, 0.0, 3000.0, 9000.0, 13000.0],
+            },
+            bellow: BellowParameters {
+                effective_area_poly_m2: [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941],
+                cross_section_m2: [0.250, -0.0310],
+                hinge_friction_n_s_per_m: 0.1,
+            },
+            valve: ValveParameters {
+                fill_resistance_pa_s_per_mol: 2.5e6,
+                exhaust_resistance_pa_s_per_mol: 1.5e6,
+            },
+            slow_dynamics: SlowDynamics::default(),
+        }
+    }
+}
+
+/// A loaded truck file: the parameters and the *est* keys the file left out, each filled with
+/// the reference truck's value (or, for `lever_inertia_kg_m2`, `m2 * l1²`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadedTruck {
+    pub parameters: TruckParameters,
+    pub defaulted: Vec<DefaultedKey>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct DefaultedKey {
+    /// `section.key` as in the file.
+    pub key: String,
+    /// The value used, as it would be written in the file.
+    pub value: String,
+}
+
+const SCHEMA: &[TableSchema] = &[
+    TableSchema {
+        name: "",
+        keys: &["environment", "geometry", "mass", "tire", "damper", "bellow", "valve", "slow_dynamics"],
+    },
+    TableSchema {
+        name: "environment",
+        keys: &["gravity_m_s2", "gas_constant_j_mol_k", "temperature_k", "ambient_pressure_kpa"],
+    },
+    TableSchema {
+        name: "geometry",
+        keys: &["h0_m", "l1_m", "l2_m", "l3_m", "lever_compliance_m_per_n"],
+    },
+    TableSchema {
+        name: "mass",
+        keys: &["unsprung_kg", "lever_inertia_kg_m2"],
+    },
+    TableSchema {
+        name: "tire",
+        keys: &["stiffness_n_per_m"],
+    },
+    TableSchema {
+        name: "damper",
+        keys: &["velocity_m_s", "force_n"],
+    },
+    TableSchema {
+        name: "bellow",
+        keys: &["effective_area_poly_m2", "cross_section_m2", "hinge_friction_n_s_per_m"],
+    },
+    TableSchema {
+        name: "valve",
+        keys: &["fill_resistance_pa_s_per_mol", "exhaust_resistance_pa_s_per_mol"],
+    },
+    TableSchema {
+        name: "slow_dynamics",
+        keys: &["oe_b", "oe_f", "oe_nk", "oe_sample_time_s", "force_scale_n_per_m"],
+    },
+];
+
+#[derive(Deserialize)]
+struct FileEnvironment {
+    gravity_m_s2: Option<f64>,
+    gas_constant_j_mol_k: Option<f64>,
+    temperature_k: Option<f64>,
+    ambient_pressure_kpa: Option<f64>,
+}
+
+#[derive(Deserialize)]
+struct FileGeometry {
+    h0_m: Option<f64>,
+    l1_m: Option<f64>,
+    l2_m: Option<f64>,
+    l3_m: Option<f64>,
+    lever_compliance_m_per_n: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+struct FileMass {
+    unsprung_kg: Option<f64>,
+    lever_inertia_kg_m2: Option<f64>,
+}
+
+#[derive(Deserialize)]
+struct FileTire {
+    stiffness_n_per_m: Option<f64>,
+}
+
+#[derive(Deserialize)]
+struct FileDamper {
+    velocity_m_s: Option<Vec<f64>>,
+    force_n: Option<Vec<f64>>,
+}
+
+#[derive(Deserialize, Default)]
+struct FileBellow {
+    effective_area_poly_m2: Option<Vec<f64>>,
+    cross_section_m2: Option<Vec<f64>>,
+    hinge_friction_n_s_per_m: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+struct FileValve {
+    fill_resistance_pa_s_per_mol: Option<f64>,
+    exhaust_resistance_pa_s_per_mol: Option<f64>,
+}
+
+#[derive(Deserialize)]
+struct FileSlow {
+    oe_b: Option<Vec<f64>>,
+    oe_f: Option<Vec<f64>>,
+    oe_nk: Option<i64>,
+    oe_sample_time_s: Option<f64>,
+    force_scale_n_per_m: Option<f64>,
+}
+
+#[derive(Deserialize)]
+struct TruckFile {
+    environment: Option<FileEnvironment>,
+    geometry: Option<FileGeometry>,
+    mass: Option<FileMass>,
+    tire: Option<FileTire>,
+    damper: Option<FileDamper>,
+    bellow: Option<FileBellow>,
+    valve: Option<FileValve>,
+    slow_dynamics: Option<FileSlow>,
+}
+
+/// Reads and checks a truck parameter file.
+pub fn read_truck(path: &Path) -> Result<LoadedTruck, DataError> {
+    let text = std::fs::read_to_string(path).map_err(|e| DataError::io(path, e))?;
+    parse_truck(&text, path)
+}
+
+/// Parses truck-file text; `path` names the source in errors.
+pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
+    let table = parse_toml(text, path)?;
+    check_keys(&table, SCHEMA, text, path)?;
+    let file: TruckFile = deserialize(text, path)?;
+    let mut ctx = Ctx {
+        text,
+        path,
+        defaulted: Vec::new(),
+    };
+    let reference = TruckParameters::reference();
+
+    let env = file.environment.ok_or_else(|| ctx.missing_section("environment"))?;
+    let environment = Environment {
+        gravity_m_s2: ctx.required("environment", "gravity_m_s2", env.gravity_m_s2, 9.0..=10.5, "m/s²")?,
+        gas_constant_j_mol_k: ctx.required(
+            "environment",
+            "gas_constant_j_mol_k",
+            env.gas_constant_j_mol_k,
+            8.2..=8.4,
+            "J/(mol K)",
+        )?,
+        temperature_k: ctx.required("environment", "temperature_k", env.temperature_k, 200.0..=400.0, "K (not °C)")?,
+        ambient_pressure_pa: ctx.required(
+            "environment",
+            "ambient_pressure_kpa",
+            env.ambient_pressure_kpa,
+            50.0..=120.0,
+            "kPa absolute",
+        )? * PA_PER_KPA,
+    };
+
+    let geo = file.geometry.ok_or_else(|| ctx.missing_section("geometry"))?;
+    let geometry = Geometry {
+        h0_m: ctx.required("geometry", "h0_m", geo.h0_m, -1.0..=1.0, "m")?,
+        l1_m: ctx.required("geometry", "l1_m", geo.l1_m, 0.05..=3.0, "m")?,
+        l2_m: ctx.required("geometry", "l2_m", geo.l2_m, 0.0..=3.0, "m")?,
+        l3_m: ctx.required("geometry", "l3_m", geo.l3_m, -3.0..=3.0, "m")?,
+        lever_compliance_m_per_n: ctx.required(
+            "geometry",
+            "lever_compliance_m_per_n",
+            geo.lever_compliance_m_per_n,
+            0.0..=1e-4,
+            "m/N",
+        )?,
+    };
+
+    let mass_file = file.mass.unwrap_or_default();
+    let unsprung_kg = ctx.estimable(
+        "mass",
+        "unsprung_kg",
+        mass_file.unsprung_kg,
+        reference.mass.unsprung_kg,
+        1.0..=5000.0,
+        "kg",
+    )?;
+    let lever_inertia_kg_m2 = ctx.estimable(
+        "mass",
+        "lever_inertia_kg_m2",
+        mass_file.lever_inertia_kg_m2,
+        unsprung_kg * geometry.l1_m * geometry.l1_m,
+        1e-3..=1e5,
+        "kg m²",
+    )?;
+
+    let tire_file = file.tire.ok_or_else(|| ctx.missing_section("tire"))?;
+    let tire = TireParameters {
+        stiffness_n_per_m: ctx.required("tire", "stiffness_n_per_m", tire_file.stiffness_n_per_m, 1e4..=1e8, "N/m")?,
+    };
+
+    let damper_file = file.damper.ok_or_else(|| ctx.missing_section("damper"))?;
+    let damper = ctx.damper(damper_file)?;
+
+    let bellow_file = file.bellow.unwrap_or_default();
+    let effective_area_poly_m2: [f64; 5] = ctx.estimable_array(
+        "bellow",
+        "effective_area_poly_m2",
+        bellow_file.effective_area_poly_m2,
+        reference.bellow.effective_area_poly_m2,
+    )?;
+    let cross_section_m2: [f64; 2] = ctx.estimable_array(
+        "bellow",
+        "cross_section_m2",
+        bellow_file.cross_section_m2,
+        reference.bellow.cross_section_m2,
+    )?;
+    ctx.check_areas(&effective_area_poly_m2, &cross_section_m2)?;
+    let bellow = BellowParameters {
+        effective_area_poly_m2,
+        cross_section_m2,
+        hinge_friction_n_s_per_m: ctx.estimable(
+            "bellow",
+            "hinge_friction_n_s_per_m",
+            bellow_file.hinge_friction_n_s_per_m,
+            reference.bellow.hinge_friction_n_s_per_m,
+            0.0..=1e6,
+            "N s/m",
+        )?,
+    };
+
+    let valve_file = file.valve.unwrap_or_default();
+    let valve = ValveParameters {
+        fill_resistance_pa_s_per_mol: ctx.estimable(
+            "valve",
+            "fill_resistance_pa_s_per_mol",
+            valve_file.fill_resistance_pa_s_per_mol,
+            reference.valve.fill_resistance_pa_s_per_mol,
+            1e3..=1e12,
+            "Pa s/mol",
+        )?,
+        exhaust_resistance_pa_s_per_mol: ctx.estimable(
+            "valve",
+            "exhaust_resistance_pa_s_per_mol",
+            valve_file.exhaust_resistance_pa_s_per_mol,
+            reference.valve.exhaust_resistance_pa_s_per_mol,
+            1e3..=1e12,
+            "Pa s/mol",
+        )?,
+    };
+
+    let slow_dynamics = match file.slow_dynamics {
+        None => SlowDynamics::default(),
+        Some(s) => ctx.slow_dynamics(s)?,
+    };
+
+    Ok(LoadedTruck {
+        parameters: TruckParameters {
+            environment,
+            geometry,
+            mass: MassParameters {
+                unsprung_kg,
+                lever_inertia_kg_m2,
+            },
+            tire,
+            damper,
+            bellow,
+            valve,
+            slow_dynamics,
+        },
+        defaulted: ctx.defaulted,
+    })
+}
+
+struct Ctx<'a> {
+    text: &'a str,
+    path: &'a Path,
+    defaulted: Vec<DefaultedKey>,
+}
+
+impl Ctx<'_> {
+    fn location(&self, section: &str, key: &str) -> Location {
+        let mut loc = Location::file(self.path);
+        if let Some(line) = find_key_line(self.text, section, key) {
+            loc = loc.line(line);
+        }
+        loc
+    }
+
+    fn missing_section(&self, section: &str) -> DataError {
+        DataError::new(
+            Location::file(self.path),
+            DataErrorKind::MissingKey {
+                key: format!("[{section}]"),
+                expected: "this section is required (see SPEC §5)".to_owned(),
+            },
+        )
+    }
+
+    fn invalid(&self, section: &str, key: &str, value: impl ToString, reason: String) -> DataError {
+        DataError::new(
+            self.location(section, key),
+            DataErrorKind::InvalidValue {
+                key: format!("{section}.{key}"),
+                value: value.to_string(),
+                reason,
+            },
+        )
+    }
+
+    fn check_range(
+        &self,
+        section: &str,
+        key: &str,
+        value: f64,
+        range: std::ops::RangeInclusive<f64>,
+        unit: &str,
+    ) -> Result<f64, DataError> {
+        if range.contains(&value) {
+            Ok(value)
+        } else {
+            Err(self.invalid(
+                section,
+                key,
+                value,
+                format!(
+                    "outside the plausible range {} to {} {unit}; check the unit",
+                    range.start(),
+                    range.end()
+                ),
+            ))
+        }
+    }
+
+    fn required(
+        &self,
+        section: &str,
+        key: &str,
+        value: Option<f64>,
+        range: std::ops::RangeInclusive<f64>,
+        unit: &str,
+    ) -> Result<f64, DataError> {
+        let value = value.ok_or_else(|| {
+            DataError::new(
+                self.location(section, section),
+                DataErrorKind::MissingKey {
+                    key: format!("{section}.{key}"),
+                    expected: format!("a number in {unit}; only keys the pipeline estimates may be omitted"),
+                },
+            )
+        })?;
+        self.check_range(section, key, value, range, unit)
+    }
+
+    fn estimable(
+        &mut self,
+        section: &str,
+        key: &str,
+        value: Option<f64>,
+        default: f64,
+        range: std::ops::RangeInclusive<f64>,
+        unit: &str,
+    ) -> Result<f64, DataError> {
+        match value {
+            Some(v) => self.check_range(section, key, v, range, unit),
+            None => {
+                self.defaulted.push(DefaultedKey {
+                    key: format!("{section}.{key}"),
+                    value: format!("{default:?}"),
+                });
+                Ok(default)
+            }
+        }
+    }
+
+    fn estimable_array<const N: usize>(
+        &mut self,
+        section: &str,
+        key: &str,
+        value: Option<Vec<f64>>,
+        default: [f64; N],
+    ) -> Result<[f64; N], DataError> {
+        match value {
+            Some(v) => {
+                let len = v.len();
+                <[f64; N]>::try_from(v).map_err(|_| {
+                    self.invalid(section, key, format!("[{len} values]"), format!("expected exactly {N} values"))
+                })
+            }
+            None => {
+                self.defaulted.push(DefaultedKey {
+                    key: format!("{section}.{key}"),
+                    value: format!("{default:?}"),
+                });
+                Ok(default)
+            }
+        }
+    }
+
+    fn damper(&self, file: FileDamper) -> Result<DamperTable, DataError> {
+        let velocity = file.velocity_m_s.ok_or_else(|| {
+            DataError::new(
+                self.location("damper", "damper"),
+                DataErrorKind::MissingKey {
+                    key: "damper.velocity_m_s".to_owned(),
+                    expected: "an array of extension velocities in m/s".to_owned(),
+                },
+            )
+        })?;
+        let force = file.force_n.ok_or_else(|| {
+            DataError::new(
+                self.location("damper", "damper"),
+                DataErrorKind::MissingKey {
+                    key: "damper.force_n".to_owned(),
+                    expected: "an array of forces in N, one per velocity".to_owned(),
+                },
+            )
+        })?;
+        if velocity.len() < 2 || velocity.len() != force.len() {
+            return Err(self.invalid(
+                "damper",
+                "force_n",
+                format!("[{} values]", force.len()),
+                format!(
+                    "the table needs at least 2 points and one force per velocity ({} velocities)",
+                    velocity.len()
+                ),
+            ));
+        }
+        if let Some(i) = velocity.windows(2).position(|w| !(w[1] > w[0])) {
+            return Err(self.invalid(
+                "damper",
+                "velocity_m_s",
+                velocity[i + 1],
+                format!("velocities must increase strictly (entry {} follows {})", i + 2, velocity[i]),
+            ));
+        }
+        Ok(DamperTable {
+            velocity_m_s: velocity,
+            force_n: force,
+        })
+    }
+
+    /// An area law that is not positive anywhere over the reference bellow's stroke
+    /// (0.2–0.45 m) is broken; thesis Table 5.2's `p1 = 0.08362` is the known example.
+    fn check_areas(&self, poly: &[f64; 5], cross: &[f64; 2]) -> Result<(), DataError> {
+        let heights = (0..=25).map(|i| 0.2 + 0.01 * f64::from(i));
+        let effective = |h: f64| poly.iter().rev().fold(0.0, |acc, p| acc * h + p);
+        if heights.clone().all(|h| effective(h) <= 0.0) {
+            return Err(self.invalid(
+                "bellow",
+                "effective_area_poly_m2",
+                format!("{poly:?}"),
+                "the effective area is not positive anywhere between 0.2 and 0.45 m bellow height (thesis Table 5.2 misprints p1 = 0.08362; the correct value is 0.8362)".to_owned(),
+            ));
+        }
+        if heights.clone().all(|h| cross[0] + cross[1] * h <= 0.0) {
+            return Err(self.invalid(
+                "bellow",
+                "cross_section_m2",
+                format!("{cross:?}"),
+                "the cross-section A0 + A1 h is not positive anywhere between 0.2 and 0.45 m".to_owned(),
+            ));
+        }
+        Ok(())
+    }
+
+    fn slow_dynamics(&self, s: FileSlow) -> Result<SlowDynamics, DataError> {
+        let d = SlowDynamics::default();
+        let oe_nk = match s.oe_nk {
+            None => d.oe_nk,
+            Some(nk) if (0..=1000).contains(&nk) => nk as usize,
+            Some(nk) => {
+                return Err(self.invalid("slow_dynamics", "oe_nk", nk, "expected a delay of 0 to 1000 samples".to_owned()));
+            }
+        };
+        let oe_sample_time_s = match s.oe_sample_time_s {
+            None => d.oe_sample_time_s,
+            Some(ts) => self.check_range("slow_dynamics", "oe_sample_time_s", ts, 1e-4..=100.0, "s")?,
+        };
+        let oe_b = s.oe_b.unwrap_or(d.oe_b);
+        if oe_b.is_empty() {
+            return Err(self.invalid("slow_dynamics", "oe_b", "[]", "expected at least one numerator coefficient".to_owned()));
+        }
+        Ok(SlowDynamics {
+            oe_b,
+            oe_f: s.oe_f.unwrap_or(d.oe_f),
+            oe_nk,
+            oe_sample_time_s,
+            force_scale: s.force_scale_n_per_m,
+        })
+    }
+}
+
+/// The parameters as a truck file, with units and *est* marks in comments. Numbers are written
+/// in shortest round-trip form, so the text loads back to identical values.
+pub fn truck_to_toml(p: &TruckParameters) -> String {
+    let mut s = String::new();
+    let e = &p.environment;
+    let g = &p.geometry;
+    // `{:?}` on f64 is Rust's shortest round-trip form and always a valid TOML float.
+    let _ = writeln!(s, "[environment]");
+    let _ = writeln!(s, "gravity_m_s2 = {:?}", e.gravity_m_s2);
+    let _ = writeln!(s, "gas_constant_j_mol_k = {:?}", e.gas_constant_j_mol_k);
+    let _ = writeln!(s, "temperature_k = {:?}", e.temperature_k);
+    let _ = writeln!(s, "ambient_pressure_kpa = {:?}", e.ambient_pressure_pa / PA_PER_KPA);
+    let _ = writeln!(s, "\n[geometry]");
+    let _ = writeln!(s, "h0_m = {:?}", g.h0_m);
+    let _ = writeln!(s, "l1_m = {:?}", g.l1_m);
+    let _ = writeln!(s, "l2_m = {:?}", g.l2_m);
+    let _ = writeln!(s, "l3_m = {:?}", g.l3_m);
+    let _ = writeln!(s, "lever_compliance_m_per_n = {:?}          # k_scl", g.lever_compliance_m_per_n);
+    let _ = writeln!(s, "\n[mass]");
+    let _ = writeln!(s, "unsprung_kg = {:?}                      # m2 (est)", p.mass.unsprung_kg);
+    let _ = writeln!(s, "lever_inertia_kg_m2 = {:?}              # I_g (est)", p.mass.lever_inertia_kg_m2);
+    let _ = writeln!(s, "\n[tire]");
+    let _ = writeln!(s, "stiffness_n_per_m = {:?}                # k_w", p.tire.stiffness_n_per_m);
+    let _ = writeln!(s, "\n[damper]                                 # + = extension (rebound)");
+    let _ = writeln!(s, "velocity_m_s = {:?}", p.damper.velocity_m_s);
+    let _ = writeln!(s, "force_n      = {:?}", p.damper.force_n);
+    let _ = writeln!(s, "\n[bellow]");
+    let _ = writeln!(s, "effective_area_poly_m2 = {:?}   # p0..p4 (est)", p.bellow.effective_area_poly_m2);
+    let _ = writeln!(s, "cross_section_m2 = {:?}                 # A0, A1 (est)", p.bellow.cross_section_m2);
+    let _ = writeln!(s, "hinge_friction_n_s_per_m = {:?}         # k_f (est)", p.bellow.hinge_friction_n_s_per_m);
+    let _ = writeln!(s, "\n[valve]");
+    let _ = writeln!(s, "fill_resistance_pa_s_per_mol = {:?}     # R_flow1 (est)", p.valve.fill_resistance_pa_s_per_mol);
+    let _ = writeln!(s, "exhaust_resistance_pa_s_per_mol = {:?}  # R_flow2 (est)", p.valve.exhaust_resistance_pa_s_per_mol);
+    let sd = &p.slow_dynamics;
+    let _ = writeln!(s, "\n[slow_dynamics]                          # Model 2 extended: OE from load to F_ext (thesis Table 5.5)");
+    let _ = writeln!(s, "oe_b = {:?}", sd.oe_b);
+    let _ = writeln!(s, "oe_f = {:?}", sd.oe_f);
+    let _ = writeln!(s, "oe_nk = {}", sd.oe_nk);
+    let _ = writeln!(s, "oe_sample_time_s = {:?}", sd.oe_sample_time_s);
+    match sd.force_scale {
+        Some(k) => {
+            let _ = writeln!(s, "force_scale_n_per_m = {k:?}             # k_sd (est)");
+        }
+        None => {
+            let _ = writeln!(s, "# force_scale_n_per_m: k_sd (est); omitted = one tenth of the initial bellow force");
+        }
+    }
+    s
+}
+
+/// Writes a truck file atomically.
+pub fn write_truck(path: &Path, p: &TruckParameters) -> Result<(), DataError> {
+    write_text_atomically(path, &truck_to_toml(p))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SPEC_EXAMPLE: &str = r#"
+[environment]
+gravity_m_s2 = 9.81
+gas_constant_j_mol_k = 8.314462618
+temperature_k = 293.15
+ambient_pressure_kpa = 101.325
+[geometry]
+h0_m = 0.10
+l1_m = 0.62
+l2_m = 0.28
+l3_m = 0.12
+lever_compliance_m_per_n = 2.0e-7        # k_scl
+[mass]
+unsprung_kg = 520.0                      # m2 (nominal; est)
+lever_inertia_kg_m2 = 200.0              # I_g (est; default m2 * l1^2)
+[tire]
+stiffness_n_per_m = 1.8e6                # k_w
+[damper]                                 # + = extension (rebound)
+velocity_m_s = [-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0]
+force_n      = [-6000.0, -4000.0, -1500.0, 0.0, 3000.0, 9000.0, 13000.0]
+[bellow]
+effective_area_poly_m2 = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941]   # est
+cross_section_m2 = [0.250, -0.0310]                                     # est
+hinge_friction_n_s_per_m = 0.1                                          # k_f (est)
+[valve]
+fill_resistance_pa_s_per_mol = 2.5e6     # R_flow1 (est)
+exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
+"#;
+
+    fn parse(text: &str) -> Result<LoadedTruck, DataError> {
+        parse_truck(text, Path::new("truck.toml"))
+    }
+
+    #[test]
+    fn spec_example_loads_as_the_reference_truck() {
+        let loaded = parse(SPEC_EXAMPLE).unwrap();
+        assert_eq!(loaded.parameters, TruckParameters::reference());
+        assert!(loaded.defaulted.is_empty());
+    }
+
+    #[test]
+    fn builtin_toml_loads_back_unchanged() {
+        let reference = TruckParameters::reference();
+        let text = truck_to_toml(&reference);
+        let loaded = parse(&text).unwrap();
+        assert_eq!(loaded.parameters, reference);
+        assert_eq!(truck_to_toml(&loaded.parameters), text);
+    }
+
+    #[test]
+    fn omitted_estimable_keys_are_reported_with_the_values_used() {
+        let text = SPEC_EXAMPLE
+            .replace("lever_inertia_kg_m2 = 200.0              # I_g (est; default m2 * l1^2)\n", "")
+            .replace("fill_resistance_pa_s_per_mol = 2.5e6     # R_flow1 (est)\n", "");
+        let loaded = parse(&text).unwrap();
+        let keys: Vec<_> = loaded.defaulted.iter().map(|d| d.key.as_str()).collect();
+        assert_eq!(keys, ["mass.lever_inertia_kg_m2", "valve.fill_resistance_pa_s_per_mol"]);
+        let inertia = loaded.parameters.mass.lever_inertia_kg_m2;
+        assert!((inertia - 520.0 * 0.62 * 0.62).abs() < 1e-9);
+    }
+
+    #[test]
+    fn omitted_required_key_is_an_error() {
+        let text = SPEC_EXAMPLE.replace("l2_m = 0.28\n", "");
+        let err = parse(&text).unwrap_err();
+        assert!(err.to_string().contains("missing key `geometry.l2_m`"), "{err}");
+    }
+
+    #[test]
+    fn unknown_key_gets_a_suggestion_and_line() {
+        let text = SPEC_EXAMPLE.replace("l3_m = 0.12", "l3_mm = 0.12");
+        let err = parse(&text).unwrap_err();
+        assert_eq!(err.location.line, Some(11));
+        assert!(err.to_string().contains("unknown key `geometry.l3_mm` (did you mean `l3_m`?)"), "{err}");
+        let err = parse(&format!("{SPEC_EXAMPLE}\n[extras]\na = 1\n")).unwrap_err();
+        assert!(matches!(err.kind, DataErrorKind::UnknownKey { .. }));
+    }
+
+    #[test]
+    fn unit_slips_are_caught_at_load_time() {
+        let err = parse(&SPEC_EXAMPLE.replace("h0_m = 0.10", "h0_m = 100.0")).unwrap_err();
+        assert_eq!(err.location.line, Some(8));
+        assert!(err.to_string().contains("check the unit"), "{err}");
+        let err = parse(&SPEC_EXAMPLE.replace("temperature_k = 293.15", "temperature_k = 20.0")).unwrap_err();
+        assert!(err.to_string().contains("K (not °C)"), "{err}");
+        let err = parse(&SPEC_EXAMPLE.replace("ambient_pressure_kpa = 101.325", "ambient_pressure_kpa = 101325.0")).unwrap_err();
+        assert!(err.to_string().contains("ambient_pressure_kpa"), "{err}");
+    }
+
+    #[test]
+    fn thesis_typo_in_p1_is_rejected_with_the_correction() {
+        let err = parse(&SPEC_EXAMPLE.replace("0.8362", "0.08362")).unwrap_err();
+        assert!(err.to_string().contains("the correct value is 0.8362"), "{err}");
+    }
+
+    #[test]
+    fn wrong_type_is_located() {
+        let err = parse(&SPEC_EXAMPLE.replace("stiffness_n_per_m = 1.8e6", "stiffness_n_per_m = \"stiff\"")).unwrap_err();
+        assert_eq!(err.location.line, Some(17));
+        assert!(matches!(err.kind, DataErrorKind::Toml(_)));
+    }
+
+    #[test]
+    fn damper_table_must_be_consistent() {
+        let err = parse(&SPEC_EXAMPLE.replace("[-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0]", "[-1.0, -0.5, -0.1, 0.0, 0.1, 0.5]")).unwrap_err();
+        assert!(err.to_string().contains("one force per velocity"), "{err}");
+        let err = parse(&SPEC_EXAMPLE.replace("[-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0]", "[-1.0, -0.5, -0.1, 0.0, 0.1, 0.05, 1.0]")).unwrap_err();
+        assert!(err.to_string().contains("increase strictly"), "{err}");
+    }
+
+    #[test]
+    fn wrong_array_length_is_an_error() {
+        let err = parse(&SPEC_EXAMPLE.replace("cross_section_m2 = [0.250, -0.0310]", "cross_section_m2 = [0.250]")).unwrap_err();
+        assert!(err.to_string().contains("exactly 2 values"), "{err}");
+    }
+}

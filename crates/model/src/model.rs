@@ -1,0 +1,124 @@
+//! The one trait every full model implements (thesis ch. 4; SPEC §3).
+//!
+//! A model is plain data (its parameters) plus four verbs: the right-hand side
+//! `dx = f(t, x, u)`, the output map to the sensor quantities, the initial state in static
+//! equilibrium, and name-addressed parameter access for the grey-box estimator. Parameters
+//! live inside the model value; "same problem, new parameters" is `clone` then
+//! `set_parameter` (SciML's `remake`).
+//!
+//! All quantities are SI: kg, m, s, Pa (gauge where named so), mol.
+
+use airsus_data::ValveState;
+
+/// Inputs at one instant (SPEC §3: `m_tot`, `u`, `p_supply`, `z_r`). The simulator holds them
+/// constant between samples (zero-order hold) and restarts the solver where they jump.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InputSample {
+    /// `m_tot`: the mass a scale under the wheel shows, kg.
+    pub wheel_load_kg: f64,
+    pub valve: ValveState,
+    /// Supply (actuator tank) gauge pressure, Pa.
+    pub supply_gauge_pa: f64,
+    /// Road height under the wheel, m (0 = level road).
+    pub road_height_m: f64,
+}
+
+/// The two measured quantities a model predicts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OutputSample {
+    /// Axle-to-chassis height as the sensor reads it, incl. the lever's static flex (eq 3.14), m.
+    pub sensor_height_m: f64,
+    /// Bellow gauge pressure, Pa.
+    pub bellow_gauge_pa: f64,
+}
+
+/// What fixes the initial static equilibrium besides the first sample's inputs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum InitialCondition {
+    /// The measured bellow gauge pressure (the usual case: a run's first sample).
+    BellowPressure { gauge_pa: f64 },
+    /// The measured sensor height (e.g. a scenario without a pressure log).
+    SensorHeight { height_m: f64 },
+}
+
+/// Description of one freeable parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterInfo {
+    /// Short name used by `--free` (SPEC §5: `p0`..`p4`, `a0`, `a1`, `m2`, `ig`, `kf`, `kw`,
+    /// `kscl`, `rflow1`, `rflow2`, `ksd`; models with more document their own).
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub description: &'static str,
+    /// Physically admissible range; the estimator's default bounds.
+    pub lower: f64,
+    pub upper: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelError {
+    #[error("model {model} has no parameter `{name}`{}; its parameters are: {}", suggestion.as_ref().map(|s| format!(" (did you mean `{s}`?)")).unwrap_or_default(), valid.join(", "))]
+    UnknownParameter {
+        model: String,
+        name: String,
+        suggestion: Option<String>,
+        valid: Vec<String>,
+    },
+    #[error("model {model}: parameter `{name}` = {value} is outside its admissible range {lower} to {upper} {unit}")]
+    ParameterOutOfRange {
+        model: String,
+        name: String,
+        value: f64,
+        lower: f64,
+        upper: f64,
+        unit: String,
+    },
+    #[error("model {model}: no static equilibrium for {what}: {reason}")]
+    NoEquilibrium {
+        model: String,
+        what: String,
+        reason: String,
+    },
+}
+
+/// A full suspension model: state layout, named parameters, dynamics and output map.
+pub trait SuspensionModel: Send + Sync + std::fmt::Debug {
+    /// Short name as used on the command line (`m1`, `m2`, `m2x`, `m2xh`, `m3`, `truck`).
+    fn name(&self) -> &'static str;
+
+    /// One line saying what the model is, with its thesis source.
+    fn description(&self) -> &'static str;
+
+    /// Names of the state variables, in state-vector order (with units, e.g. `x1_m`).
+    fn state_names(&self) -> &[&'static str];
+
+    fn n_states(&self) -> usize {
+        self.state_names().len()
+    }
+
+    /// Every parameter the estimator may free.
+    fn parameter_info(&self) -> &[ParameterInfo];
+
+    fn parameter(&self, name: &str) -> Result<f64, ModelError>;
+
+    /// Sets a parameter by short name; rejects unknown names and values outside the range.
+    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError>;
+
+    /// The right-hand side `dx = f(t, x, u)`. Must not allocate: the solver calls it millions
+    /// of times. `x` and `dx` have length [`Self::n_states`].
+    fn rhs(&self, t: f64, x: &[f64], u: &InputSample, dx: &mut [f64]);
+
+    /// The sensor quantities for state `x` under inputs `u`.
+    fn output(&self, x: &[f64], u: &InputSample) -> OutputSample;
+
+    /// The state in static equilibrium under `u` that matches `ic`.
+    fn initial_state(&self, u: &InputSample, ic: &InitialCondition) -> Result<Vec<f64>, ModelError>;
+
+    /// A boxed copy, for "same model, new parameters" loops over trait objects.
+    fn box_clone(&self) -> Box<dyn SuspensionModel>;
+}
+
+impl Clone for Box<dyn SuspensionModel> {
+    fn clone(&self) -> Self {
+        self.box_clone()
+    }
+}
