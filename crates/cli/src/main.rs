@@ -1,1 +1,65 @@
-fn main() {}
+//! `airsus`: model and identify the air suspension of heavy trucks from the command line.
+//!
+//! The binary is thin: arguments are parsed here, validated into library objects, and every
+//! command lives in `commands/`.
+
+use clap::{Parser, Subcommand};
+
+mod commands;
+
+const AFTER_HELP: &str = "\
+Typical workflow:
+  airsus params --builtin > truck.toml       start from the reference truck
+  airsus check study.toml                    validate a study and every file it names
+  airsus ident --structure oe --nb 2 --nf 2 --nk 1 \\
+      --inputs wheel_load_kg,pressure_kpa --output height_mm ds1.csv
+
+File formats (runs, force maps, tank discharges, study and truck files) are described in the
+README and fixed by the project's SPEC §5. All commands exit non-zero with a message naming
+the file, line and column when an input is malformed.";
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "airsus",
+    version,
+    about = "Model, identify and validate truck air suspensions (thesis models QCM 1/2, grey-box, ARX/ARMAX/OE/BJ)",
+    after_help = AFTER_HELP
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Print the built-in reference truck, or check and print a truck parameter file.
+    Params(commands::params::ParamsArgs),
+    /// Validate data-contract files (runs, force maps, discharges, truck and study files).
+    Check(commands::check::CheckArgs),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Params(args) => commands::params::run(args),
+        Command::Check(args) => commands::check::run(args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn cli_definition_is_consistent() {
+        Cli::command().debug_assert();
+    }
+}

@@ -55,7 +55,7 @@ impl fmt::Display for Location {
 #[derive(Debug, thiserror::Error)]
 pub enum DataErrorKind {
     #[error("cannot read or write the file: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     #[error("malformed CSV: {0}")]
     Csv(String),
     #[error("the file is empty: expected a header row and at least {needed} data row(s)")]
@@ -124,16 +124,20 @@ fn suggestion_text(suggestion: &Option<String>) -> String {
 
 /// A fault in a data-contract file: where, and what.
 #[derive(Debug, thiserror::Error)]
+// The kind is displayed, not chained as a source: `{:#}` would print it twice.
 #[error("{location}: {kind}")]
 pub struct DataError {
-    pub location: Location,
-    #[source]
+    /// Boxed to keep `Result<_, DataError>` small on the happy path.
+    pub location: Box<Location>,
     pub kind: DataErrorKind,
 }
 
 impl DataError {
     pub fn new(location: Location, kind: DataErrorKind) -> Self {
-        Self { location, kind }
+        Self {
+            location: Box::new(location),
+            kind,
+        }
     }
 
     pub fn in_file(file: &Path, kind: DataErrorKind) -> Self {
@@ -146,7 +150,10 @@ impl DataError {
 }
 
 /// The candidate closest to `name`, if it is close enough to be a plausible misspelling.
-pub fn nearest_name<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<String> {
+pub fn nearest_name<'a>(
+    name: &str,
+    candidates: impl IntoIterator<Item = &'a str>,
+) -> Option<String> {
     let lower = name.to_ascii_lowercase();
     candidates
         .into_iter()
@@ -171,8 +178,14 @@ mod tests {
     #[test]
     fn nearest_name_finds_misspellings_only() {
         let names = ["height_mm", "pressure_kpa", "time_s"];
-        assert_eq!(nearest_name("heigth_mm", names).as_deref(), Some("height_mm"));
-        assert_eq!(nearest_name("Pressure_kPa", names).as_deref(), Some("pressure_kpa"));
+        assert_eq!(
+            nearest_name("heigth_mm", names).as_deref(),
+            Some("height_mm")
+        );
+        assert_eq!(
+            nearest_name("Pressure_kPa", names).as_deref(),
+            Some("pressure_kpa")
+        );
         assert_eq!(nearest_name("valve", names), None);
     }
 }

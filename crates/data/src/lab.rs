@@ -44,7 +44,11 @@ pub fn parse_force_map(bytes: &[u8], path: &Path) -> Result<ForceMap, DataError>
     let table = parse_table(
         bytes,
         path,
-        &[ColumnSpec::required(HEIGHT), ColumnSpec::required(PRESSURE), ColumnSpec::required(FORCE)],
+        &[
+            ColumnSpec::required(HEIGHT),
+            ColumnSpec::required(PRESSURE),
+            ColumnSpec::required(FORCE),
+        ],
     )?;
     if table.rows() < 5 {
         return Err(DataError::in_file(
@@ -102,7 +106,11 @@ pub fn read_discharge(path: &Path) -> Result<TankDischarge, DataError> {
 
 pub fn parse_discharge(bytes: &[u8], path: &Path) -> Result<TankDischarge, DataError> {
     use discharge_columns::*;
-    let table = parse_table(bytes, path, &[ColumnSpec::required(TIME), ColumnSpec::required(TANK)])?;
+    let table = parse_table(
+        bytes,
+        path,
+        &[ColumnSpec::required(TIME), ColumnSpec::required(TANK)],
+    )?;
     // A numerical derivative needs a few samples either side of every point.
     let sample_time_s = check_time_axis(&table, 0, path, 5)?;
     check_above_vacuum(&table, 1, path, "tank pressure")?;
@@ -120,7 +128,11 @@ pub fn write_discharge(path: &Path, discharge: &TankDischarge) -> Result<(), Dat
             Location::file(path),
             DataErrorKind::InvalidValue {
                 key: "discharge".to_owned(),
-                value: format!("{} times, {} pressures", discharge.time_s.len(), discharge.tank_gauge_pa.len()),
+                value: format!(
+                    "{} times, {} pressures",
+                    discharge.time_s.len(),
+                    discharge.tank_gauge_pa.len()
+                ),
                 reason: "signals of different lengths cannot be written".to_owned(),
             },
         ));
@@ -156,7 +168,13 @@ mod tests {
     fn force_map_needs_enough_points() {
         let text = "bellow_height_mm,pressure_kpa,force_n\n250,100,5000\n";
         let err = parse_force_map(text.as_bytes(), Path::new("f.csv")).unwrap_err();
-        assert!(matches!(err.kind, DataErrorKind::TooFewRows { needed: 5, found: 1 }));
+        assert!(matches!(
+            err.kind,
+            DataErrorKind::TooFewRows {
+                needed: 5,
+                found: 1
+            }
+        ));
     }
 
     #[test]

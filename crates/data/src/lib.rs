@@ -22,10 +22,15 @@ pub mod truck;
 pub mod units;
 
 pub use error::{DataError, DataErrorKind, Location};
-pub use lab::{ForceMap, TankDischarge, read_discharge, read_force_map, write_discharge, write_force_map};
-pub use run::{Outputs, Run, RunInputs, RunOutputs, ValveState, read_run, read_run_with, write_run};
+pub use lab::{
+    ForceMap, TankDischarge, read_discharge, read_force_map, write_discharge, write_force_map,
+};
+pub use run::{
+    Outputs, Run, RunInputs, RunOutputs, ValveState, read_run, read_run_with, write_run,
+};
 pub use study::{Channel, Role, Study, StudyDischarge, StudyRun, read_study, write_study};
 pub use truck::{
-    BellowParameters, DamperTable, DefaultedKey, Environment, Geometry, LoadedTruck, MassParameters,
-    SlowDynamics, TireParameters, TruckParameters, ValveParameters, read_truck, truck_to_toml, write_truck,
+    BellowParameters, DamperTable, DefaultedKey, Environment, Geometry, LoadedTruck,
+    MassParameters, SlowDynamics, TireParameters, TruckParameters, ValveParameters, read_truck,
+    truck_to_toml, write_truck,
 };

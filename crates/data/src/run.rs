@@ -24,7 +24,9 @@ pub mod columns {
 }
 
 /// The 3-state solenoid valve between bellow circuit and supply tank (SPEC §1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum ValveState {
     #[default]
@@ -40,11 +42,14 @@ impl ValveState {
     }
 
     pub fn from_code(value: f64) -> Option<Self> {
-        match value {
-            v if v == 0.0 => Some(Self::Closed),
-            v if v == 1.0 => Some(Self::Fill),
-            v if v == 2.0 => Some(Self::Exhaust),
-            _ => None,
+        if value == 0.0 {
+            Some(Self::Closed)
+        } else if value == 1.0 {
+            Some(Self::Fill)
+        } else if value == 2.0 {
+            Some(Self::Exhaust)
+        } else {
+            None
         }
     }
 }
@@ -152,7 +157,9 @@ pub fn parse_run(bytes: &[u8], path: &Path, outputs: Outputs) -> Result<Run, Dat
             ValveState::from_code(v).ok_or_else(|| {
                 DataError::new(
                     table.cell_location(path, 2, row),
-                    DataErrorKind::InvalidValve { found: v.to_string() },
+                    DataErrorKind::InvalidValve {
+                        found: v.to_string(),
+                    },
                 )
             })
         })
@@ -195,7 +202,12 @@ fn header_has(bytes: &[u8], name: &str) -> bool {
         .any(|h| h.trim().trim_matches('"') == name)
 }
 
-pub(crate) fn check_non_negative(table: &NumericTable, index: usize, path: &Path, quantity: &str) -> Result<(), DataError> {
+pub(crate) fn check_non_negative(
+    table: &NumericTable,
+    index: usize,
+    path: &Path,
+    quantity: &str,
+) -> Result<(), DataError> {
     match table.columns[index].iter().position(|&v| v < 0.0) {
         Some(row) => Err(DataError::new(
             table.cell_location(path, index, row),
@@ -209,7 +221,12 @@ pub(crate) fn check_non_negative(table: &NumericTable, index: usize, path: &Path
 }
 
 /// A gauge pressure below -1 atm would be a negative absolute pressure: a unit or sign error.
-pub(crate) fn check_above_vacuum(table: &NumericTable, index: usize, path: &Path, quantity: &str) -> Result<(), DataError> {
+pub(crate) fn check_above_vacuum(
+    table: &NumericTable,
+    index: usize,
+    path: &Path,
+    quantity: &str,
+) -> Result<(), DataError> {
     match table.columns[index]
         .iter()
         .position(|&v| v <= -STANDARD_ATMOSPHERE_KPA)
@@ -301,7 +318,10 @@ mod tests {
         assert_eq!(run.name, "ds1");
         assert_eq!(run.len(), 3);
         assert!((run.sample_time_s - 0.1).abs() < 1e-12);
-        assert_eq!(run.inputs.valve, vec![ValveState::Closed, ValveState::Fill, ValveState::Exhaust]);
+        assert_eq!(
+            run.inputs.valve,
+            vec![ValveState::Closed, ValveState::Fill, ValveState::Exhaust]
+        );
         assert_eq!(run.inputs.supply_gauge_pa[2], 849_500.0);
         assert_eq!(run.inputs.road_height_m, vec![0.0; 3]);
         let out = run.outputs.as_ref().unwrap();
@@ -318,7 +338,10 @@ mod tests {
             "ds1.csv:3:3 (column `valve`): expected valve state 0 (closed), 1 (fill) or 2 (exhaust), found `3`"
         );
         let text = GOOD.replace("0.1,2830,1,", "0.1,2830,0.5,");
-        assert!(matches!(parse(&text).unwrap_err().kind, DataErrorKind::InvalidValve { .. }));
+        assert!(matches!(
+            parse(&text).unwrap_err().kind,
+            DataErrorKind::InvalidValve { .. }
+        ));
     }
 
     #[test]
@@ -326,14 +349,21 @@ mod tests {
         let text = GOOD.replace("0.2,3130,", "0.2,-5,");
         let err = parse(&text).unwrap_err();
         assert_eq!(err.location.line, Some(4));
-        assert!(err.to_string().contains("wheel load must not be negative"), "{err}");
+        assert!(
+            err.to_string().contains("wheel load must not be negative"),
+            "{err}"
+        );
     }
 
     #[test]
     fn pressure_below_vacuum_is_rejected() {
         let text = GOOD.replace(",350.2\n", ",-350.2\n");
         let err = parse(&text).unwrap_err();
-        assert!(err.to_string().contains("bellow pressure -350.2 is below absolute vacuum"), "{err}");
+        assert!(
+            err.to_string()
+                .contains("bellow pressure -350.2 is below absolute vacuum"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -355,7 +385,12 @@ mod tests {
         assert_eq!(back.time_s, run.time_s);
         assert_eq!(back.inputs.valve, run.inputs.valve);
         assert_eq!(back.inputs.wheel_load_kg, run.inputs.wheel_load_kg);
-        for (a, b) in back.inputs.supply_gauge_pa.iter().zip(&run.inputs.supply_gauge_pa) {
+        for (a, b) in back
+            .inputs
+            .supply_gauge_pa
+            .iter()
+            .zip(&run.inputs.supply_gauge_pa)
+        {
             assert!((a - b).abs() <= 1e-9 * b.abs());
         }
         let (o1, o2) = (back.outputs.unwrap(), run.outputs.unwrap());

@@ -9,7 +9,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::atomic::write_text_atomically;
 use crate::error::{DataError, DataErrorKind, Location};
-use crate::toml_file::{TableSchema, check_keys, deserialize, find_key_line, parse_toml};
+use crate::toml_file::{
+    TableSchema, check_finite, check_keys, deserialize, find_key_line, parse_toml,
+};
 use crate::units::M3_PER_L;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -130,11 +132,16 @@ pub fn read_study(path: &Path) -> Result<Study, DataError> {
 pub fn parse_study(text: &str, path: &Path) -> Result<Study, DataError> {
     let table = parse_toml(text, path)?;
     check_keys(&table, SCHEMA, text, path)?;
+    check_finite(&table, text, path)?;
     let file: StudyFile = deserialize(text, path)?;
     let base = path.parent().unwrap_or(Path::new(""));
     let resolve = |p: &str| -> PathBuf {
         let p = Path::new(p);
-        if p.is_absolute() { p.to_path_buf() } else { base.join(p) }
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            base.join(p)
+        }
     };
     let invalid = |section: &str, key: &str, value: String, reason: &str| {
         let mut loc = Location::file(path);
@@ -162,7 +169,12 @@ pub fn parse_study(text: &str, path: &Path) -> Result<Study, DataError> {
     }
     for (i, run) in file.run.iter().enumerate() {
         if file.run[..i].iter().any(|r| r.name == run.name) {
-            return Err(invalid("run", "name", format!("{:?}", run.name), "run names must be unique"));
+            return Err(invalid(
+                "run",
+                "name",
+                format!("{:?}", run.name),
+                "run names must be unique",
+            ));
         }
     }
     for d in &file.discharge {
@@ -272,7 +284,10 @@ role = "estimation"                      # or "validation"
         assert_eq!(study.truck, Path::new("/data/truck7/truck.toml"));
         assert_eq!(study.runs[0].file, Path::new("/data/truck7/ds1.csv"));
         assert_eq!(study.runs[0].role, Role::Estimation);
-        assert_eq!(study.force_map.as_deref(), Some(Path::new("/data/truck7/force_map.csv")));
+        assert_eq!(
+            study.force_map.as_deref(),
+            Some(Path::new("/data/truck7/force_map.csv"))
+        );
         let d = &study.discharges[0];
         assert_eq!(d.channel, Channel::Fill);
         assert!((d.tank_volume_m3 - 0.020).abs() < 1e-15);
@@ -289,17 +304,38 @@ role = "estimation"                      # or "validation"
     fn round_trips_through_toml() {
         let study = parse_study(EXAMPLE, Path::new("/data/study.toml")).unwrap();
         let text = study_to_toml(&study, Path::new("/data"));
-        assert_eq!(parse_study(&text, Path::new("/data/study.toml")).unwrap(), study);
+        assert_eq!(
+            parse_study(&text, Path::new("/data/study.toml")).unwrap(),
+            study
+        );
     }
 
     #[test]
     fn bad_role_and_unknown_key_and_negative_volume_are_errors() {
-        let err = parse_study(&EXAMPLE.replace("role = \"estimation\"                      # or \"validation\"\n[force_map]", "role = \"estimaton\"\n[force_map]"), Path::new("s.toml")).unwrap_err();
+        let err = parse_study(
+            &EXAMPLE.replace(
+                "role = \"estimation\"                      # or \"validation\"\n[force_map]",
+                "role = \"estimaton\"\n[force_map]",
+            ),
+            Path::new("s.toml"),
+        )
+        .unwrap_err();
         assert_eq!(err.location.line, Some(5));
         assert!(err.to_string().contains("estimaton"), "{err}");
-        let err = parse_study(&EXAMPLE.replace("channel = ", "chanel = "), Path::new("s.toml")).unwrap_err();
-        assert!(err.to_string().contains("(did you mean `channel`?)"), "{err}");
-        let err = parse_study(&EXAMPLE.replace("tank_volume_l = 20.0", "tank_volume_l = -20.0"), Path::new("s.toml")).unwrap_err();
+        let err = parse_study(
+            &EXAMPLE.replace("channel = ", "chanel = "),
+            Path::new("s.toml"),
+        )
+        .unwrap_err();
+        assert!(
+            err.to_string().contains("(did you mean `channel`?)"),
+            "{err}"
+        );
+        let err = parse_study(
+            &EXAMPLE.replace("tank_volume_l = 20.0", "tank_volume_l = -20.0"),
+            Path::new("s.toml"),
+        )
+        .unwrap_err();
         assert_eq!(err.location.line, Some(11));
     }
 
@@ -307,7 +343,9 @@ role = "estimation"                      # or "validation"
     fn a_study_needs_a_run_and_unique_names() {
         let err = parse_study("truck = \"t.toml\"\n", Path::new("s.toml")).unwrap_err();
         assert!(err.to_string().contains("at least one run"), "{err}");
-        let twice = format!("{EXAMPLE}\n[[run]]\nname = \"data-set 1\"\nfile = \"x.csv\"\nrole = \"validation\"\n");
+        let twice = format!(
+            "{EXAMPLE}\n[[run]]\nname = \"data-set 1\"\nfile = \"x.csv\"\nrole = \"validation\"\n"
+        );
         assert!(parse_study(&twice, Path::new("s.toml")).is_err());
     }
 }

@@ -19,7 +19,10 @@ pub struct ColumnSpec<'a> {
 
 impl<'a> ColumnSpec<'a> {
     pub const fn required(name: &'a str) -> Self {
-        Self { name, default: None }
+        Self {
+            name,
+            default: None,
+        }
     }
 
     pub const fn optional(name: &'a str, default: f64) -> Self {
@@ -82,7 +85,11 @@ pub fn read_table(path: &Path, specs: &[ColumnSpec]) -> Result<NumericTable, Dat
 }
 
 /// Parses CSV bytes according to `specs`; `path` is used only to name the source in errors.
-pub fn parse_table(bytes: &[u8], path: &Path, specs: &[ColumnSpec]) -> Result<NumericTable, DataError> {
+pub fn parse_table(
+    bytes: &[u8],
+    path: &Path,
+    specs: &[ColumnSpec],
+) -> Result<NumericTable, DataError> {
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)
         .trim(csv::Trim::All)
@@ -104,7 +111,9 @@ pub fn parse_table(bytes: &[u8], path: &Path, specs: &[ColumnSpec]) -> Result<Nu
     for (i, name) in header.iter().enumerate() {
         if !name.is_empty() && header[..i].contains(name) {
             return Err(DataError::new(
-                Location::file(path).line(1).column(i as u64 + 1, Some(name)),
+                Location::file(path)
+                    .line(1)
+                    .column(i as u64 + 1, Some(name)),
                 DataErrorKind::DuplicateColumn { name: name.clone() },
             ));
         }
@@ -225,18 +234,34 @@ mod tests {
 
     #[test]
     fn optional_column_takes_its_default() {
-        let t = parse("a\n1\n2\n", &[ColumnSpec::required("a"), ColumnSpec::optional("road_mm", 0.0)]).unwrap();
+        let t = parse(
+            "a\n1\n2\n",
+            &[
+                ColumnSpec::required("a"),
+                ColumnSpec::optional("road_mm", 0.0),
+            ],
+        )
+        .unwrap();
         assert_eq!(t.column("road_mm"), Some(&[0.0, 0.0][..]));
         assert_eq!(t.file_columns[1], None);
     }
 
     #[test]
     fn bad_cell_names_line_and_column() {
-        let err = parse("a,b\n1,2\n3,oops\n", &[ColumnSpec::required("a"), ColumnSpec::required("b")])
-            .unwrap_err();
-        assert_eq!(err.to_string(), "t.csv:3:2 (column `b`): expected a number, found `oops`");
+        let err = parse(
+            "a,b\n1,2\n3,oops\n",
+            &[ColumnSpec::required("a"), ColumnSpec::required("b")],
+        )
+        .unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "t.csv:3:2 (column `b`): expected a number, found `oops`"
+        );
         let err = parse("a,b\n1,2\n3,NaN\n", &[ColumnSpec::required("b")]).unwrap_err();
-        assert_eq!(err.to_string(), "t.csv:3:2 (column `b`): expected a finite number, found `NaN`");
+        assert_eq!(
+            err.to_string(),
+            "t.csv:3:2 (column `b`): expected a finite number, found `NaN`"
+        );
         let err = parse("a,b\n1,2\n3,-inf\n", &[ColumnSpec::required("b")]).unwrap_err();
         assert!(matches!(err.kind, DataErrorKind::NotFinite { .. }));
     }
@@ -250,10 +275,21 @@ mod tests {
 
     #[test]
     fn missing_column_suggests_nearest_unclaimed_header() {
-        let err = parse("time_s,heigth_mm\n0,1\n", &[ColumnSpec::required("time_s"), ColumnSpec::required("height_mm")])
-            .unwrap_err();
+        let err = parse(
+            "time_s,heigth_mm\n0,1\n",
+            &[
+                ColumnSpec::required("time_s"),
+                ColumnSpec::required("height_mm"),
+            ],
+        )
+        .unwrap_err();
         let text = err.to_string();
-        assert!(text.starts_with("t.csv:1: required column `height_mm` is missing (did you mean `heigth_mm`?)"), "{text}");
+        assert!(
+            text.starts_with(
+                "t.csv:1: required column `height_mm` is missing (did you mean `heigth_mm`?)"
+            ),
+            "{text}"
+        );
     }
 
     #[test]

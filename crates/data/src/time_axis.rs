@@ -15,11 +15,18 @@ use crate::table::NumericTable;
 pub const SAMPLING_TOLERANCE: f64 = 0.01;
 
 /// Validates column `index` of `table` as a time axis and returns the sample time in seconds.
-pub fn check_time_axis(table: &NumericTable, index: usize, path: &Path, min_rows: usize) -> Result<f64, DataError> {
+pub fn check_time_axis(
+    table: &NumericTable,
+    index: usize,
+    path: &Path,
+    min_rows: usize,
+) -> Result<f64, DataError> {
     let time = &table.columns[index];
     if time.len() < min_rows.max(2) {
         let kind = if time.is_empty() {
-            DataErrorKind::Empty { needed: min_rows.max(2) }
+            DataErrorKind::Empty {
+                needed: min_rows.max(2),
+            }
         } else {
             DataErrorKind::TooFewRows {
                 needed: min_rows.max(2),
@@ -31,8 +38,8 @@ pub fn check_time_axis(table: &NumericTable, index: usize, path: &Path, min_rows
     let mut intervals = Vec::with_capacity(time.len() - 1);
     for (row, pair) in time.windows(2).enumerate() {
         let dt = pair[1] - pair[0];
-        // Written as a negated comparison so that a subnormal or NaN-producing pair also fails.
-        if !(dt > 0.0) {
+        // `<= 0` or NaN: the cells are finite, but their difference may still not be positive.
+        if dt.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return Err(DataError::new(
                 table.cell_location(path, index, row + 1),
                 DataErrorKind::TimeNotIncreasing {
@@ -82,7 +89,11 @@ mod tests {
     fn repeated_time_names_its_line() {
         let err = axis("time_s\n0\n0.1\n0.1\n0.2\n").unwrap_err();
         assert_eq!(err.location.line, Some(4));
-        assert!(err.to_string().contains("time must increase strictly: 0.1 s follows 0.1 s"), "{err}");
+        assert!(
+            err.to_string()
+                .contains("time must increase strictly: 0.1 s follows 0.1 s"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -96,7 +107,13 @@ mod tests {
 
     #[test]
     fn a_single_row_is_too_few() {
-        assert!(matches!(axis("time_s\n0\n").unwrap_err().kind, DataErrorKind::TooFewRows { .. }));
-        assert!(matches!(axis("time_s\n").unwrap_err().kind, DataErrorKind::Empty { .. }));
+        assert!(matches!(
+            axis("time_s\n0\n").unwrap_err().kind,
+            DataErrorKind::TooFewRows { .. }
+        ));
+        assert!(matches!(
+            axis("time_s\n").unwrap_err().kind,
+            DataErrorKind::Empty { .. }
+        ));
     }
 }

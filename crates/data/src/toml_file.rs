@@ -18,11 +18,19 @@ pub fn parse_toml(text: &str, path: &Path) -> Result<toml::Table, DataError> {
 }
 
 /// Deserialises an already key-checked table into `T`, reporting type errors with position.
-pub fn deserialize<T: serde::de::DeserializeOwned>(text: &str, path: &Path) -> Result<T, DataError> {
+pub fn deserialize<T: serde::de::DeserializeOwned>(
+    text: &str,
+    path: &Path,
+) -> Result<T, DataError> {
     toml::from_str(text).map_err(|e: toml::de::Error| toml_error(text, path, e.message(), e.span()))
 }
 
-fn toml_error(text: &str, path: &Path, message: &str, span: Option<std::ops::Range<usize>>) -> DataError {
+fn toml_error(
+    text: &str,
+    path: &Path,
+    message: &str,
+    span: Option<std::ops::Range<usize>>,
+) -> DataError {
     let mut loc = Location::file(path);
     if let Some(span) = span {
         let (line, column) = line_column(text, span.start);
@@ -42,11 +50,22 @@ pub fn line_column(text: &str, offset: usize) -> (u64, u64) {
 
 /// Checks every key of `table` against `schema`; the first unknown key is an error naming its
 /// line, with the nearest valid key as a suggestion.
-pub fn check_keys(table: &toml::Table, schema: &[TableSchema], text: &str, path: &Path) -> Result<(), DataError> {
+pub fn check_keys(
+    table: &toml::Table,
+    schema: &[TableSchema],
+    text: &str,
+    path: &Path,
+) -> Result<(), DataError> {
     check_table(table, "", schema, text, path)
 }
 
-fn check_table(table: &toml::Table, prefix: &str, schema: &[TableSchema], text: &str, path: &Path) -> Result<(), DataError> {
+fn check_table(
+    table: &toml::Table,
+    prefix: &str,
+    schema: &[TableSchema],
+    text: &str,
+    path: &Path,
+) -> Result<(), DataError> {
     let Some(entry) = schema.iter().find(|s| s.name == prefix) else {
         return Ok(());
     };
@@ -91,6 +110,54 @@ fn check_table(table: &toml::Table, prefix: &str, schema: &[TableSchema], text: 
     Ok(())
 }
 
+/// Every number in the file must be finite: TOML admits `nan` and `inf`, no parameter does.
+pub fn check_finite(table: &toml::Table, text: &str, path: &Path) -> Result<(), DataError> {
+    fn walk(
+        value: &toml::Value,
+        section: &str,
+        key: &str,
+        text: &str,
+        path: &Path,
+    ) -> Result<(), DataError> {
+        match value {
+            toml::Value::Float(f) if !f.is_finite() => {
+                let mut loc = Location::file(path);
+                if let Some(line) = find_key_line(text, section, key) {
+                    loc = loc.line(line);
+                }
+                Err(DataError::new(
+                    loc,
+                    DataErrorKind::InvalidValue {
+                        key: if section.is_empty() {
+                            key.to_owned()
+                        } else {
+                            format!("{section}.{key}")
+                        },
+                        value: f.to_string(),
+                        reason: "expected a finite number".to_owned(),
+                    },
+                ))
+            }
+            toml::Value::Array(items) => items
+                .iter()
+                .try_for_each(|v| walk(v, section, key, text, path)),
+            toml::Value::Table(t) => {
+                let child = if section.is_empty() {
+                    key.to_owned()
+                } else {
+                    format!("{section}.{key}")
+                };
+                t.iter()
+                    .try_for_each(|(k, v)| walk(v, &child, k, text, path))
+            }
+            _ => Ok(()),
+        }
+    }
+    table
+        .iter()
+        .try_for_each(|(k, v)| walk(v, "", k, text, path))
+}
+
 /// The line where `key` is written inside table `table` (or as a `[table.key]` header).
 /// A best-effort text search: it only serves to point the reader at the right line.
 pub(crate) fn find_key_line(text: &str, table: &str, key: &str) -> Option<u64> {
@@ -106,12 +173,11 @@ pub(crate) fn find_key_line(text: &str, table: &str, key: &str) -> Option<u64> {
             in_table = name == table || name.ends_with(&format!(".{leaf}")) && !table.is_empty();
             continue;
         }
-        if in_table {
-            if let Some(rest) = line.strip_prefix(key) {
-                if rest.trim_start().starts_with('=') {
-                    return Some(i as u64 + 1);
-                }
-            }
+        if in_table
+            && let Some(rest) = line.strip_prefix(key)
+            && rest.trim_start().starts_with('=')
+        {
+            return Some(i as u64 + 1);
         }
     }
     None
@@ -131,13 +197,23 @@ mod tests {
     fn unknown_key_is_located_and_suggested() {
         let text = "[geometry]\nh0_m = 0.1\nl1m = 0.6\n";
         let schema = [
-            TableSchema { name: "", keys: &["geometry"] },
-            TableSchema { name: "geometry", keys: &["h0_m", "l1_m"] },
+            TableSchema {
+                name: "",
+                keys: &["geometry"],
+            },
+            TableSchema {
+                name: "geometry",
+                keys: &["h0_m", "l1_m"],
+            },
         ];
         let table = parse_toml(text, Path::new("t.toml")).unwrap();
         let err = check_keys(&table, &schema, text, Path::new("t.toml")).unwrap_err();
         assert_eq!(err.location.line, Some(3));
-        assert!(err.to_string().contains("unknown key `geometry.l1m` (did you mean `l1_m`?)"), "{err}");
+        assert!(
+            err.to_string()
+                .contains("unknown key `geometry.l1m` (did you mean `l1_m`?)"),
+            "{err}"
+        );
     }
 
     #[test]

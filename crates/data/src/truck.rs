@@ -15,7 +15,9 @@ use serde::Deserialize;
 
 use crate::atomic::write_text_atomically;
 use crate::error::{DataError, DataErrorKind, Location};
-use crate::toml_file::{TableSchema, check_keys, deserialize, find_key_line, parse_toml};
+use crate::toml_file::{
+    TableSchema, check_finite, check_keys, deserialize, find_key_line, parse_toml,
+};
 use crate::units::PA_PER_KPA;
 
 /// Ambient conditions.
@@ -193,11 +195,25 @@ pub struct DefaultedKey {
 const SCHEMA: &[TableSchema] = &[
     TableSchema {
         name: "",
-        keys: &["environment", "geometry", "mass", "tire", "damper", "bellow", "valve", "slow_dynamics"],
+        keys: &[
+            "environment",
+            "geometry",
+            "mass",
+            "tire",
+            "damper",
+            "bellow",
+            "valve",
+            "slow_dynamics",
+        ],
     },
     TableSchema {
         name: "environment",
-        keys: &["gravity_m_s2", "gas_constant_j_mol_k", "temperature_k", "ambient_pressure_kpa"],
+        keys: &[
+            "gravity_m_s2",
+            "gas_constant_j_mol_k",
+            "temperature_k",
+            "ambient_pressure_kpa",
+        ],
     },
     TableSchema {
         name: "geometry",
@@ -217,15 +233,28 @@ const SCHEMA: &[TableSchema] = &[
     },
     TableSchema {
         name: "bellow",
-        keys: &["effective_area_poly_m2", "cross_section_m2", "hinge_friction_n_s_per_m"],
+        keys: &[
+            "effective_area_poly_m2",
+            "cross_section_m2",
+            "hinge_friction_n_s_per_m",
+        ],
     },
     TableSchema {
         name: "valve",
-        keys: &["fill_resistance_pa_s_per_mol", "exhaust_resistance_pa_s_per_mol"],
+        keys: &[
+            "fill_resistance_pa_s_per_mol",
+            "exhaust_resistance_pa_s_per_mol",
+        ],
     },
     TableSchema {
         name: "slow_dynamics",
-        keys: &["oe_b", "oe_f", "oe_nk", "oe_sample_time_s", "force_scale_n_per_m"],
+        keys: &[
+            "oe_b",
+            "oe_f",
+            "oe_nk",
+            "oe_sample_time_s",
+            "force_scale_n_per_m",
+        ],
     },
 ];
 
@@ -307,6 +336,7 @@ pub fn read_truck(path: &Path) -> Result<LoadedTruck, DataError> {
 pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
     let table = parse_toml(text, path)?;
     check_keys(&table, SCHEMA, text, path)?;
+    check_finite(&table, text, path)?;
     let file: TruckFile = deserialize(text, path)?;
     let mut ctx = Ctx {
         text,
@@ -315,9 +345,17 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
     };
     let reference = TruckParameters::reference();
 
-    let env = file.environment.ok_or_else(|| ctx.missing_section("environment"))?;
+    let env = file
+        .environment
+        .ok_or_else(|| ctx.missing_section("environment"))?;
     let environment = Environment {
-        gravity_m_s2: ctx.required("environment", "gravity_m_s2", env.gravity_m_s2, 9.0..=10.5, "m/s²")?,
+        gravity_m_s2: ctx.required(
+            "environment",
+            "gravity_m_s2",
+            env.gravity_m_s2,
+            9.0..=10.5,
+            "m/s²",
+        )?,
         gas_constant_j_mol_k: ctx.required(
             "environment",
             "gas_constant_j_mol_k",
@@ -325,7 +363,13 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
             8.2..=8.4,
             "J/(mol K)",
         )?,
-        temperature_k: ctx.required("environment", "temperature_k", env.temperature_k, 200.0..=400.0, "K (not °C)")?,
+        temperature_k: ctx.required(
+            "environment",
+            "temperature_k",
+            env.temperature_k,
+            200.0..=400.0,
+            "K (not °C)",
+        )?,
         ambient_pressure_pa: ctx.required(
             "environment",
             "ambient_pressure_kpa",
@@ -335,7 +379,9 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
         )? * PA_PER_KPA,
     };
 
-    let geo = file.geometry.ok_or_else(|| ctx.missing_section("geometry"))?;
+    let geo = file
+        .geometry
+        .ok_or_else(|| ctx.missing_section("geometry"))?;
     let geometry = Geometry {
         h0_m: ctx.required("geometry", "h0_m", geo.h0_m, -1.0..=1.0, "m")?,
         l1_m: ctx.required("geometry", "l1_m", geo.l1_m, 0.05..=3.0, "m")?,
@@ -370,7 +416,13 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
 
     let tire_file = file.tire.ok_or_else(|| ctx.missing_section("tire"))?;
     let tire = TireParameters {
-        stiffness_n_per_m: ctx.required("tire", "stiffness_n_per_m", tire_file.stiffness_n_per_m, 1e4..=1e8, "N/m")?,
+        stiffness_n_per_m: ctx.required(
+            "tire",
+            "stiffness_n_per_m",
+            tire_file.stiffness_n_per_m,
+            1e4..=1e8,
+            "N/m",
+        )?,
     };
 
     let damper_file = file.damper.ok_or_else(|| ctx.missing_section("damper"))?;
@@ -519,7 +571,9 @@ impl Ctx<'_> {
                 self.location(section, section),
                 DataErrorKind::MissingKey {
                     key: format!("{section}.{key}"),
-                    expected: format!("a number in {unit}; only keys the pipeline estimates may be omitted"),
+                    expected: format!(
+                        "a number in {unit}; only keys the pipeline estimates may be omitted"
+                    ),
                 },
             )
         })?;
@@ -558,7 +612,12 @@ impl Ctx<'_> {
             Some(v) => {
                 let len = v.len();
                 <[f64; N]>::try_from(v).map_err(|_| {
-                    self.invalid(section, key, format!("[{len} values]"), format!("expected exactly {N} values"))
+                    self.invalid(
+                        section,
+                        key,
+                        format!("[{len} values]"),
+                        format!("expected exactly {N} values"),
+                    )
                 })
             }
             None => {
@@ -601,12 +660,16 @@ impl Ctx<'_> {
                 ),
             ));
         }
-        if let Some(i) = velocity.windows(2).position(|w| !(w[1] > w[0])) {
+        if let Some(i) = velocity.windows(2).position(|w| w[1] <= w[0]) {
             return Err(self.invalid(
                 "damper",
                 "velocity_m_s",
                 velocity[i + 1],
-                format!("velocities must increase strictly (entry {} follows {})", i + 2, velocity[i]),
+                format!(
+                    "velocities must increase strictly (entry {} follows {})",
+                    i + 2,
+                    velocity[i]
+                ),
             ));
         }
         Ok(DamperTable {
@@ -633,7 +696,8 @@ impl Ctx<'_> {
                 "bellow",
                 "cross_section_m2",
                 format!("{cross:?}"),
-                "the cross-section A0 + A1 h is not positive anywhere between 0.2 and 0.45 m".to_owned(),
+                "the cross-section A0 + A1 h is not positive anywhere between 0.2 and 0.45 m"
+                    .to_owned(),
             ));
         }
         Ok(())
@@ -645,16 +709,28 @@ impl Ctx<'_> {
             None => d.oe_nk,
             Some(nk) if (0..=1000).contains(&nk) => nk as usize,
             Some(nk) => {
-                return Err(self.invalid("slow_dynamics", "oe_nk", nk, "expected a delay of 0 to 1000 samples".to_owned()));
+                return Err(self.invalid(
+                    "slow_dynamics",
+                    "oe_nk",
+                    nk,
+                    "expected a delay of 0 to 1000 samples".to_owned(),
+                ));
             }
         };
         let oe_sample_time_s = match s.oe_sample_time_s {
             None => d.oe_sample_time_s,
-            Some(ts) => self.check_range("slow_dynamics", "oe_sample_time_s", ts, 1e-4..=100.0, "s")?,
+            Some(ts) => {
+                self.check_range("slow_dynamics", "oe_sample_time_s", ts, 1e-4..=100.0, "s")?
+            }
         };
         let oe_b = s.oe_b.unwrap_or(d.oe_b);
         if oe_b.is_empty() {
-            return Err(self.invalid("slow_dynamics", "oe_b", "[]", "expected at least one numerator coefficient".to_owned()));
+            return Err(self.invalid(
+                "slow_dynamics",
+                "oe_b",
+                "[]",
+                "expected at least one numerator coefficient".to_owned(),
+            ));
         }
         Ok(SlowDynamics {
             oe_b,
@@ -677,30 +753,76 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
     let _ = writeln!(s, "gravity_m_s2 = {:?}", e.gravity_m_s2);
     let _ = writeln!(s, "gas_constant_j_mol_k = {:?}", e.gas_constant_j_mol_k);
     let _ = writeln!(s, "temperature_k = {:?}", e.temperature_k);
-    let _ = writeln!(s, "ambient_pressure_kpa = {:?}", e.ambient_pressure_pa / PA_PER_KPA);
+    let _ = writeln!(
+        s,
+        "ambient_pressure_kpa = {:?}",
+        e.ambient_pressure_pa / PA_PER_KPA
+    );
     let _ = writeln!(s, "\n[geometry]");
     let _ = writeln!(s, "h0_m = {:?}", g.h0_m);
     let _ = writeln!(s, "l1_m = {:?}", g.l1_m);
     let _ = writeln!(s, "l2_m = {:?}", g.l2_m);
     let _ = writeln!(s, "l3_m = {:?}", g.l3_m);
-    let _ = writeln!(s, "lever_compliance_m_per_n = {:?}          # k_scl", g.lever_compliance_m_per_n);
+    let _ = writeln!(
+        s,
+        "lever_compliance_m_per_n = {:?}          # k_scl",
+        g.lever_compliance_m_per_n
+    );
     let _ = writeln!(s, "\n[mass]");
-    let _ = writeln!(s, "unsprung_kg = {:?}                      # m2 (est)", p.mass.unsprung_kg);
-    let _ = writeln!(s, "lever_inertia_kg_m2 = {:?}              # I_g (est)", p.mass.lever_inertia_kg_m2);
+    let _ = writeln!(
+        s,
+        "unsprung_kg = {:?}                      # m2 (est)",
+        p.mass.unsprung_kg
+    );
+    let _ = writeln!(
+        s,
+        "lever_inertia_kg_m2 = {:?}              # I_g (est)",
+        p.mass.lever_inertia_kg_m2
+    );
     let _ = writeln!(s, "\n[tire]");
-    let _ = writeln!(s, "stiffness_n_per_m = {:?}                # k_w", p.tire.stiffness_n_per_m);
-    let _ = writeln!(s, "\n[damper]                                 # + = extension (rebound)");
+    let _ = writeln!(
+        s,
+        "stiffness_n_per_m = {:?}                # k_w",
+        p.tire.stiffness_n_per_m
+    );
+    let _ = writeln!(
+        s,
+        "\n[damper]                                 # + = extension (rebound)"
+    );
     let _ = writeln!(s, "velocity_m_s = {:?}", p.damper.velocity_m_s);
     let _ = writeln!(s, "force_n      = {:?}", p.damper.force_n);
     let _ = writeln!(s, "\n[bellow]");
-    let _ = writeln!(s, "effective_area_poly_m2 = {:?}   # p0..p4 (est)", p.bellow.effective_area_poly_m2);
-    let _ = writeln!(s, "cross_section_m2 = {:?}                 # A0, A1 (est)", p.bellow.cross_section_m2);
-    let _ = writeln!(s, "hinge_friction_n_s_per_m = {:?}         # k_f (est)", p.bellow.hinge_friction_n_s_per_m);
+    let _ = writeln!(
+        s,
+        "effective_area_poly_m2 = {:?}   # p0..p4 (est)",
+        p.bellow.effective_area_poly_m2
+    );
+    let _ = writeln!(
+        s,
+        "cross_section_m2 = {:?}                 # A0, A1 (est)",
+        p.bellow.cross_section_m2
+    );
+    let _ = writeln!(
+        s,
+        "hinge_friction_n_s_per_m = {:?}         # k_f (est)",
+        p.bellow.hinge_friction_n_s_per_m
+    );
     let _ = writeln!(s, "\n[valve]");
-    let _ = writeln!(s, "fill_resistance_pa_s_per_mol = {:?}     # R_flow1 (est)", p.valve.fill_resistance_pa_s_per_mol);
-    let _ = writeln!(s, "exhaust_resistance_pa_s_per_mol = {:?}  # R_flow2 (est)", p.valve.exhaust_resistance_pa_s_per_mol);
+    let _ = writeln!(
+        s,
+        "fill_resistance_pa_s_per_mol = {:?}     # R_flow1 (est)",
+        p.valve.fill_resistance_pa_s_per_mol
+    );
+    let _ = writeln!(
+        s,
+        "exhaust_resistance_pa_s_per_mol = {:?}  # R_flow2 (est)",
+        p.valve.exhaust_resistance_pa_s_per_mol
+    );
     let sd = &p.slow_dynamics;
-    let _ = writeln!(s, "\n[slow_dynamics]                          # Model 2 extended: OE from load to F_ext (thesis Table 5.5)");
+    let _ = writeln!(
+        s,
+        "\n[slow_dynamics]                          # Model 2 extended: OE from load to F_ext (thesis Table 5.5)"
+    );
     let _ = writeln!(s, "oe_b = {:?}", sd.oe_b);
     let _ = writeln!(s, "oe_f = {:?}", sd.oe_f);
     let _ = writeln!(s, "oe_nk = {}", sd.oe_nk);
@@ -710,7 +832,10 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
             let _ = writeln!(s, "force_scale_n_per_m = {k:?}             # k_sd (est)");
         }
         None => {
-            let _ = writeln!(s, "# force_scale_n_per_m: k_sd (est); omitted = one tenth of the initial bellow force");
+            let _ = writeln!(
+                s,
+                "# force_scale_n_per_m: k_sd (est); omitted = one tenth of the initial bellow force"
+            );
         }
     }
     s
@@ -777,11 +902,23 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
     #[test]
     fn omitted_estimable_keys_are_reported_with_the_values_used() {
         let text = SPEC_EXAMPLE
-            .replace("lever_inertia_kg_m2 = 200.0              # I_g (est; default m2 * l1^2)\n", "")
-            .replace("fill_resistance_pa_s_per_mol = 2.5e6     # R_flow1 (est)\n", "");
+            .replace(
+                "lever_inertia_kg_m2 = 200.0              # I_g (est; default m2 * l1^2)\n",
+                "",
+            )
+            .replace(
+                "fill_resistance_pa_s_per_mol = 2.5e6     # R_flow1 (est)\n",
+                "",
+            );
         let loaded = parse(&text).unwrap();
         let keys: Vec<_> = loaded.defaulted.iter().map(|d| d.key.as_str()).collect();
-        assert_eq!(keys, ["mass.lever_inertia_kg_m2", "valve.fill_resistance_pa_s_per_mol"]);
+        assert_eq!(
+            keys,
+            [
+                "mass.lever_inertia_kg_m2",
+                "valve.fill_resistance_pa_s_per_mol"
+            ]
+        );
         let inertia = loaded.parameters.mass.lever_inertia_kg_m2;
         assert!((inertia - 520.0 * 0.62 * 0.62).abs() < 1e-9);
     }
@@ -790,7 +927,10 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
     fn omitted_required_key_is_an_error() {
         let text = SPEC_EXAMPLE.replace("l2_m = 0.28\n", "");
         let err = parse(&text).unwrap_err();
-        assert!(err.to_string().contains("missing key `geometry.l2_m`"), "{err}");
+        assert!(
+            err.to_string().contains("missing key `geometry.l2_m`"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -798,7 +938,11 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         let text = SPEC_EXAMPLE.replace("l3_m = 0.12", "l3_mm = 0.12");
         let err = parse(&text).unwrap_err();
         assert_eq!(err.location.line, Some(11));
-        assert!(err.to_string().contains("unknown key `geometry.l3_mm` (did you mean `l3_m`?)"), "{err}");
+        assert!(
+            err.to_string()
+                .contains("unknown key `geometry.l3_mm` (did you mean `l3_m`?)"),
+            "{err}"
+        );
         let err = parse(&format!("{SPEC_EXAMPLE}\n[extras]\na = 1\n")).unwrap_err();
         assert!(matches!(err.kind, DataErrorKind::UnknownKey { .. }));
     }
@@ -808,36 +952,71 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         let err = parse(&SPEC_EXAMPLE.replace("h0_m = 0.10", "h0_m = 100.0")).unwrap_err();
         assert_eq!(err.location.line, Some(8));
         assert!(err.to_string().contains("check the unit"), "{err}");
-        let err = parse(&SPEC_EXAMPLE.replace("temperature_k = 293.15", "temperature_k = 20.0")).unwrap_err();
+        let err = parse(&SPEC_EXAMPLE.replace("temperature_k = 293.15", "temperature_k = 20.0"))
+            .unwrap_err();
         assert!(err.to_string().contains("K (not °C)"), "{err}");
-        let err = parse(&SPEC_EXAMPLE.replace("ambient_pressure_kpa = 101.325", "ambient_pressure_kpa = 101325.0")).unwrap_err();
+        let err = parse(&SPEC_EXAMPLE.replace(
+            "ambient_pressure_kpa = 101.325",
+            "ambient_pressure_kpa = 101325.0",
+        ))
+        .unwrap_err();
         assert!(err.to_string().contains("ambient_pressure_kpa"), "{err}");
     }
 
     #[test]
     fn thesis_typo_in_p1_is_rejected_with_the_correction() {
         let err = parse(&SPEC_EXAMPLE.replace("0.8362", "0.08362")).unwrap_err();
-        assert!(err.to_string().contains("the correct value is 0.8362"), "{err}");
+        assert!(
+            err.to_string().contains("the correct value is 0.8362"),
+            "{err}"
+        );
     }
 
     #[test]
     fn wrong_type_is_located() {
-        let err = parse(&SPEC_EXAMPLE.replace("stiffness_n_per_m = 1.8e6", "stiffness_n_per_m = \"stiff\"")).unwrap_err();
+        let err = parse(
+            &SPEC_EXAMPLE.replace("stiffness_n_per_m = 1.8e6", "stiffness_n_per_m = \"stiff\""),
+        )
+        .unwrap_err();
         assert_eq!(err.location.line, Some(17));
         assert!(matches!(err.kind, DataErrorKind::Toml(_)));
     }
 
     #[test]
     fn damper_table_must_be_consistent() {
-        let err = parse(&SPEC_EXAMPLE.replace("[-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0]", "[-1.0, -0.5, -0.1, 0.0, 0.1, 0.5]")).unwrap_err();
+        let err = parse(&SPEC_EXAMPLE.replace(
+            "[-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0]",
+            "[-1.0, -0.5, -0.1, 0.0, 0.1, 0.5]",
+        ))
+        .unwrap_err();
         assert!(err.to_string().contains("one force per velocity"), "{err}");
-        let err = parse(&SPEC_EXAMPLE.replace("[-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0]", "[-1.0, -0.5, -0.1, 0.0, 0.1, 0.05, 1.0]")).unwrap_err();
+        let err = parse(&SPEC_EXAMPLE.replace(
+            "[-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0]",
+            "[-1.0, -0.5, -0.1, 0.0, 0.1, 0.05, 1.0]",
+        ))
+        .unwrap_err();
         assert!(err.to_string().contains("increase strictly"), "{err}");
     }
 
     #[test]
+    fn nan_and_inf_are_rejected_even_inside_arrays() {
+        let err = parse(&SPEC_EXAMPLE.replace("[0.250, -0.0310]", "[0.250, nan]")).unwrap_err();
+        assert_eq!(err.location.line, Some(23));
+        assert!(err.to_string().contains("bellow.cross_section_m2"), "{err}");
+        let err = parse(&SPEC_EXAMPLE.replace("-1500.0, 0.0", "-1500.0, inf")).unwrap_err();
+        assert!(
+            err.to_string().contains("expected a finite number"),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn wrong_array_length_is_an_error() {
-        let err = parse(&SPEC_EXAMPLE.replace("cross_section_m2 = [0.250, -0.0310]", "cross_section_m2 = [0.250]")).unwrap_err();
+        let err = parse(&SPEC_EXAMPLE.replace(
+            "cross_section_m2 = [0.250, -0.0310]",
+            "cross_section_m2 = [0.250]",
+        ))
+        .unwrap_err();
         assert!(err.to_string().contains("exactly 2 values"), "{err}");
     }
 }
