@@ -742,102 +742,152 @@ impl Ctx<'_> {
     }
 }
 
+/// `(key, value as TOML, comment)`.
+type TomlEntry = (&'static str, String, &'static str);
+/// `(section name, section comment, entries)`.
+type TomlSection = (&'static str, &'static str, Vec<TomlEntry>);
+
 /// The parameters as a truck file, with units and *est* marks in comments. Numbers are written
 /// in shortest round-trip form, so the text loads back to identical values.
 pub fn truck_to_toml(p: &TruckParameters) -> String {
-    let mut s = String::new();
+    // `{:?}` on f64 (and on arrays of f64) is Rust's shortest round-trip form and always a
+    // valid TOML float.
+    let f = |v: f64| format!("{v:?}");
     let e = &p.environment;
     let g = &p.geometry;
-    // `{:?}` on f64 is Rust's shortest round-trip form and always a valid TOML float.
-    let _ = writeln!(s, "[environment]");
-    let _ = writeln!(s, "gravity_m_s2 = {:?}", e.gravity_m_s2);
-    let _ = writeln!(s, "gas_constant_j_mol_k = {:?}", e.gas_constant_j_mol_k);
-    let _ = writeln!(s, "temperature_k = {:?}", e.temperature_k);
-    let _ = writeln!(
-        s,
-        "ambient_pressure_kpa = {:?}",
-        e.ambient_pressure_pa / PA_PER_KPA
-    );
-    let _ = writeln!(s, "\n[geometry]");
-    let _ = writeln!(s, "h0_m = {:?}", g.h0_m);
-    let _ = writeln!(s, "l1_m = {:?}", g.l1_m);
-    let _ = writeln!(s, "l2_m = {:?}", g.l2_m);
-    let _ = writeln!(s, "l3_m = {:?}", g.l3_m);
-    let _ = writeln!(
-        s,
-        "lever_compliance_m_per_n = {:?}          # k_scl",
-        g.lever_compliance_m_per_n
-    );
-    let _ = writeln!(s, "\n[mass]");
-    let _ = writeln!(
-        s,
-        "unsprung_kg = {:?}                      # m2 (est)",
-        p.mass.unsprung_kg
-    );
-    let _ = writeln!(
-        s,
-        "lever_inertia_kg_m2 = {:?}              # I_g (est)",
-        p.mass.lever_inertia_kg_m2
-    );
-    let _ = writeln!(s, "\n[tire]");
-    let _ = writeln!(
-        s,
-        "stiffness_n_per_m = {:?}                # k_w",
-        p.tire.stiffness_n_per_m
-    );
-    let _ = writeln!(
-        s,
-        "\n[damper]                                 # + = extension (rebound)"
-    );
-    let _ = writeln!(s, "velocity_m_s = {:?}", p.damper.velocity_m_s);
-    let _ = writeln!(s, "force_n      = {:?}", p.damper.force_n);
-    let _ = writeln!(s, "\n[bellow]");
-    let _ = writeln!(
-        s,
-        "effective_area_poly_m2 = {:?}   # p0..p4 (est)",
-        p.bellow.effective_area_poly_m2
-    );
-    let _ = writeln!(
-        s,
-        "cross_section_m2 = {:?}                 # A0, A1 (est)",
-        p.bellow.cross_section_m2
-    );
-    let _ = writeln!(
-        s,
-        "hinge_friction_n_s_per_m = {:?}         # k_f (est)",
-        p.bellow.hinge_friction_n_s_per_m
-    );
-    let _ = writeln!(s, "\n[valve]");
-    let _ = writeln!(
-        s,
-        "fill_resistance_pa_s_per_mol = {:?}     # R_flow1 (est)",
-        p.valve.fill_resistance_pa_s_per_mol
-    );
-    let _ = writeln!(
-        s,
-        "exhaust_resistance_pa_s_per_mol = {:?}  # R_flow2 (est)",
-        p.valve.exhaust_resistance_pa_s_per_mol
-    );
     let sd = &p.slow_dynamics;
-    let _ = writeln!(
-        s,
-        "\n[slow_dynamics]                          # Model 2 extended: OE from load to F_ext (thesis Table 5.5)"
-    );
-    let _ = writeln!(s, "oe_b = {:?}", sd.oe_b);
-    let _ = writeln!(s, "oe_f = {:?}", sd.oe_f);
-    let _ = writeln!(s, "oe_nk = {}", sd.oe_nk);
-    let _ = writeln!(s, "oe_sample_time_s = {:?}", sd.oe_sample_time_s);
-    match sd.force_scale {
-        Some(k) => {
-            let _ = writeln!(s, "force_scale_n_per_m = {k:?}             # k_sd (est)");
+    let sections: [TomlSection; 8] = [
+        (
+            "environment",
+            "",
+            vec![
+                ("gravity_m_s2", f(e.gravity_m_s2), ""),
+                ("gas_constant_j_mol_k", f(e.gas_constant_j_mol_k), ""),
+                ("temperature_k", f(e.temperature_k), ""),
+                (
+                    "ambient_pressure_kpa",
+                    f(e.ambient_pressure_pa / PA_PER_KPA),
+                    "absolute",
+                ),
+            ],
+        ),
+        (
+            "geometry",
+            "",
+            vec![
+                ("h0_m", f(g.h0_m), "chassis bottom to hinge"),
+                ("l1_m", f(g.l1_m), "hinge to axle"),
+                ("l2_m", f(g.l2_m), "axle to bellow centre"),
+                ("l3_m", f(g.l3_m), "axle to damper"),
+                (
+                    "lever_compliance_m_per_n",
+                    f(g.lever_compliance_m_per_n),
+                    "k_scl",
+                ),
+            ],
+        ),
+        (
+            "mass",
+            "",
+            vec![
+                ("unsprung_kg", f(p.mass.unsprung_kg), "m2 (est)"),
+                (
+                    "lever_inertia_kg_m2",
+                    f(p.mass.lever_inertia_kg_m2),
+                    "I_g (est)",
+                ),
+            ],
+        ),
+        (
+            "tire",
+            "",
+            vec![("stiffness_n_per_m", f(p.tire.stiffness_n_per_m), "k_w")],
+        ),
+        (
+            "damper",
+            "+ = extension (rebound)",
+            vec![
+                ("velocity_m_s", format!("{:?}", p.damper.velocity_m_s), ""),
+                ("force_n", format!("{:?}", p.damper.force_n), ""),
+            ],
+        ),
+        (
+            "bellow",
+            "",
+            vec![
+                (
+                    "effective_area_poly_m2",
+                    format!("{:?}", p.bellow.effective_area_poly_m2),
+                    "p0..p4 (est)",
+                ),
+                (
+                    "cross_section_m2",
+                    format!("{:?}", p.bellow.cross_section_m2),
+                    "A0, A1 (est)",
+                ),
+                (
+                    "hinge_friction_n_s_per_m",
+                    f(p.bellow.hinge_friction_n_s_per_m),
+                    "k_f (est)",
+                ),
+            ],
+        ),
+        (
+            "valve",
+            "",
+            vec![
+                (
+                    "fill_resistance_pa_s_per_mol",
+                    f(p.valve.fill_resistance_pa_s_per_mol),
+                    "R_flow1 (est)",
+                ),
+                (
+                    "exhaust_resistance_pa_s_per_mol",
+                    f(p.valve.exhaust_resistance_pa_s_per_mol),
+                    "R_flow2 (est)",
+                ),
+            ],
+        ),
+        (
+            "slow_dynamics",
+            "Model 2 extended: OE from load to F_ext (thesis Table 5.5)",
+            vec![
+                ("oe_b", format!("{:?}", sd.oe_b), ""),
+                ("oe_f", format!("{:?}", sd.oe_f), ""),
+                ("oe_nk", sd.oe_nk.to_string(), "samples"),
+                ("oe_sample_time_s", f(sd.oe_sample_time_s), ""),
+            ],
+        ),
+    ];
+    let mut s = String::new();
+    for (name, comment, entries) in sections {
+        if !s.is_empty() {
+            s.push('\n');
         }
-        None => {
-            let _ = writeln!(
-                s,
-                "# force_scale_n_per_m: k_sd (est); omitted = one tenth of the initial bellow force"
-            );
+        let _ = match comment {
+            "" => writeln!(s, "[{name}]"),
+            c => writeln!(s, "[{name}]  # {c}"),
+        };
+        let width = entries
+            .iter()
+            .map(|(k, v, _)| k.len() + v.len() + 3)
+            .max()
+            .unwrap_or(0);
+        for (key, value, comment) in entries {
+            let line = format!("{key} = {value}");
+            let _ = match comment {
+                "" => writeln!(s, "{line}"),
+                c => writeln!(s, "{line:width$}  # {c}"),
+            };
         }
     }
+    let _ = match sd.force_scale {
+        Some(k) => writeln!(s, "force_scale_n_per_m = {k:?}  # k_sd (est)"),
+        None => writeln!(
+            s,
+            "# force_scale_n_per_m: k_sd (est); omitted = one tenth of the initial bellow force"
+        ),
+    };
     s
 }
 
