@@ -1,0 +1,295 @@
+//! Input profiles of the reference experiments (thesis 5.1, SPEC §6).
+//!
+//! Each scenario gives, at every 100 ms sample, what really acts on the truck (the true wheel
+//! load, which ramps over several seconds while a traverse sets a tonne down or lifts it off)
+//! and what the log says (a clean step, as the thesis' hand-made load signal), plus the valve
+//! command. Supply pressure is not part of a scenario: the virtual truck's tank produces it.
+//! Randomised details (step sizes 250–350 kg, ramp durations, pulse lengths) are drawn from a
+//! seeded generator, so a seed fixes the experiment.
+
+use airsus_data::ValveState;
+
+use crate::physics::smoothstep;
+use crate::sensors::NoiseSource;
+
+/// Sample time of the truck's logger, s.
+pub const SAMPLE_TIME_S: f64 = 0.1;
+/// Sprung load on the modeled wheel during data-sets 3 and 4 (thesis 5.1.3), kg.
+pub const REFERENCE_SPRUNG_KG: f64 = 2830.0;
+
+/// One experiment's inputs at the logger's sample times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    pub name: String,
+    pub description: String,
+    pub time_s: Vec<f64>,
+    /// The load that really acts on the wheel, kg.
+    pub true_load_kg: Vec<f64>,
+    /// The load as logged: a clean step at the start of each ramp, kg.
+    pub logged_load_kg: Vec<f64>,
+    pub valve: Vec<ValveState>,
+    /// Road height under the wheel, m.
+    pub road_height_m: Vec<f64>,
+}
+
+impl Scenario {
+    fn constant(name: &str, description: &str, duration_s: f64, wheel_load_kg: f64) -> Self {
+        let n = (duration_s / SAMPLE_TIME_S).round() as usize + 1;
+        Self {
+            name: name.to_owned(),
+            description: description.to_owned(),
+            // Multiplying (not accumulating) keeps the time axis exact to one rounding.
+            time_s: (0..n).map(|i| i as f64 * SAMPLE_TIME_S).collect(),
+            true_load_kg: vec![wheel_load_kg; n],
+            logged_load_kg: vec![wheel_load_kg; n],
+            valve: vec![ValveState::Closed; n],
+            road_height_m: vec![0.0; n],
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+
+    fn index_at(&self, t_s: f64) -> usize {
+        ((t_s / SAMPLE_TIME_S).round() as usize).min(self.len())
+    }
+
+    /// A load change of `delta_kg` starting at `start_s`: the truth follows a smooth ramp
+    /// of `ramp_s`, the log jumps at `start_s`.
+    fn load_step(&mut self, start_s: f64, delta_kg: f64, ramp_s: f64) {
+        let start = self.index_at(start_s);
+        for i in start..self.len() {
+            let progress = (self.time_s[i] - start_s) / ramp_s;
+            self.true_load_kg[i] += delta_kg * smoothstep(progress);
+            self.logged_load_kg[i] += delta_kg;
+        }
+    }
+
+    /// The truth alone changes (a mishap the log does not show), smoothly over `ramp_s`.
+    fn unlogged_load_change(&mut self, start_s: f64, delta_kg: f64, ramp_s: f64) {
+        let start = self.index_at(start_s);
+        for i in start..self.len() {
+            let progress = (self.time_s[i] - start_s) / ramp_s;
+            self.true_load_kg[i] += delta_kg * smoothstep(progress);
+        }
+    }
+
+    fn valve_pulse(&mut self, start_s: f64, duration_s: f64, state: ValveState) {
+        let (start, end) = (self.index_at(start_s), self.index_at(start_s + duration_s));
+        for v in &mut self.valve[start..end] {
+            *v = state;
+        }
+    }
+}
+
+/// Wheel load (what a scale under the wheel shows) for a sprung load, kg: the thesis' sprung
+/// mass is the scale reading less the unsprung share (thesis 5.1.2).
+pub fn wheel_load_kg(sprung_kg: f64, unsprung_kg: f64) -> f64 {
+    sprung_kg + unsprung_kg
+}
+
+fn step_size(noise: &mut NoiseSource) -> f64 {
+    noise.uniform(250.0, 350.0)
+}
+
+fn ramp(noise: &mut NoiseSource) -> f64 {
+    noise.uniform(3.0, 8.0)
+}
+
+/// Data-set 1 (estimation): three tonnes set down one by one, then lifted off one by one;
+/// 25 minutes, valve closed.
+pub fn data_set_1(unsprung_kg: f64, seed: u64) -> Scenario {
+    let mut noise = NoiseSource::new(seed ^ 0x0d5e_0001);
+    let mut s = Scenario::constant(
+        "ds1",
+        "data-set 1 (estimation): load steps up, up, up, down, down, down; valve closed",
+        1500.0,
+        wheel_load_kg(REFERENCE_SPRUNG_KG, unsprung_kg),
+    );
+    let mut on_truck = Vec::new();
+    for k in 0..3 {
+        let delta = step_size(&mut noise);
+        on_truck.push(delta);
+        s.load_step(120.0 + 200.0 * f64::from(k), delta, ramp(&mut noise));
+    }
+    for k in 0..3 {
+        let delta = on_truck.pop().unwrap_or(300.0);
+        s.load_step(720.0 + 200.0 * f64::from(k), -delta, ramp(&mut noise));
+    }
+    s
+}
+
+/// Data-set 2 (validation): the same tonnes in another order — up, down, up, up, down, down —
+/// with a loading mishap near 950 s (a tonne set down, caught again and lifted off part-way,
+/// then set down for good; the log shows one clean step). 25 minutes, valve closed.
+pub fn data_set_2(unsprung_kg: f64, seed: u64) -> Scenario {
+    let mut noise = NoiseSource::new(seed ^ 0x0d5e_0002);
+    let mut s = Scenario::constant(
+        "ds2",
+        "data-set 2 (validation): load steps up, down, up, up (with a mishap), down, down; valve closed",
+        1500.0,
+        wheel_load_kg(REFERENCE_SPRUNG_KG, unsprung_kg),
+    );
+    let a = step_size(&mut noise);
+    s.load_step(100.0, a, ramp(&mut noise));
+    s.load_step(330.0, -a, ramp(&mut noise));
+    let b = step_size(&mut noise);
+    s.load_step(560.0, b, ramp(&mut noise));
+    let c = step_size(&mut noise);
+    // The mishap: the tonne lands, is partly lifted again for ~25 s, then settles.
+    s.load_step(950.0, c, 4.0);
+    s.unlogged_load_change(960.0, -0.6 * c, 3.0);
+    s.unlogged_load_change(985.0, 0.6 * c, 5.0);
+    s.load_step(1150.0, -c, ramp(&mut noise));
+    s.load_step(1330.0, -b, ramp(&mut noise));
+    s
+}
+
+/// Data-set 3: short fill and exhaust pulses (1–3 s) at the reference load, 10 minutes.
+pub fn data_set_3(unsprung_kg: f64, seed: u64) -> Scenario {
+    let mut noise = NoiseSource::new(seed ^ 0x0d5e_0003);
+    let mut s = Scenario::constant(
+        "ds3",
+        "data-set 3 (validation): short fill/exhaust valve pulses at constant load 2830 kg sprung",
+        600.0,
+        wheel_load_kg(REFERENCE_SPRUNG_KG, unsprung_kg),
+    );
+    let mut t = 30.0;
+    let mut fill = true;
+    while t < 560.0 {
+        let length = noise.uniform(1.0, 3.0);
+        let state = if fill {
+            ValveState::Fill
+        } else {
+            ValveState::Exhaust
+        };
+        s.valve_pulse(t, length, state);
+        // Fill and exhaust alternate in pairs so the height wanders but stays in its stroke.
+        fill = !fill;
+        t += length + noise.uniform(15.0, 30.0);
+    }
+    s
+}
+
+/// Data-set 4: long fill and exhaust steps (8–15 s) at the reference load, 10 minutes.
+pub fn data_set_4(unsprung_kg: f64, seed: u64) -> Scenario {
+    let mut noise = NoiseSource::new(seed ^ 0x0d5e_0004);
+    let mut s = Scenario::constant(
+        "ds4",
+        "data-set 4 (validation): long fill/exhaust valve steps at constant load 2830 kg sprung",
+        600.0,
+        wheel_load_kg(REFERENCE_SPRUNG_KG, unsprung_kg),
+    );
+    let plan = [
+        (ValveState::Fill, 40.0),
+        (ValveState::Exhaust, 130.0),
+        (ValveState::Exhaust, 240.0),
+        (ValveState::Fill, 340.0),
+        (ValveState::Fill, 440.0),
+        (ValveState::Exhaust, 520.0),
+    ];
+    for (state, start) in plan {
+        s.valve_pulse(start, noise.uniform(8.0, 15.0), state);
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn steps(load: &[f64]) -> Vec<(usize, f64)> {
+        load.windows(2)
+            .enumerate()
+            .filter(|(_, w)| (w[1] - w[0]).abs() > 1.0)
+            .map(|(i, w)| (i + 1, w[1] - w[0]))
+            .collect()
+    }
+
+    #[test]
+    fn data_set_1_has_three_steps_up_then_three_down_of_250_to_350_kg() {
+        let s = data_set_1(520.0, 1);
+        assert_eq!(s.len(), 15_001);
+        assert!((s.time_s[15_000] - 1500.0).abs() < 1e-9);
+        let logged = steps(&s.logged_load_kg);
+        assert_eq!(logged.len(), 6);
+        for (k, (_, delta)) in logged.iter().enumerate() {
+            assert!((250.0..=350.0).contains(&delta.abs()), "step {k}: {delta}");
+            assert_eq!(delta.signum(), if k < 3 { 1.0 } else { -1.0 });
+        }
+        assert!(
+            (s.logged_load_kg[15_000] - 3350.0).abs() < 1e-9,
+            "all tonnes lifted off again"
+        );
+        assert!(s.valve.iter().all(|&v| v == ValveState::Closed));
+    }
+
+    #[test]
+    fn the_true_load_ramps_over_seconds_while_the_log_steps() {
+        let s = data_set_1(520.0, 1);
+        let (at, delta) = steps(&s.logged_load_kg)[0];
+        // One second after the logged step the truth has not arrived yet (ramps take ≥ 3 s)…
+        let lag = s.logged_load_kg[at + 10] - s.true_load_kg[at + 10];
+        assert!(
+            lag > 0.1 * delta,
+            "true load already at {lag} kg from the log"
+        );
+        // …and ten seconds after, it has.
+        assert!((s.logged_load_kg[at + 100] - s.true_load_kg[at + 100]).abs() < 1e-9);
+    }
+
+    #[test]
+    fn data_set_2_differs_in_order_and_hides_a_mishap_from_the_log() {
+        let s = data_set_2(520.0, 1);
+        let signs: Vec<f64> = steps(&s.logged_load_kg)
+            .iter()
+            .map(|(_, d)| d.signum())
+            .collect();
+        assert_eq!(signs, vec![1.0, -1.0, 1.0, 1.0, -1.0, -1.0]);
+        let i = s.index_at(970.0);
+        assert!(
+            s.logged_load_kg[i] - s.true_load_kg[i] > 100.0,
+            "mishap invisible in the log"
+        );
+    }
+
+    #[test]
+    fn valve_data_sets_keep_the_load_constant_and_pulse_the_valve() {
+        for s in [data_set_3(520.0, 3), data_set_4(520.0, 3)] {
+            assert!(s.true_load_kg.iter().all(|&m| m == 3350.0));
+            let fills =
+                s.valve.iter().filter(|&&v| v == ValveState::Fill).count() as f64 * SAMPLE_TIME_S;
+            let exhausts = s
+                .valve
+                .iter()
+                .filter(|&&v| v == ValveState::Exhaust)
+                .count() as f64
+                * SAMPLE_TIME_S;
+            assert!(
+                fills > 5.0 && exhausts > 5.0,
+                "{}: fill {fills} s, exhaust {exhausts} s",
+                s.name
+            );
+        }
+        let pulses = |s: &Scenario| {
+            s.valve
+                .windows(2)
+                .filter(|w| w[0] == ValveState::Closed && w[1] != ValveState::Closed)
+                .count()
+        };
+        let (short, long) = (data_set_3(520.0, 3), data_set_4(520.0, 3));
+        assert!(pulses(&short) >= 12, "{} short pulses", pulses(&short));
+        assert_eq!(pulses(&long), 6);
+    }
+
+    #[test]
+    fn a_seed_fixes_the_experiment() {
+        assert_eq!(data_set_1(520.0, 9), data_set_1(520.0, 9));
+        assert_ne!(data_set_1(520.0, 9), data_set_1(520.0, 10));
+    }
+}
