@@ -4,6 +4,8 @@
 //! one-corner simulator than any model structure it is used to test, its sensors, and the
 //! reference experiments of thesis 5.1 (SPEC §6).
 
+pub mod lab;
 pub mod physics;
 pub mod scenario;
 pub mod sensors;
+pub mod truth;
