@@ -1,0 +1,235 @@
+//! Recovery of known systems from simulated, noisy data: every parameter within three
+//! reported standard deviations of the truth, for each structure.
+
+mod common;
+
+use airsus_ident::linear::{
+    ArmaxOrders, ArxOrders, BjOrders, IdData, OeOrders, PemOptions, StopReason, armax, arx, bj, oe,
+};
+use common::*;
+
+const N: usize = 4000;
+
+#[test]
+fn arx_recovers_second_order_system() {
+    // A = 1 - 1.5 q^-1 + 0.7 q^-2, B = q^-1 (1 + 0.5 q^-1), e white, std 0.3
+    let mut r = rng(1);
+    let u = binary(&mut r, N, 0.3);
+    let e = white(&mut r, N, 0.3);
+    let a = [1.0, -1.5, 0.7];
+    let y = add(
+        &lfilter(&[1.0, 0.5], 1, &a, &u),
+        &lfilter(&[1.0], 0, &a, &e),
+    );
+    let data = IdData::siso(y, u, 0.1).expect("valid data");
+    let est = arx(&data, &ArxOrders::siso(2, 2, 1)).expect("arx");
+    assert_within_sigmas(&est, &[-1.5, 0.7, 1.0, 0.5], 3.0);
+    assert_eq!(est.stop, StopReason::Exact);
+    // Loss is the innovation variance, FPE slightly above it.
+    assert!((est.loss - 0.09).abs() < 0.01, "loss {}", est.loss);
+    assert!(est.fpe > est.loss);
+}
+
+#[test]
+fn armax_recovers_coloured_noise_system() {
+    // A = 1 - 1.5 q^-1 + 0.7 q^-2, B = q^-1 (1 + 0.5 q^-1), C = 1 - q^-1 + 0.2 q^-2
+    let mut r = rng(2);
+    let u = binary(&mut r, N, 0.3);
+    let e = white(&mut r, N, 0.5);
+    let a = [1.0, -1.5, 0.7];
+    let c = [1.0, -1.0, 0.2];
+    let y = add(&lfilter(&[1.0, 0.5], 1, &a, &u), &lfilter(&c, 0, &a, &e));
+    let data = IdData::siso(y, u, 0.1).expect("valid data");
+    let est = armax(
+        &data,
+        &ArmaxOrders::siso(2, 2, 2, 1),
+        &PemOptions::default(),
+    )
+    .expect("armax");
+    assert_within_sigmas(&est, &[-1.5, 0.7, 1.0, 0.5, -1.0, 0.2], 3.0);
+    assert!(est.model.is_stable());
+    assert!((est.noise_variance - 0.25).abs() < 0.02);
+}
+
+#[test]
+fn oe_recovers_system_under_white_measurement_noise() {
+    // y = (0.5 q^-2 + 0.3 q^-3) / (1 - 1.2 q^-1 + 0.5 q^-2) u + e
+    let mut r = rng(3);
+    let u = binary(&mut r, N, 0.2);
+    let e = white(&mut r, N, 0.2);
+    let f = [1.0, -1.2, 0.5];
+    let y = add(&lfilter(&[0.5, 0.3], 2, &f, &u), &e);
+    let data = IdData::siso(y, u, 0.08).expect("valid data");
+    let est = oe(&data, &OeOrders::siso(2, 2, 2), &PemOptions::default()).expect("oe");
+    assert_within_sigmas(&est, &[0.5, 0.3, -1.2, 0.5], 3.0);
+    assert!(matches!(
+        est.stop,
+        StopReason::Converged | StopReason::NoFurtherImprovement
+    ));
+    assert!(est.fit_percent > 80.0, "fit {}", est.fit_percent);
+}
+
+#[test]
+fn bj_recovers_independent_noise_model() {
+    // y = (1 + 0.5 q^-1) q^-1 / (1 - 0.8 q^-1) u + (1 + 0.6 q^-1)/(1 - 0.9 q^-1) e
+    let mut r = rng(4);
+    let u = binary(&mut r, N, 0.3);
+    let e = white(&mut r, N, 0.3);
+    let y = add(
+        &lfilter(&[1.0, 0.5], 1, &[1.0, -0.8], &u),
+        &lfilter(&[1.0, 0.6], 0, &[1.0, -0.9], &e),
+    );
+    let data = IdData::siso(y, u, 1.0).expect("valid data");
+    let est = bj(
+        &data,
+        &BjOrders::siso(2, 1, 1, 1, 1),
+        &PemOptions::default(),
+    )
+    .expect("bj");
+    // parameter order: b1 b2 c1 d1 f1
+    assert_within_sigmas(&est, &[1.0, 0.5, 0.6, -0.9, -0.8], 3.0);
+    assert!(est.model.is_stable());
+}
+
+#[test]
+fn two_input_oe_like_thesis_model_3() {
+    // nb = [2 2], nf = [2 2], nk = [1 1] as thesis Table 5.6: a slow well-damped path from
+    // input 1 and a faster one from input 2.
+    let mut r = rng(5);
+    let u1 = binary(&mut r, N, 0.1);
+    let u2 = white(&mut r, N, 1.0);
+    let e = white(&mut r, N, 0.1);
+    let (b1, f1) = ([0.10, 0.08], [1.0, -1.6, 0.7]);
+    let (b2, f2) = ([0.5, -0.3], [1.0, -0.5, 0.3]);
+    let y = add(
+        &add(&lfilter(&b1, 1, &f1, &u1), &lfilter(&b2, 1, &f2, &u2)),
+        &e,
+    );
+    let data = IdData::new(y, vec![u1, u2], 0.01).expect("valid data");
+    let orders = OeOrders {
+        nb: vec![2, 2],
+        nf: vec![2, 2],
+        nk: vec![1, 1],
+    };
+    let est = oe(&data, &orders, &PemOptions::default()).expect("oe");
+    // getpvec order: b(u1), b(u2), f(u1), f(u2)
+    assert_within_sigmas(&est, &[0.10, 0.08, 0.5, -0.3, -1.6, 0.7, -0.5, 0.3], 3.0);
+    assert_eq!(est.parameters[0].name, "b1(u1)");
+    assert_eq!(est.parameters[7].name, "f2(u2)");
+    // For OE the simulation is the one-step predictor.
+    let sim = est.model.simulate(data.u()).expect("simulate");
+    let pred = est.model.predict(data.y(), data.u(), 1).expect("predict");
+    for (s, p) in sim.iter().zip(&pred) {
+        assert!((s - p).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn k_step_prediction_interpolates_between_one_step_and_simulation() {
+    let mut r = rng(6);
+    let u = binary(&mut r, N, 0.3);
+    let e = white(&mut r, N, 0.3);
+    let a = [1.0, -1.5, 0.7];
+    let y = add(
+        &lfilter(&[1.0, 0.5], 1, &a, &u),
+        &lfilter(&[1.0], 0, &a, &e),
+    );
+    let data = IdData::siso(y.clone(), u, 0.1).expect("valid data");
+    let est = arx(&data, &ArxOrders::siso(2, 2, 1)).expect("arx");
+    let mse = |k: usize| {
+        let p = est.model.predict(&y, data.u(), k).expect("predict");
+        p.iter()
+            .zip(&y)
+            .skip(50)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            / (N - 50) as f64
+    };
+    let (m1, m3, m50) = (mse(1), mse(3), mse(200));
+    let sim = est.model.simulate(data.u()).expect("simulate");
+    let msim = sim
+        .iter()
+        .zip(&y)
+        .skip(50)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        / (N - 50) as f64;
+    assert!(m1 < m3 && m3 < m50, "{m1} {m3} {m50}");
+    assert!((m50 - msim).abs() < 1e-6 * msim, "{m50} vs {msim}");
+    // One-step ARX prediction error variance ≈ noise variance.
+    assert!((m1 - 0.09).abs() < 0.01);
+}
+
+#[test]
+fn display_prints_polynomials_with_uncertainty_and_statistics() {
+    let mut r = rng(3);
+    let u = binary(&mut r, N, 0.2);
+    let e = white(&mut r, N, 0.2);
+    let y = add(&lfilter(&[0.5, 0.3], 2, &[1.0, -1.2, 0.5], &u), &e);
+    let data = IdData::siso(y, u, 0.08).expect("valid data");
+    let est = oe(&data, &OeOrders::siso(2, 2, 2), &PemOptions::default()).expect("oe");
+    let text = est.to_string();
+    println!("{text}");
+    assert!(text.starts_with("Discrete-time OE model: y(t) = [B(z)/F(z)]u(t) + e(t)"));
+    assert!(text.contains("  B(z) = 0.49"), "{text}");
+    assert!(text.contains(" z^-2 + 0.30"), "{text}");
+    assert!(text.contains("  F(z) = 1 - 1.20"), "{text}");
+    assert!(text.contains("(±"), "{text}");
+    assert!(text.contains("Sample time: 0.08 seconds"), "{text}");
+    assert!(text.contains("nb=2   nf=2   nk=2"), "{text}");
+    assert!(text.contains("Fit to estimation data:"), "{text}");
+    assert!(text.contains("FPE:") && text.contains("AIC:"), "{text}");
+
+    let json: serde_json::Value = serde_json::to_value(&est).expect("serialise");
+    assert_eq!(json["model"]["structure"], "oe");
+    assert_eq!(json["model"]["nk"][0], 2);
+    assert_eq!(json["parameters"][0]["name"], "b1");
+    for key in [
+        "loss",
+        "fpe",
+        "aic",
+        "fit_percent",
+        "noise_variance",
+        "covariance",
+        "stop",
+    ] {
+        assert!(json.get(key).is_some(), "missing {key}");
+    }
+}
+
+#[test]
+fn reported_standard_deviations_match_monte_carlo_spread() {
+    // 200 independent noise realisations of the same OE system: the spread of the estimates
+    // must agree with the standard deviation the estimator reports (P = λ (Σψψᵀ)⁻¹).
+    let runs = 200;
+    let n = 1000;
+    let truth = [0.5, 0.3, -1.2, 0.5];
+    let mut r = rng(7);
+    let u = binary(&mut r, n, 0.2);
+    let clean = lfilter(&[0.5, 0.3], 1, &[1.0, -1.2, 0.5], &u);
+    let mut estimates = vec![Vec::with_capacity(runs); truth.len()];
+    let mut reported = vec![0.0; truth.len()];
+    for _ in 0..runs {
+        let y = add(&clean, &white(&mut r, n, 0.3));
+        let data = IdData::siso(y, u.clone(), 1.0).expect("valid");
+        let est = oe(&data, &OeOrders::siso(2, 2, 1), &PemOptions::default()).expect("oe");
+        for (k, p) in est.parameters.iter().enumerate() {
+            estimates[k].push(p.value);
+            reported[k] += p.std / runs as f64;
+        }
+    }
+    for k in 0..truth.len() {
+        let mean = estimates[k].iter().sum::<f64>() / runs as f64;
+        let spread = (estimates[k].iter().map(|v| (v - mean).powi(2)).sum::<f64>()
+            / (runs - 1) as f64)
+            .sqrt();
+        let ratio = reported[k] / spread;
+        assert!(
+            (0.8..1.25).contains(&ratio),
+            "parameter {k}: reported std {} vs Monte-Carlo {spread} (ratio {ratio})",
+            reported[k]
+        );
+        // Unbiased: the mean is within 3 standard errors of the truth.
+        assert!((mean - truth[k]).abs() < 3.0 * spread / (runs as f64).sqrt() + 1e-12);
+    }
+}
