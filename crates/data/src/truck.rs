@@ -103,9 +103,17 @@ pub struct SlowDynamics {
     pub oe_nk: usize,
     /// Sample time the OE model was identified at, s.
     pub oe_sample_time_s: f64,
-    /// `k_sd`, the scale from the OE output to the extra bellow force. `None`: one tenth of the
-    /// bellow force at the initial condition (thesis Table 5.9), computed by the model.
+    /// `k_sd`, the scale from the OE output to the extra bellow force, N per metre of OE output
+    /// (Model 2 extended, `m2x`). `None`: the model uses one tenth of the bellow force that
+    /// carries the thesis' initial condition (sprung 2830 kg, data-set 1), thesis Table 5.9.
     pub force_scale: Option<f64>,
+    /// Creep element of the height-driven variant (`m2xh`): stiffness `k_sd` of the Maxwell
+    /// element (spring in series with a dashpot) in parallel with the bellow, N/m of bellow
+    /// height. `None`: the model's default. Optional key `creep_stiffness_n_per_m`.
+    pub creep_stiffness_n_per_m: Option<f64>,
+    /// Relaxation time constant `τ_sd` of that element, s. `None`: the model's default (the
+    /// thesis OE pole, `-Ts / ln(-f1)` ≈ 33 s). Optional key `creep_time_constant_s`.
+    pub creep_time_constant_s: Option<f64>,
 }
 
 impl Default for SlowDynamics {
@@ -116,6 +124,49 @@ impl Default for SlowDynamics {
             oe_nk: 2,
             oe_sample_time_s: 0.1,
             force_scale: None,
+            creep_stiffness_n_per_m: None,
+            creep_time_constant_s: None,
+        }
+    }
+}
+
+/// The two-input OE model of Model 3 (thesis 4.3, eq 4.5; Tables 5.6–5.8), from wheel load and
+/// bellow pressure to bellow height. Optional section `[model3]` (ours, like `[slow_dynamics]`).
+///
+/// Units are those the thesis logged and identified in (thesis 2.2, 5.1): load in **kg**,
+/// bellow pressure in **kPa gauge**, bellow height in **mm**. The model is used in deviation
+/// form (the static relation removed, as in thesis 5.2.4): inputs and output are changes from
+/// the initial equilibrium. Polynomials in `q⁻¹` as in MATLAB: `B = b1 q^-nk + b2 q^-nk-1 ..`,
+/// `F = 1 + f1 q^-1 + ..` (the leading 1 implicit).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Model3Oe {
+    /// Load → height numerator `b1..`, mm/kg (Table 5.7).
+    pub load_b: Vec<f64>,
+    /// Load → height denominator `f1..` (Table 5.7).
+    pub load_f: Vec<f64>,
+    /// Load input delay, samples (Table 5.6).
+    pub load_nk: usize,
+    /// Pressure → height numerator `b1..`, mm/kPa (Table 5.8).
+    pub pressure_b: Vec<f64>,
+    /// Pressure → height denominator `f1..` (Table 5.8).
+    pub pressure_f: Vec<f64>,
+    /// Pressure input delay, samples (Table 5.6).
+    pub pressure_nk: usize,
+    /// Sample time of the identification, s.
+    pub sample_time_s: f64,
+}
+
+impl Default for Model3Oe {
+    /// Thesis Tables 5.6–5.8 as printed.
+    fn default() -> Self {
+        Self {
+            load_b: vec![1.093e-5, 1.093e-5],
+            load_f: vec![-1.84, 0.8404],
+            load_nk: 1,
+            pressure_b: vec![-5.801e-9, 5.194e-9],
+            pressure_f: vec![-0.5059, 0.4933],
+            pressure_nk: 1,
+            sample_time_s: 0.1,
         }
     }
 }
@@ -131,6 +182,8 @@ pub struct TruckParameters {
     pub bellow: BellowParameters,
     pub valve: ValveParameters,
     pub slow_dynamics: SlowDynamics,
+    /// Model 3's OE block (optional section `[model3]`; default thesis Tables 5.6–5.8).
+    pub model3: Model3Oe,
 }
 
 impl TruckParameters {
@@ -172,6 +225,7 @@ impl TruckParameters {
                 exhaust_resistance_pa_s_per_mol: 1.5e6,
             },
             slow_dynamics: SlowDynamics::default(),
+            model3: Model3Oe::default(),
         }
     }
 }
@@ -204,6 +258,7 @@ const SCHEMA: &[TableSchema] = &[
             "bellow",
             "valve",
             "slow_dynamics",
+            "model3",
         ],
     },
     TableSchema {
@@ -254,6 +309,20 @@ const SCHEMA: &[TableSchema] = &[
             "oe_nk",
             "oe_sample_time_s",
             "force_scale_n_per_m",
+            "creep_stiffness_n_per_m",
+            "creep_time_constant_s",
+        ],
+    },
+    TableSchema {
+        name: "model3",
+        keys: &[
+            "oe_load_b",
+            "oe_load_f",
+            "oe_load_nk",
+            "oe_pressure_b",
+            "oe_pressure_f",
+            "oe_pressure_nk",
+            "oe_sample_time_s",
         ],
     },
 ];
@@ -312,6 +381,19 @@ struct FileSlow {
     oe_nk: Option<i64>,
     oe_sample_time_s: Option<f64>,
     force_scale_n_per_m: Option<f64>,
+    creep_stiffness_n_per_m: Option<f64>,
+    creep_time_constant_s: Option<f64>,
+}
+
+#[derive(Deserialize)]
+struct FileModel3 {
+    oe_load_b: Option<Vec<f64>>,
+    oe_load_f: Option<Vec<f64>>,
+    oe_load_nk: Option<i64>,
+    oe_pressure_b: Option<Vec<f64>>,
+    oe_pressure_f: Option<Vec<f64>>,
+    oe_pressure_nk: Option<i64>,
+    oe_sample_time_s: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -324,6 +406,7 @@ struct TruckFile {
     bellow: Option<FileBellow>,
     valve: Option<FileValve>,
     slow_dynamics: Option<FileSlow>,
+    model3: Option<FileModel3>,
 }
 
 /// Reads and checks a truck parameter file.
@@ -479,6 +562,10 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
         None => SlowDynamics::default(),
         Some(s) => ctx.slow_dynamics(s)?,
     };
+    let model3 = match file.model3 {
+        None => Model3Oe::default(),
+        Some(m) => ctx.model3(m)?,
+    };
 
     Ok(LoadedTruck {
         parameters: TruckParameters {
@@ -493,6 +580,7 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
             bellow,
             valve,
             slow_dynamics,
+            model3,
         },
         defaulted: ctx.defaulted,
     })
@@ -738,6 +826,67 @@ impl Ctx<'_> {
             oe_nk,
             oe_sample_time_s,
             force_scale: s.force_scale_n_per_m,
+            creep_stiffness_n_per_m: match s.creep_stiffness_n_per_m {
+                None => None,
+                Some(k) => Some(self.check_range(
+                    "slow_dynamics",
+                    "creep_stiffness_n_per_m",
+                    k,
+                    0.0..=1e8,
+                    "N/m",
+                )?),
+            },
+            creep_time_constant_s: match s.creep_time_constant_s {
+                None => None,
+                Some(t) => Some(self.check_range(
+                    "slow_dynamics",
+                    "creep_time_constant_s",
+                    t,
+                    1e-3..=1e6,
+                    "s",
+                )?),
+            },
+        })
+    }
+
+    fn model3(&self, m: FileModel3) -> Result<Model3Oe, DataError> {
+        let d = Model3Oe::default();
+        let nk = |key: &str, value: Option<i64>, default: usize| match value {
+            None => Ok(default),
+            Some(nk) if (0..=1000).contains(&nk) => Ok(nk as usize),
+            Some(nk) => Err(self.invalid(
+                "model3",
+                key,
+                nk,
+                "expected a delay of 0 to 1000 samples".to_owned(),
+            )),
+        };
+        let load_nk = nk("oe_load_nk", m.oe_load_nk, d.load_nk)?;
+        let pressure_nk = nk("oe_pressure_nk", m.oe_pressure_nk, d.pressure_nk)?;
+        let sample_time_s = match m.oe_sample_time_s {
+            None => d.sample_time_s,
+            Some(ts) => self.check_range("model3", "oe_sample_time_s", ts, 1e-4..=100.0, "s")?,
+        };
+        let load_b = m.oe_load_b.unwrap_or(d.load_b);
+        let pressure_b = m.oe_pressure_b.unwrap_or(d.pressure_b);
+        for (key, b) in [("oe_load_b", &load_b), ("oe_pressure_b", &pressure_b)] {
+            if b.is_empty() {
+                return Err(self.invalid(
+                    "model3",
+                    key,
+                    "[]",
+                    "expected at least one numerator coefficient".to_owned(),
+                ));
+            }
+        }
+        Ok(Model3Oe {
+            load_b,
+            load_f: m.oe_load_f.unwrap_or(d.load_f),
+            load_nk,
+            pressure_b,
+            pressure_f: m.oe_pressure_f.unwrap_or(d.pressure_f),
+            pressure_nk,
+            sample_time_s,
         })
     }
 }
@@ -859,6 +1008,20 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
             ],
         ),
     ];
+    let m3 = &p.model3;
+    let model3 = (
+        "model3",
+        "Model 3: OE from load (kg) and pressure (kPa gauge) to bellow height (mm), thesis Tables 5.6-5.8",
+        vec![
+            ("oe_load_b", format!("{:?}", m3.load_b), ""),
+            ("oe_load_f", format!("{:?}", m3.load_f), ""),
+            ("oe_load_nk", m3.load_nk.to_string(), "samples"),
+            ("oe_pressure_b", format!("{:?}", m3.pressure_b), ""),
+            ("oe_pressure_f", format!("{:?}", m3.pressure_f), ""),
+            ("oe_pressure_nk", m3.pressure_nk.to_string(), "samples"),
+            ("oe_sample_time_s", f(m3.sample_time_s), ""),
+        ],
+    );
     let mut s = String::new();
     for (name, comment, entries) in sections {
         if !s.is_empty() {
@@ -888,6 +1051,34 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
             "# force_scale_n_per_m: k_sd (est); omitted = one tenth of the initial bellow force"
         ),
     };
+    // The creep element of `m2xh` (ours): written only when set, so files stay as the SPEC
+    // shows them unless a model put a value there.
+    if let Some(k) = sd.creep_stiffness_n_per_m {
+        let _ = writeln!(
+            s,
+            "creep_stiffness_n_per_m = {k:?}  # m2xh creep stiffness k_sd (est)"
+        );
+    }
+    if let Some(t) = sd.creep_time_constant_s {
+        let _ = writeln!(
+            s,
+            "creep_time_constant_s = {t:?}  # m2xh creep time constant (est)"
+        );
+    }
+    let (name, comment, entries) = model3;
+    let _ = writeln!(s, "\n[{name}]  # {comment}");
+    let width = entries
+        .iter()
+        .map(|(k, v, _)| k.len() + v.len() + 3)
+        .max()
+        .unwrap_or(0);
+    for (key, value, comment) in entries {
+        let line = format!("{key} = {value}");
+        let _ = match comment {
+            "" => writeln!(s, "{line}"),
+            c => writeln!(s, "{line:width$}  # {c}"),
+        };
+    }
     s
 }
 
@@ -1068,5 +1259,38 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         ))
         .unwrap_err();
         assert!(err.to_string().contains("exactly 2 values"), "{err}");
+    }
+
+    #[test]
+    fn model_sections_of_ours_load_and_round_trip() {
+        let text = format!(
+            "{SPEC_EXAMPLE}\n[slow_dynamics]\ncreep_stiffness_n_per_m = 25000.0\ncreep_time_constant_s = 30.0\n\n[model3]\noe_load_b = [1e-5]\noe_load_f = [-0.9]\noe_pressure_nk = 2\n"
+        );
+        let p = parse(&text).unwrap().parameters;
+        assert_eq!(p.slow_dynamics.creep_stiffness_n_per_m, Some(25_000.0));
+        assert_eq!(p.slow_dynamics.creep_time_constant_s, Some(30.0));
+        assert_eq!(p.model3.load_b, [1e-5]);
+        assert_eq!(p.model3.load_f, [-0.9]);
+        assert_eq!(p.model3.pressure_nk, 2);
+        assert_eq!(p.model3.pressure_b, Model3Oe::default().pressure_b);
+        let again = parse(&truck_to_toml(&p)).unwrap().parameters;
+        assert_eq!(again, p);
+        // Omitted: the thesis tables.
+        let reference = parse(SPEC_EXAMPLE).unwrap().parameters;
+        assert_eq!(reference.model3, Model3Oe::default());
+        assert_eq!(reference.model3.load_f, [-1.84, 0.8404]);
+    }
+
+    #[test]
+    fn model_sections_of_ours_are_checked() {
+        let err = parse(&format!("{SPEC_EXAMPLE}\n[model3]\noe_load_nk = -1\n")).unwrap_err();
+        assert!(err.to_string().contains("model3.oe_load_nk"), "{err}");
+        let err = parse(&format!("{SPEC_EXAMPLE}\n[model3]\noe_pressure_b = []\n")).unwrap_err();
+        assert!(err.to_string().contains("at least one numerator"), "{err}");
+        let err = parse(&format!(
+            "{SPEC_EXAMPLE}\n[slow_dynamics]\ncreep_time_constant_s = 0.0\n"
+        ))
+        .unwrap_err();
+        assert!(err.to_string().contains("creep_time_constant_s"), "{err}");
     }
 }

@@ -8,7 +8,7 @@
 //!
 //! All quantities are SI: kg, m, s, Pa (gauge where named so), mol.
 
-use airsus_data::ValveState;
+use airsus_data::{TruckParameters, ValveState};
 
 /// Inputs at one instant (SPEC §3: `m_tot`, `u`, `p_supply`, `z_r`). The simulator holds them
 /// constant between samples (zero-order hold) and restarts the solver where they jump.
@@ -63,7 +63,9 @@ pub enum ModelError {
         suggestion: Option<String>,
         valid: Vec<String>,
     },
-    #[error("model {model}: parameter `{name}` = {value} is outside its admissible range {lower} to {upper} {unit}")]
+    #[error(
+        "model {model}: parameter `{name}` = {value} is outside its admissible range {lower} to {upper} {unit}"
+    )]
     ParameterOutOfRange {
         model: String,
         name: String,
@@ -77,6 +79,17 @@ pub enum ModelError {
         model: String,
         what: String,
         reason: String,
+    },
+    /// The parameters do not make a model of this structure (e.g. an OE block without a
+    /// continuous-time equivalent, or an order too high).
+    #[error("model {model}: {reason}")]
+    InvalidStructure { model: String, reason: String },
+    /// `build_model` was asked for a name it does not know.
+    #[error("unknown model `{name}`{}; the models are: {}", suggestion.as_ref().map(|s| format!(" (did you mean `{s}`?)")).unwrap_or_default(), valid.join(", "))]
+    UnknownModel {
+        name: String,
+        suggestion: Option<String>,
+        valid: Vec<String>,
     },
 }
 
@@ -111,10 +124,29 @@ pub trait SuspensionModel: Send + Sync + std::fmt::Debug {
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample;
 
     /// The state in static equilibrium under `u` that matches `ic`.
-    fn initial_state(&self, u: &InputSample, ic: &InitialCondition) -> Result<Vec<f64>, ModelError>;
+    fn initial_state(&self, u: &InputSample, ic: &InitialCondition)
+    -> Result<Vec<f64>, ModelError>;
 
     /// A boxed copy, for "same model, new parameters" loops over trait objects.
     fn box_clone(&self) -> Box<dyn SuspensionModel>;
+
+    /// Writes this model's parameters into `truck`, so that grey-box results can be saved as a
+    /// truck file (`airsus_data::write_truck`). Parameters the model does not have are left
+    /// untouched.
+    ///
+    /// The default maps every SPEC §5 short name to its truck-file key (`ksd` to
+    /// `slow_dynamics.force_scale_n_per_m`) and skips names it does not know; a model whose
+    /// names mean something else overrides it.
+    fn write_parameters(&self, truck: &mut TruckParameters) {
+        for info in self.parameter_info() {
+            if let (Ok(value), Some(field)) = (
+                self.parameter(info.name),
+                crate::params::spec_field(info.name),
+            ) {
+                crate::params::set(truck, field, value);
+            }
+        }
+    }
 }
 
 impl Clone for Box<dyn SuspensionModel> {

@@ -1,0 +1,27 @@
+//! Submodels (SPEC §2, thesis ch. 3): small pure functions, one physical law each.
+//!
+//! All take and return SI quantities (m, m/s, N, Pa, mol, K). Pressures are absolute where
+//! the name says `abs` and gauge (relative to ambient) where it says `gauge`. The full models
+//! compose these; tests check each against hand-computed values.
+
+pub mod bellow;
+pub mod damper;
+pub mod friction;
+pub mod gas;
+pub mod lever;
+pub mod tire;
+pub mod valve;
+
+pub use bellow::{
+    EFFECTIVE_AREA_RANGE_M, bellow_force_n, effective_area_clamped_m2, effective_area_m2,
+    effective_area_slope_m,
+};
+pub use damper::Damper;
+pub use friction::hinge_friction_n;
+pub use gas::{air_amount_mol, bellow_volume_m3, cross_section_m2, pressure_abs_pa};
+pub use lever::{
+    axle_height_from_bellow_m, bellow_height_from_angle_m, bellow_height_from_axle_m, lever_gain,
+    sensor_height_m,
+};
+pub use tire::tire_force_n;
+pub use valve::air_flow_mol_s;
