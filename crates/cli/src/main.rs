@@ -36,6 +36,8 @@ enum Command {
     Params(commands::params::ParamsArgs),
     /// Validate data-contract files (runs, force maps, discharges, truck and study files).
     Check(commands::check::CheckArgs),
+    /// Estimate a linear black-box model (ARX, ARMAX, OE, BJ) from columns of a CSV file.
+    Ident(commands::ident::IdentArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -43,6 +45,7 @@ fn main() -> std::process::ExitCode {
     let result = match &cli.command {
         Command::Params(args) => commands::params::run(args),
         Command::Check(args) => commands::check::run(args),
+        Command::Ident(args) => commands::ident::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,4 +1,5 @@
 //! One module per subcommand: each has an `Args` struct and a `run` function.
 
 pub mod check;
+pub mod ident;
 pub mod params;
