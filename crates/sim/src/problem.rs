@@ -1,0 +1,324 @@
+//! The problem: what to simulate (model, inputs at sample times, initial condition) and how
+//! accurately (tolerances, method). Plain data, cheap to copy with a new model
+//! ([`SimulationProblem::with_model`], SciML's `remake`).
+
+use airsus_data::{Run, ValveState};
+use airsus_model::{InitialCondition, InputSample, SuspensionModel};
+
+use crate::error::SimError;
+
+/// The inputs of one simulation, borrowed from their owner (usually an [`airsus_data::Run`]),
+/// one value per sample time. Validated once at construction: equal lengths, at least one
+/// sample, finite values, strictly increasing finite times.
+///
+/// Between samples each input is held constant (zero-order hold): on `[t_k, t_{k+1})` the
+/// model sees sample `k`.
+#[derive(Debug, Clone, Copy)]
+pub struct InputSeries<'a> {
+    time_s: &'a [f64],
+    wheel_load_kg: &'a [f64],
+    valve: &'a [ValveState],
+    supply_gauge_pa: &'a [f64],
+    road_height_m: &'a [f64],
+}
+
+impl<'a> InputSeries<'a> {
+    /// Checks and wraps input signals (SI units: s, kg, Pa gauge, m).
+    pub fn new(
+        time_s: &'a [f64],
+        wheel_load_kg: &'a [f64],
+        valve: &'a [ValveState],
+        supply_gauge_pa: &'a [f64],
+        road_height_m: &'a [f64],
+    ) -> Result<Self, SimError> {
+        let invalid = |reason: String| SimError::InvalidInputs { reason };
+        let n = time_s.len();
+        if n == 0 {
+            return Err(invalid("the input series has no samples".to_owned()));
+        }
+        for (name, len) in [
+            ("wheel_load_kg", wheel_load_kg.len()),
+            ("valve", valve.len()),
+            ("supply_gauge_pa", supply_gauge_pa.len()),
+            ("road_height_m", road_height_m.len()),
+        ] {
+            if len != n {
+                return Err(invalid(format!("{name} has {len} samples, time_s has {n}")));
+            }
+        }
+        if let Some(k) = time_s.iter().position(|t| !t.is_finite()) {
+            return Err(invalid(format!(
+                "time_s[{k}] = {} is not finite",
+                time_s[k]
+            )));
+        }
+        if let Some(k) = time_s.windows(2).position(|w| w[1] <= w[0]) {
+            return Err(invalid(format!(
+                "time_s is not strictly increasing: t[{}] = {} then t[{}] = {}",
+                k,
+                time_s[k],
+                k + 1,
+                time_s[k + 1]
+            )));
+        }
+        for (name, signal) in [
+            ("wheel_load_kg", wheel_load_kg),
+            ("supply_gauge_pa", supply_gauge_pa),
+            ("road_height_m", road_height_m),
+        ] {
+            if let Some(k) = signal.iter().position(|v| !v.is_finite()) {
+                return Err(invalid(format!(
+                    "{name}[{k}] = {} at t = {} s is not finite",
+                    signal[k], time_s[k]
+                )));
+            }
+        }
+        Ok(Self {
+            time_s,
+            wheel_load_kg,
+            valve,
+            supply_gauge_pa,
+            road_height_m,
+        })
+    }
+
+    /// The inputs of a run.
+    pub fn from_run(run: &'a Run) -> Result<Self, SimError> {
+        Self::new(
+            &run.time_s,
+            &run.inputs.wheel_load_kg,
+            &run.inputs.valve,
+            &run.inputs.supply_gauge_pa,
+            &run.inputs.road_height_m,
+        )
+    }
+
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    /// Never true for a constructed series; present for API completeness.
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+
+    pub fn time_s(&self) -> &'a [f64] {
+        self.time_s
+    }
+
+    /// The inputs held from sample `k` on, `None` past the end.
+    pub fn get(&self, k: usize) -> Option<InputSample> {
+        (k < self.len()).then(|| self.sample(k))
+    }
+
+    /// The inputs held from sample `k`; `k < len()` is the engine's loop invariant.
+    pub(crate) fn sample(&self, k: usize) -> InputSample {
+        InputSample {
+            wheel_load_kg: self.wheel_load_kg[k],
+            valve: self.valve[k],
+            supply_gauge_pa: self.supply_gauge_pa[k],
+            road_height_m: self.road_height_m[k],
+        }
+    }
+}
+
+/// Where the state starts.
+#[derive(Debug, Clone, PartialEq)]
+pub enum InitialState {
+    /// Static equilibrium under the first sample's inputs, fixed by a measured quantity
+    /// ([`SuspensionModel::initial_state`]).
+    Equilibrium(InitialCondition),
+    /// An explicit state vector (e.g. the end state of an earlier simulation).
+    State(Vec<f64>),
+}
+
+impl InitialState {
+    /// Static equilibrium matching the run's first measured bellow pressure, when the run has
+    /// measured outputs.
+    pub fn from_run(run: &Run) -> Option<Self> {
+        let outputs = run.outputs.as_ref()?;
+        let gauge_pa = *outputs.bellow_gauge_pa.first()?;
+        Some(Self::Equilibrium(InitialCondition::BellowPressure {
+            gauge_pa,
+        }))
+    }
+}
+
+/// The integration method (all from diffsol, all adaptive).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// Variable-order (1–5) BDF with a dense finite-difference Jacobian: the fastest here
+    /// (long quasi-static stretches between short, stiff transients; see BENCHMARKS.md).
+    #[default]
+    Bdf,
+    /// TR-BDF2, an L-stable SDIRK of order 2.
+    TrBdf2,
+    /// ESDIRK3(4), an L-stable SDIRK of order 3.
+    Esdirk34,
+    /// Tsitouras 5(4), explicit: only for non-stiff models and cross-checks.
+    Tsit45,
+}
+
+/// The absolute tolerance, per state.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AbsoluteTolerance {
+    /// The same value for every state.
+    Uniform(f64),
+    /// One value per state, in state order.
+    PerState(Vec<f64>),
+    /// `atol_i = rtol * max(|x0_i|, floor)`: relative to the initial state's magnitude, with a
+    /// floor for states that start at zero (velocities). The default, with `floor = 0.1`:
+    /// states are SI (m, m/s, mol), so a velocity is controlled to `rtol * 0.1 m/s`.
+    Scaled { floor: f64 },
+}
+
+impl Default for AbsoluteTolerance {
+    fn default() -> Self {
+        Self::Scaled { floor: 0.1 }
+    }
+}
+
+/// Which input changes end an integration segment (the solver restarts cleanly there: new
+/// held inputs, fresh derivative, fresh step size, fresh Jacobian).
+///
+/// Wheel load, road height and valve state always matter: any change restarts. The supply
+/// pressure enters the models only through the fill flow (SPEC §2, eq 3.19), so by default
+/// a change restarts only when the valve is in `Fill` at the new sample; a noisy logged supply
+/// pressure then costs nothing while the valve is closed or exhausting.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SupplyRelevance {
+    /// Supply changes matter only while filling (default).
+    #[default]
+    WhileFilling,
+    /// Every supply change restarts (for a model that uses the supply pressure otherwise).
+    Always,
+}
+
+/// Admissible state region, checked after every accepted step. Leaving it is an error
+/// ([`SimError::InadmissibleState`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum StateBounds {
+    /// From the state names (the model trait carries units in them): an amount of gas
+    /// (name ending in `_mol`) must stay positive; every state must stay finite and within
+    /// `±1e9` in SI units (a blow-up guard far beyond any physical suspension state).
+    #[default]
+    FromNames,
+    /// One `(lower, upper)` pair per state, in state order.
+    PerState(Vec<(f64, f64)>),
+}
+
+/// How to integrate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolverOptions {
+    pub method: Method,
+    /// Relative tolerance (default `1e-6`).
+    pub rtol: f64,
+    pub atol: AbsoluteTolerance,
+    /// Step budget for the whole run (default one million); exceeding it is an error.
+    pub max_steps: usize,
+    /// Record the state at every sample time in the response (default off).
+    pub record_states: bool,
+    pub supply: SupplyRelevance,
+    pub bounds: StateBounds,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::default(),
+            rtol: 1e-6,
+            atol: AbsoluteTolerance::default(),
+            max_steps: 1_000_000,
+            record_states: false,
+            supply: SupplyRelevance::default(),
+            bounds: StateBounds::default(),
+        }
+    }
+}
+
+impl SolverOptions {
+    pub fn with_method(mut self, method: Method) -> Self {
+        self.method = method;
+        self
+    }
+
+    pub fn with_rtol(mut self, rtol: f64) -> Self {
+        self.rtol = rtol;
+        self
+    }
+
+    pub fn with_atol(mut self, atol: AbsoluteTolerance) -> Self {
+        self.atol = atol;
+        self
+    }
+
+    pub fn with_states(mut self, record_states: bool) -> Self {
+        self.record_states = record_states;
+        self
+    }
+
+    pub fn with_max_steps(mut self, max_steps: usize) -> Self {
+        self.max_steps = max_steps;
+        self
+    }
+}
+
+/// A simulation problem: a model, the inputs at the sample times, where the state starts and
+/// how to integrate. Outputs are returned at exactly the input sample times.
+///
+/// `M` is usually `dyn SuspensionModel` (a model from `build_model`), or a concrete model type.
+/// The problem borrows model and inputs; it is `Send + Sync`, so a grey-box estimator can share
+/// one problem across rayon workers and [`Self::with_model`] a fresh parameter set per call.
+#[derive(Debug)]
+pub struct SimulationProblem<'a, M: SuspensionModel + ?Sized = dyn SuspensionModel> {
+    pub model: &'a M,
+    pub inputs: InputSeries<'a>,
+    pub initial: InitialState,
+    pub options: SolverOptions,
+}
+
+// Manual: the problem only borrows the model, so it is `Clone` for unsized models too.
+impl<M: SuspensionModel + ?Sized> Clone for SimulationProblem<'_, M> {
+    fn clone(&self) -> Self {
+        Self {
+            model: self.model,
+            inputs: self.inputs,
+            initial: self.initial.clone(),
+            options: self.options.clone(),
+        }
+    }
+}
+
+impl<'a, M: SuspensionModel + ?Sized> SimulationProblem<'a, M> {
+    /// A problem with default [`SolverOptions`] (BDF, rtol `1e-6`).
+    pub fn new(model: &'a M, inputs: InputSeries<'a>, initial: InitialState) -> Self {
+        Self {
+            model,
+            inputs,
+            initial,
+            options: SolverOptions::default(),
+        }
+    }
+
+    pub fn with_options(mut self, options: SolverOptions) -> Self {
+        self.options = options;
+        self
+    }
+
+    /// The same problem for another model value (typically the same model with new
+    /// parameters): SciML's `remake`.
+    pub fn with_model<'b, N: SuspensionModel + ?Sized>(
+        &self,
+        model: &'b N,
+    ) -> SimulationProblem<'b, N>
+    where
+        'a: 'b,
+    {
+        SimulationProblem {
+            model,
+            inputs: self.inputs,
+            initial: self.initial.clone(),
+            options: self.options.clone(),
+        }
+    }
+}
