@@ -11,6 +11,8 @@ const AFTER_HELP: &str = "\
 Typical workflow:
   airsus params --builtin > truck.toml       start from the reference truck
   airsus check study.toml                    validate a study and every file it names
+  airsus generate --out ref/                  the virtual truck's reference experiments
+  airsus simulate --model m2 --truck ref/truck.toml --run ref/ds1.csv --out sim.csv
   airsus ident --structure oe --nb 2 --nf 2 --nk 1 \\
       --inputs wheel_load_kg,pressure_kpa --output height_mm ds1.csv
 
@@ -38,6 +40,10 @@ enum Command {
     Check(commands::check::CheckArgs),
     /// Estimate a linear black-box model (ARX, ARMAX, OE, BJ) from columns of a CSV file.
     Ident(commands::ident::IdentArgs),
+    /// Simulate a model over a run's inputs and write the simulated outputs as a run file.
+    Simulate(commands::simulate::SimulateArgs),
+    /// Generate the reference experiments (data-sets 1-4, lab data, study) with the virtual truck.
+    Generate(commands::generate::GenerateArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -46,6 +52,8 @@ fn main() -> std::process::ExitCode {
         Command::Params(args) => commands::params::run(args),
         Command::Check(args) => commands::check::run(args),
         Command::Ident(args) => commands::ident::run(args),
+        Command::Simulate(args) => commands::simulate::run(args),
+        Command::Generate(args) => commands::generate::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -1,8 +1,13 @@
-//! Lab experiments on the virtual truck's parts (thesis 5.2.2–5.2.3): the bellow force map.
+//! Lab experiments on the virtual truck's parts (thesis 5.2.2–5.2.3): the bellow force map
+//! and tank discharges through the valve's fill and exhaust channels.
 
-use airsus_data::ForceMap;
+use airsus_data::{Channel, ForceMap, TankDischarge};
+use diffsol::{DenseMatrix, NalgebraMat, OdeBuilder, OdeSolverMethod};
 
-use crate::sensors::NoiseSource;
+use crate::error::TruckError;
+use crate::physics::{GasEnergyBalance, gas_temperature_rate, iso6358_molar_flow};
+use crate::sensors::{NoiseSource, SensorSpec};
+
 use crate::truth::VirtualTruck;
 
 /// Heights and pressures of the vertical force test, like thesis Fig 5.8: heights
@@ -54,6 +59,140 @@ pub fn measure_force_map(truck: &VirtualTruck, seed: u64) -> ForceMap {
     map
 }
 
+/// One tank-discharge test: a tank at `start_gauge_pa` emptied to ambient through `channel`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DischargeTest {
+    pub channel: Channel,
+    pub tank_volume_m3: f64,
+    /// Room (and initial gas) temperature, K.
+    pub temperature_k: f64,
+    pub start_gauge_pa: f64,
+    pub duration_s: f64,
+    pub sample_time_s: f64,
+}
+
+/// Tank pressure sensor of the discharge rig: 0.1 kPa resolution, 0.1 kPa noise.
+pub const TANK_SENSOR: SensorSpec = SensorSpec {
+    noise_std: 100.0,
+    resolution: 100.0,
+};
+
+/// The noise-free tank gauge pressure at the test's sample times, Pa.
+///
+/// The tank's air (amount `n`, temperature `T`) flows out through the channel's ISO 6358
+/// orifice (or its linear resistance with orifice flow off) and cools as it expands, exchanging
+/// heat with the tank wall ([`gas_temperature_rate`], `dV = 0`). That cooling is what the
+/// thesis' isothermal evaluation (eq 5.5/5.6) cannot see. Solved with diffsol's Tsit45: the
+/// problem has two smooth, non-stiff states.
+pub fn simulate_discharge(
+    truck: &VirtualTruck,
+    test: &DischargeTest,
+) -> Result<Vec<f64>, TruckError> {
+    let env = &truck.physical.environment;
+    let e = &truck.effect_parameters;
+    let (r_gas, ambient) = (env.gas_constant_j_mol_k, env.ambient_pressure_pa);
+    let volume = test.tank_volume_m3;
+    let (conductance, resistance) = match test.channel {
+        Channel::Fill => (
+            e.fill_conductance_m3_s_pa,
+            truck.physical.valve.fill_resistance_pa_s_per_mol,
+        ),
+        Channel::Exhaust => (
+            e.exhaust_conductance_m3_s_pa,
+            truck.physical.valve.exhaust_resistance_pa_s_per_mol,
+        ),
+    };
+    let orifice = truck.effects.orifice_flow;
+    let heat = truck.effects.heat_exchange;
+    let wall = test.temperature_k;
+    let rhs = move |x: &[f64], _p: &[f64], _t: f64, dx: &mut [f64]| {
+        let (n, t) = (x[0].max(0.0), if heat { x[1] } else { wall });
+        let p = n * r_gas * t / volume;
+        let out = if orifice {
+            iso6358_molar_flow(conductance, e.critical_pressure_ratio, p, ambient, t)
+        } else {
+            (p - ambient) / resistance
+        };
+        dx[0] = -out;
+        dx[1] = if heat {
+            gas_temperature_rate(
+                &GasEnergyBalance {
+                    amount_mol: n,
+                    temperature_k: t,
+                    pressure_pa: p,
+                    volume_rate_m3_s: 0.0,
+                    net_inflow_mol_s: -out,
+                    inflow_temperature_k: t,
+                    wall_temperature_k: wall,
+                    thermal_time_constant_s: e.lab_tank_thermal_time_constant_s,
+                },
+                r_gas,
+            )
+        } else {
+            0.0
+        };
+    };
+    // Tsit45 never asks for the Jacobian; a forward difference keeps the closure honest anyway.
+    let jac = move |x: &[f64], p: &[f64], t: f64, v: &[f64], y: &mut [f64]| {
+        let (mut f0, mut f1) = ([0.0; 2], [0.0; 2]);
+        let eps = 1e-7 * (1.0 + x[0].abs().max(x[1].abs()));
+        let shifted = [x[0] + eps * v[0], x[1] + eps * v[1]];
+        rhs(x, p, t, &mut f0);
+        rhs(&shifted, p, t, &mut f1);
+        for i in 0..2 {
+            y[i] = (f1[i] - f0[i]) / eps;
+        }
+    };
+    let n0 = (test.start_gauge_pa + ambient) * volume / (r_gas * test.temperature_k);
+    let t0 = test.temperature_k;
+    let samples = (test.duration_s / test.sample_time_s).round() as usize + 1;
+    let times: Vec<f64> = (0..samples)
+        .map(|i| i as f64 * test.sample_time_s)
+        .collect();
+    let ode = OdeBuilder::<NalgebraMat<f64>>::new()
+        .rtol(1e-8)
+        .atol([1e-9 * n0, 1e-6])
+        .rhs_implicit(rhs, jac)
+        .init(
+            move |_p: &[f64], _t: f64, y: &mut [f64]| y.copy_from_slice(&[n0, t0]),
+            2,
+        )
+        .build()
+        .map_err(|err| TruckError::Discharge(err.to_string()))?;
+    let mut solver = ode
+        .tsit45()
+        .map_err(|err| TruckError::Discharge(err.to_string()))?;
+    let (solution, _) = solver
+        .solve_dense(&times)
+        .map_err(|err| TruckError::Discharge(err.to_string()))?;
+    Ok((0..samples)
+        .map(|k| {
+            let (n, t) = (
+                solution.get_index(0, k),
+                if heat { solution.get_index(1, k) } else { wall },
+            );
+            n * r_gas * t / volume - ambient
+        })
+        .collect())
+}
+
+/// A discharge test as the rig logs it: sensor noise and quantisation on the tank pressure.
+pub fn measure_discharge(
+    truck: &VirtualTruck,
+    test: &DischargeTest,
+    seed: u64,
+) -> Result<TankDischarge, TruckError> {
+    let truth = simulate_discharge(truck, test)?;
+    let mut noise = NoiseSource::new(seed ^ 0xd15c_0001);
+    Ok(TankDischarge {
+        time_s: (0..truth.len())
+            .map(|i| i as f64 * test.sample_time_s)
+            .collect(),
+        sample_time_s: test.sample_time_s,
+        tank_gauge_pa: noise.measure(&truth, TANK_SENSOR),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -96,6 +235,78 @@ mod tests {
                 );
             }
         }
+    }
+
+    fn test(channel: Channel) -> DischargeTest {
+        DischargeTest {
+            channel,
+            tank_volume_m3: 0.020,
+            temperature_k: 293.15,
+            start_gauge_pa: 800e3,
+            duration_s: 60.0,
+            sample_time_s: 0.05,
+        }
+    }
+
+    #[test]
+    fn a_discharge_through_a_linear_resistance_is_an_exponential_decay() {
+        // Isothermal, linear resistance: dp/dt = -(RT/(V R_flow)) p_gauge, p_gauge(t) = p0 e^(-t/τ).
+        let mut truck = VirtualTruck::reference();
+        truck.effects.orifice_flow = false;
+        truck.effects.heat_exchange = false;
+        let t = test(Channel::Fill);
+        let p = simulate_discharge(&truck, &t).unwrap();
+        let rt = 8.314462618 * 293.15;
+        let tau = t.tank_volume_m3 * truck.physical.valve.fill_resistance_pa_s_per_mol / rt;
+        for (k, &pk) in p.iter().enumerate().step_by(50) {
+            let expected = 800e3 * (-(k as f64) * 0.05 / tau).exp();
+            assert!(
+                (pk - expected).abs() < 1e-5 * 800e3,
+                "t = {} s: {pk} vs {expected}",
+                k as f64 * 0.05
+            );
+        }
+    }
+
+    #[test]
+    fn the_faster_channel_is_the_one_with_the_larger_conductance() {
+        let mut truck = VirtualTruck::reference();
+        let time_to_half = |truck: &VirtualTruck, channel: Channel| {
+            let p = simulate_discharge(truck, &test(channel)).unwrap();
+            p.iter().position(|&v| v < 400e3).unwrap()
+        };
+        // Reference: exhaust conductance 1.2e-8 > fill 5e-9, so exhaust empties faster.
+        assert!(time_to_half(&truck, Channel::Exhaust) < time_to_half(&truck, Channel::Fill));
+        // Swap the conductances and the order swaps: speed follows conductance, not the name.
+        let e = &mut truck.effect_parameters;
+        std::mem::swap(
+            &mut e.fill_conductance_m3_s_pa,
+            &mut e.exhaust_conductance_m3_s_pa,
+        );
+        assert!(time_to_half(&truck, Channel::Fill) < time_to_half(&truck, Channel::Exhaust));
+    }
+
+    #[test]
+    fn an_expanding_tank_cools_so_its_pressure_falls_faster_than_isothermal() {
+        let truck = VirtualTruck::reference();
+        let mut isothermal = truck.clone();
+        isothermal.effects.heat_exchange = false;
+        let t = test(Channel::Exhaust);
+        let (real, iso) = (
+            simulate_discharge(&truck, &t).unwrap(),
+            simulate_discharge(&isothermal, &t).unwrap(),
+        );
+        // Mid-discharge the cooled gas is at a lower pressure for the same amount of air.
+        assert!(real[100] < iso[100] - 5e3, "{} vs {}", real[100], iso[100]);
+        // The rig's log is quantised to 0.1 kPa.
+        let logged = measure_discharge(&truck, &t, 1).unwrap();
+        assert!(
+            logged
+                .tank_gauge_pa
+                .iter()
+                .all(|p| ((p / 100.0) - (p / 100.0).round()).abs() < 1e-6)
+        );
+        assert_eq!(logged.tank_gauge_pa.len(), 1201);
     }
 
     #[test]

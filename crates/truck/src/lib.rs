@@ -4,7 +4,11 @@
 //! one-corner simulator than any model structure it is used to test, its sensors, and the
 //! reference experiments of thesis 5.1 (SPEC §6).
 
+pub mod error;
+pub mod experiments;
 pub mod lab;
+pub mod model;
+pub mod models;
 pub mod physics;
 pub mod scenario;
 pub mod sensors;

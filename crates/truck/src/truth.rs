@@ -64,6 +64,8 @@ pub struct EffectParameters {
     pub compressor_flow_mol_s: f64,
     pub governor_cutout_gauge_pa: f64,
     pub governor_band_pa: f64,
+    /// Thermal time constant of a lab tank's air during a discharge test, s.
+    pub lab_tank_thermal_time_constant_s: f64,
     /// Relative growth of the effective area per 100 kPa of gauge pressure (the rubber wall
     /// stretching: thesis 6.1's explanation of Fig 5.7), 1/(100 kPa).
     pub area_pressure_coefficient: f64,
@@ -74,7 +76,11 @@ impl Default for EffectParameters {
         Self {
             creep_stiffness_n_per_m: 18e3,
             creep_time_constant_s: 25.0,
-            friction_stiffness_n_per_m: 2e5,
+            // 6 mm of pre-sliding travel: a folding rubber wall, not a metal contact. Stiffer
+            // (2e5 N/m, 0.6 mm) rings against the |v| kink of the Dahl law near rest and
+            // defeats the implicit solver's Newton iteration after valve pulses (measured:
+            // data-set 3 failed for σ ≥ 1e5 N/m with every diffsol method).
+            friction_stiffness_n_per_m: 2e4,
             friction_force_n: 120.0,
             thermal_time_constant_s: 20.0,
             // Chosen so that the linear resistances of the reference truck (R_flow1 = 2.5e6,
@@ -88,6 +94,7 @@ impl Default for EffectParameters {
             compressor_flow_mol_s: 0.06,
             governor_cutout_gauge_pa: 860e3,
             governor_band_pa: 60e3,
+            lab_tank_thermal_time_constant_s: 60.0,
             area_pressure_coefficient: 0.004,
         }
     }
@@ -104,18 +111,19 @@ pub struct VirtualTruck {
 impl VirtualTruck {
     /// The built-in truck. Its estimable parameters are off the SPEC's nominal values by
     /// amounts an engineer's first guess would be off: unsprung mass +8 %, lever inertia −15 %,
-    /// effective area +3 % and flatter, cross-section +5 % with a steeper slope; the valve
+    /// effective area +3 % and slightly tilted, cross-section +5 % with a steeper slope; the valve
     /// follows ISO 6358 rather than a resistance.
     pub fn reference() -> Self {
         let mut physical = TruckParameters::reference();
         physical.mass.unsprung_kg = 560.0;
         physical.mass.lever_inertia_kg_m2 = 170.0;
         let p = physical.bellow.effective_area_poly_m2;
-        // 3 % larger and 10 % less height-dependent around 0.3 m.
-        let scale = 1.03;
+        // 3 % larger, and tilted about 0.3 m by -0.01 m²/m: the area falls a little more
+        // with height than the lab fit says.
+        let (scale, tilt, pivot_m) = (1.03, -0.01, 0.3);
         physical.bellow.effective_area_poly_m2 = [
-            p[0] * scale,
-            p[1] * scale * 0.97,
+            p[0] * scale - tilt * pivot_m,
+            p[1] * scale + tilt,
             p[2] * scale,
             p[3] * scale,
             p[4] * scale,

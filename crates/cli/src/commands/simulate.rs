@@ -1,0 +1,215 @@
+//! `airsus simulate`: one model, one truck, one run → the simulated outputs as a run file.
+//!
+//! Initial condition, in order of precedence:
+//! 1. `--initial-pressure-kpa` or `--initial-height-mm` (static equilibrium at that bellow gauge
+//!    pressure or sensor height under the first sample's inputs);
+//! 2. the run's first measured bellow pressure, when the run has measured outputs (SPEC §3);
+//!    where that pressure has no static equilibrium under the model's parameters (the
+//!    effective area has a flat top, so a slightly low pressure cannot carry the load at any
+//!    height), the run's first measured sensor height instead, with a note saying so;
+//! 3. otherwise an error asking for one of the two flags: an inputs-only scenario carries no
+//!    information about the amount of air in the bellows, and guessing it would silently shift
+//!    the whole simulated pressure and height.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use airsus_data::{Outputs, RunOutputs, read_run_with, read_truck, write_run};
+use airsus_model::{InitialCondition, SuspensionModel};
+use airsus_sim::{InitialState, InputSeries, Method, SimulationProblem, SolverOptions, simulate};
+use airsus_truck::models::build_any_model;
+use anyhow::{Context, bail};
+
+/// Integration method (`bdf` is the fastest on the suspension models; see BENCHMARKS.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MethodArg {
+    /// Variable-order BDF (default).
+    Bdf,
+    /// TR-BDF2 (SDIRK, order 2).
+    TrBdf2,
+    /// ESDIRK3(4) (SDIRK, order 3).
+    Esdirk34,
+    /// Tsitouras 5(4), explicit (non-stiff cross-check; slow on stiff models).
+    Tsit45,
+}
+
+impl From<MethodArg> for Method {
+    fn from(m: MethodArg) -> Self {
+        match m {
+            MethodArg::Bdf => Method::Bdf,
+            MethodArg::TrBdf2 => Method::TrBdf2,
+            MethodArg::Esdirk34 => Method::Esdirk34,
+            MethodArg::Tsit45 => Method::Tsit45,
+        }
+    }
+}
+
+/// Simulate a model over a run's inputs and write the simulated outputs in the run format.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SimulateArgs {
+    /// Model to simulate: m1, m2, m2x, m2xh, m3 or truck.
+    #[arg(long)]
+    pub model: String,
+    /// Truck parameter file (TOML); omitted *est* keys take the reference truck's values.
+    #[arg(long)]
+    pub truck: PathBuf,
+    /// Run file (CSV) whose inputs drive the model; measured outputs are optional.
+    #[arg(long)]
+    pub run: PathBuf,
+    /// Output run file: the inputs copied, `height_mm` and `pressure_kpa` simulated.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Relative tolerance of the adaptive ODE solver.
+    #[arg(long, default_value_t = 1e-6)]
+    pub rtol: f64,
+    /// Integration method.
+    #[arg(long, value_enum, default_value_t = MethodArg::Bdf)]
+    pub method: MethodArg,
+    /// Start in static equilibrium at this bellow gauge pressure (kPa) instead of the run's
+    /// first measured pressure.
+    #[arg(long, conflicts_with = "initial_height_mm")]
+    pub initial_pressure_kpa: Option<f64>,
+    /// Start in static equilibrium at this sensor height (mm).
+    #[arg(long)]
+    pub initial_height_mm: Option<f64>,
+}
+
+pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
+    if !(args.rtol.is_finite() && args.rtol > 0.0 && args.rtol < 1.0) {
+        bail!("--rtol {} must be between 0 and 1", args.rtol);
+    }
+    let loaded = read_truck(&args.truck)?;
+    if !loaded.defaulted.is_empty() {
+        eprintln!(
+            "truck {}: {} key(s) not in the file, using defaults:",
+            args.truck.display(),
+            loaded.defaulted.len()
+        );
+        for key in &loaded.defaulted {
+            eprintln!("  {} = {}", key.key, key.value);
+        }
+    }
+    let run = read_run_with(&args.run, Outputs::IfPresent)?;
+    let model = build_any_model(&args.model, &loaded.parameters)?;
+
+    let initial = match (args.initial_pressure_kpa, args.initial_height_mm) {
+        (Some(kpa), _) => InitialState::Equilibrium(InitialCondition::BellowPressure {
+            gauge_pa: kpa * 1e3,
+        }),
+        (None, Some(mm)) => InitialState::Equilibrium(InitialCondition::SensorHeight {
+            height_m: mm * 1e-3,
+        }),
+        (None, None) => match InitialState::from_run(&run) {
+            Some(initial) => fall_back_to_height(&*model, &run, initial),
+            None => bail!(
+                "run {} has no measured outputs to start from: give --initial-pressure-kpa or --initial-height-mm",
+                args.run.display()
+            ),
+        },
+    };
+    let what = match &initial {
+        InitialState::Equilibrium(InitialCondition::BellowPressure { gauge_pa }) => {
+            format!(
+                "static equilibrium at bellow pressure {:.1} kPa",
+                gauge_pa / 1e3
+            )
+        }
+        InitialState::Equilibrium(InitialCondition::SensorHeight { height_m }) => {
+            format!(
+                "static equilibrium at sensor height {:.1} mm",
+                height_m * 1e3
+            )
+        }
+        InitialState::State(_) => "given state".to_owned(),
+    };
+
+    let inputs = InputSeries::from_run(&run)?;
+    let options = SolverOptions::default()
+        .with_method(args.method.into())
+        .with_rtol(args.rtol);
+    let problem = SimulationProblem::new(&*model, inputs, initial).with_options(options);
+    let started = Instant::now();
+    let response = simulate(&problem).with_context(|| {
+        format!(
+            "simulating model {} over run {}",
+            model.name(),
+            args.run.display()
+        )
+    })?;
+    let elapsed = started.elapsed();
+
+    let mut out = run.clone();
+    out.outputs = Some(RunOutputs {
+        sensor_height_m: response.sensor_height_m,
+        bellow_gauge_pa: response.bellow_gauge_pa,
+    });
+    write_run(&args.out, &out)?;
+
+    let s = &response.statistics;
+    eprintln!(
+        "{}: {} samples ({:.1} s) from {}; {:?}, rtol {:e}: {} steps ({} rejected), {} rhs evaluations, {} restarts at input changes, {:.1} ms",
+        model.name(),
+        run.len(),
+        run.time_s.last().unwrap_or(&0.0) - run.time_s.first().unwrap_or(&0.0),
+        what,
+        args.method,
+        args.rtol,
+        s.steps,
+        s.rejected_steps,
+        s.rhs_evaluations,
+        s.restarts,
+        elapsed.as_secs_f64() * 1e3
+    );
+    if let Some(measured) = &run.outputs {
+        let fit = |m: &[f64], s: &[f64]| {
+            airsus_validate::nrmse_percent(m, s)
+                .map_or_else(|e| format!("n/a ({e})"), |v| format!("{v:.2} %"))
+        };
+        let simulated = out.outputs.as_ref().map_or((&[][..], &[][..]), |o| {
+            (&o.sensor_height_m[..], &o.bellow_gauge_pa[..])
+        });
+        eprintln!(
+            "NRMSE against the run's measurements (eq 3.33): height {}, pressure {}",
+            fit(&measured.sensor_height_m, simulated.0),
+            fit(&measured.bellow_gauge_pa, simulated.1)
+        );
+    }
+    eprintln!("wrote {}", args.out.display());
+    Ok(())
+}
+
+/// Keeps the pressure-based start when the model has an equilibrium there; otherwise starts
+/// from the first measured sensor height and says why.
+fn fall_back_to_height(
+    model: &dyn SuspensionModel,
+    run: &airsus_data::Run,
+    initial: InitialState,
+) -> InitialState {
+    let (InitialState::Equilibrium(ic), Some(measured)) = (&initial, &run.outputs) else {
+        return initial;
+    };
+    let Some(u0) = first_input(run) else {
+        return initial;
+    };
+    match model.initial_state(&u0, ic) {
+        Ok(_) => initial,
+        Err(err) => {
+            let height_m = measured.sensor_height_m[0];
+            eprintln!(
+                "note: {err}; starting from the first measured sensor height {:.1} mm instead",
+                height_m * 1e3
+            );
+            InitialState::Equilibrium(InitialCondition::SensorHeight { height_m })
+        }
+    }
+}
+
+fn first_input(run: &airsus_data::Run) -> Option<airsus_model::InputSample> {
+    let i = &run.inputs;
+    Some(airsus_model::InputSample {
+        wheel_load_kg: *i.wheel_load_kg.first()?,
+        valve: *i.valve.first()?,
+        supply_gauge_pa: *i.supply_gauge_pa.first()?,
+        road_height_m: *i.road_height_m.first()?,
+    })
+}

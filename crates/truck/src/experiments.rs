@@ -1,0 +1,319 @@
+//! The reference experiments of thesis 5.1 (SPEC §6), produced by the virtual truck and
+//! written in the data contract's formats: `airsus generate --out DIR [--seed N]`.
+//!
+//! DIR receives
+//! - `ds1.csv` … `ds4.csv`: the runs as the truck's logger records them (clean load steps,
+//!   sensor noise and quantisation, the supply tank's pressure as measured);
+//! - `force_map.csv`, `fill_a.csv`, `fill_b.csv`, `exhaust_a.csv`, `exhaust_b.csv`: lab data;
+//! - `truck.toml`: what a manufacturer would know is true (geometry, tire, damper,
+//!   environment); the parameters to be estimated at the SPEC's nominal guesses;
+//! - `study.toml` (the thesis' protocol: estimate on data-set 1) and `study_valve.toml`
+//!   (ours: data-set 1 plus the valve pulses of data-set 3);
+//! - `truth/`: the noise-free truth of every run (true load, true tank pressure, true outputs)
+//!   and `truth/truck.toml`, the true values of the thesis-structure parameters.
+//!
+//! Everything is deterministic for a seed: the same seed writes the same bytes.
+
+use std::path::{Path, PathBuf};
+
+use airsus_data::{
+    Channel, Role, Run, RunInputs, RunOutputs, Study, StudyDischarge, StudyRun, TruckParameters,
+    write_discharge, write_force_map, write_run, write_study, write_truck,
+};
+use airsus_model::{InitialCondition, InputSample, SuspensionModel};
+use airsus_sim::{InitialState, InputSeries, SimulationProblem, SolverOptions, simulate};
+
+use crate::error::TruckError;
+use crate::lab::{DischargeTest, measure_discharge, measure_force_map};
+use crate::model::{SupplyMode, TruckModel};
+use crate::scenario::{Scenario, data_set_1, data_set_2, data_set_3, data_set_4};
+use crate::sensors::{NoiseSource, SensorSpec};
+use crate::truth::VirtualTruck;
+
+/// Ride height at the start of every run (sensor), m.
+pub const START_SENSOR_HEIGHT_M: f64 = 0.235;
+/// Supply-tank gauge pressure at the start of every run, Pa.
+pub const START_SUPPLY_GAUGE_PA: f64 = 850e3;
+
+/// One generated run: as logged and as it truly was.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GeneratedRun {
+    pub logged: Run,
+    pub truth: Run,
+    pub description: String,
+}
+
+/// Runs the virtual truck through `scenario` and logs it. `wall_friction_n` preloads the
+/// bellow wall friction (how the truck got to its start height).
+pub fn run_experiment(
+    truck: &VirtualTruck,
+    scenario: &Scenario,
+    wall_friction_n: f64,
+    seed: u64,
+) -> Result<GeneratedRun, TruckError> {
+    run_experiment_with(
+        truck,
+        scenario,
+        wall_friction_n,
+        seed,
+        &SolverOptions::default(),
+    )
+}
+
+pub fn run_experiment_with(
+    truck: &VirtualTruck,
+    scenario: &Scenario,
+    wall_friction_n: f64,
+    seed: u64,
+    options: &SolverOptions,
+) -> Result<GeneratedRun, TruckError> {
+    let model = TruckModel::new(truck.clone(), SupplyMode::Tank);
+    let n = scenario.len();
+    let supply = vec![START_SUPPLY_GAUGE_PA; n];
+    let inputs = InputSeries::new(
+        &scenario.time_s,
+        &scenario.true_load_kg,
+        &scenario.valve,
+        &supply,
+        &scenario.road_height_m,
+    )?;
+    let x0 = model.equilibrium_with_friction(
+        &input_at(scenario, 0),
+        &InitialCondition::SensorHeight {
+            height_m: START_SENSOR_HEIGHT_M,
+        },
+        wall_friction_n,
+    )?;
+    let problem = SimulationProblem::new(
+        &model as &dyn SuspensionModel,
+        inputs,
+        InitialState::State(x0),
+    )
+    .with_options(options.clone().with_states(true));
+    let response = simulate(&problem)?;
+    let states = response.states.as_ref().ok_or_else(|| {
+        TruckError::Discharge(
+            "the simulator returned no states although they were requested".to_owned(),
+        )
+    })?;
+    let tank_truth: Vec<f64> = (0..n)
+        .map(|k| {
+            states
+                .at(k)
+                .map_or(f64::NAN, |x| model.tank_gauge_pa(x, &input_at(scenario, k)))
+        })
+        .collect();
+
+    let mut noise = NoiseSource::new(seed ^ 0x5e75_0001);
+    let logged_outputs = RunOutputs {
+        sensor_height_m: noise.measure(&response.sensor_height_m, SensorSpec::HEIGHT_M),
+        bellow_gauge_pa: noise.measure(&response.bellow_gauge_pa, SensorSpec::BELLOW_PRESSURE_PA),
+    };
+    let logged_supply = noise.measure(&tank_truth, SensorSpec::SUPPLY_PRESSURE_PA);
+    let logged = Run {
+        name: scenario.name.clone(),
+        time_s: scenario.time_s.clone(),
+        sample_time_s: crate::scenario::SAMPLE_TIME_S,
+        inputs: RunInputs {
+            wheel_load_kg: scenario.logged_load_kg.clone(),
+            valve: scenario.valve.clone(),
+            supply_gauge_pa: logged_supply,
+            road_height_m: scenario.road_height_m.clone(),
+        },
+        outputs: Some(logged_outputs),
+    };
+    let truth = Run {
+        name: scenario.name.clone(),
+        time_s: scenario.time_s.clone(),
+        sample_time_s: crate::scenario::SAMPLE_TIME_S,
+        inputs: RunInputs {
+            wheel_load_kg: scenario.true_load_kg.clone(),
+            valve: scenario.valve.clone(),
+            supply_gauge_pa: tank_truth,
+            road_height_m: scenario.road_height_m.clone(),
+        },
+        outputs: Some(RunOutputs {
+            sensor_height_m: response.sensor_height_m.clone(),
+            bellow_gauge_pa: response.bellow_gauge_pa.clone(),
+        }),
+    };
+    Ok(GeneratedRun {
+        logged,
+        truth,
+        description: scenario.description.clone(),
+    })
+}
+
+/// The inputs acting at sample `k` of a scenario (true load, supply at its starting value).
+fn input_at(scenario: &Scenario, k: usize) -> InputSample {
+    InputSample {
+        wheel_load_kg: scenario.true_load_kg[k],
+        valve: scenario.valve[k],
+        supply_gauge_pa: START_SUPPLY_GAUGE_PA,
+        road_height_m: scenario.road_height_m[k],
+    }
+}
+
+/// The discharge tests: each channel twice, from 800 and 750 kPa, 20 l tank, 90 s at 50 ms.
+pub fn reference_discharges() -> Vec<(String, DischargeTest, Role)> {
+    let test = |channel: Channel, start_kpa: f64| DischargeTest {
+        channel,
+        tank_volume_m3: 0.020,
+        temperature_k: 293.15,
+        start_gauge_pa: start_kpa * 1e3,
+        duration_s: 90.0,
+        sample_time_s: 0.05,
+    };
+    vec![
+        (
+            "fill_a".to_owned(),
+            test(Channel::Fill, 800.0),
+            Role::Estimation,
+        ),
+        (
+            "fill_b".to_owned(),
+            test(Channel::Fill, 750.0),
+            Role::Validation,
+        ),
+        (
+            "exhaust_a".to_owned(),
+            test(Channel::Exhaust, 800.0),
+            Role::Estimation,
+        ),
+        (
+            "exhaust_b".to_owned(),
+            test(Channel::Exhaust, 750.0),
+            Role::Validation,
+        ),
+    ]
+}
+
+/// What [`generate`] wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GeneratedStudy {
+    /// The thesis protocol: estimation on data-set 1 only.
+    pub study: PathBuf,
+    /// Our protocol: estimation on data-sets 1 and 3.
+    pub study_valve: PathBuf,
+    pub files: Vec<PathBuf>,
+}
+
+/// Generates the whole reference study into `out_dir` (created if needed). `progress` is told
+/// what is being done, step by step.
+pub fn generate(
+    out_dir: &Path,
+    seed: u64,
+    progress: &mut dyn FnMut(&str),
+) -> Result<GeneratedStudy, TruckError> {
+    let truth_dir = out_dir.join("truth");
+    std::fs::create_dir_all(&truth_dir).map_err(|source| TruckError::OutputFolder {
+        path: truth_dir.clone(),
+        source,
+    })?;
+    let truck = VirtualTruck::reference();
+    let mut files = Vec::new();
+
+    let nominal = TruckParameters::reference();
+    let truck_path = out_dir.join("truck.toml");
+    write_truck(&truck_path, &nominal)?;
+    files.push(truck_path.clone());
+    let true_truck = truth_dir.join("truck.toml");
+    write_truck(&true_truck, &truck.physical)?;
+    files.push(true_truck);
+
+    let mut runs = Vec::new();
+    for (i, run) in reference_runs(&truck, seed, progress)?
+        .into_iter()
+        .enumerate()
+    {
+        let file = out_dir.join(format!("{}.csv", run.logged.name));
+        write_run(&file, &run.logged)?;
+        let truth_file = truth_dir.join(format!("{}.csv", run.truth.name));
+        write_run(&truth_file, &run.truth)?;
+        files.push(file.clone());
+        files.push(truth_file);
+        runs.push((i, file));
+    }
+
+    progress("bellow force map");
+    let map_path = out_dir.join("force_map.csv");
+    write_force_map(&map_path, &measure_force_map(&truck, seed))?;
+    files.push(map_path.clone());
+
+    let mut discharges = Vec::new();
+    for (k, (name, test, role)) in reference_discharges().into_iter().enumerate() {
+        progress(&format!("tank discharge {name}"));
+        let path = out_dir.join(format!("{name}.csv"));
+        write_discharge(
+            &path,
+            &measure_discharge(&truck, &test, seed.wrapping_add(100 + k as u64))?,
+        )?;
+        files.push(path.clone());
+        discharges.push(StudyDischarge {
+            file: path,
+            channel: test.channel,
+            tank_volume_m3: test.tank_volume_m3,
+            temperature_k: test.temperature_k,
+            role,
+        });
+    }
+
+    let names = ["data-set 1", "data-set 2", "data-set 3", "data-set 4"];
+    let study_with = |estimation: &[usize]| Study {
+        truck: truck_path.clone(),
+        runs: runs
+            .iter()
+            .map(|(i, file)| StudyRun {
+                name: names[*i].to_owned(),
+                file: file.clone(),
+                role: if estimation.contains(i) {
+                    Role::Estimation
+                } else {
+                    Role::Validation
+                },
+            })
+            .collect(),
+        force_map: Some(map_path.clone()),
+        discharges: discharges.clone(),
+    };
+    let study = out_dir.join("study.toml");
+    write_study(&study, &study_with(&[0]))?;
+    let study_valve = out_dir.join("study_valve.toml");
+    write_study(&study_valve, &study_with(&[0, 2]))?;
+    files.push(study.clone());
+    files.push(study_valve.clone());
+    Ok(GeneratedStudy {
+        study,
+        study_valve,
+        files,
+    })
+}
+
+/// The four reference runs. Data-sets 1–2 start after the truck was lowered onto its ride
+/// height (wall friction holding up), 3–4 after it was raised (friction holding down), so they
+/// start at the same height with different pressures, as thesis 6.1 reports.
+pub fn reference_runs(
+    truck: &VirtualTruck,
+    seed: u64,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<GeneratedRun>, TruckError> {
+    let m2 = truck.physical.mass.unsprung_kg;
+    let friction = truck.effect_parameters.friction_force_n;
+    let plan = [
+        (data_set_1(m2, seed), -friction),
+        (data_set_2(m2, seed), -friction),
+        (data_set_3(m2, seed), friction),
+        (data_set_4(m2, seed), friction),
+    ];
+    let mut runs = Vec::with_capacity(plan.len());
+    for (i, (scenario, f)) in plan.iter().enumerate() {
+        progress(&format!("simulating {}", scenario.description));
+        runs.push(run_experiment(
+            truck,
+            scenario,
+            *f,
+            seed.wrapping_add(i as u64),
+        )?);
+    }
+    Ok(runs)
+}

@@ -1,0 +1,713 @@
+//! The virtual truck as a model (`truck`): Model 2's corrected lever mechanics
+//! ([`airsus_model::mechanics`]) with every effect of [`crate::physics`] on top. It sits
+//! behind the same [`SuspensionModel`] trait as the thesis models, so it can be simulated and
+//! fitted like them: the richest structure airsus offers.
+//!
+//! State `[x_m, alpha_rad, xdot_m_s, alphadot_rad_s, n_mol, gas_t_k, creep_s_m, dahl_f_n,
+//! line_n_mol, tank_n_mol]`:
+//! - `gas_t_k`: bellow gas temperature ([`crate::physics::gas_temperature_rate`]); held at
+//!   ambient when heat exchange is off (isothermal, as the thesis);
+//! - `creep_s_m`: the Maxwell creep element's damper position in bellow-height coordinates;
+//!   the creep force `k_c (s − h_b)` pushes back against recent compression;
+//! - `dahl_f_n`: the Dahl friction force opposing bellow motion (hysteresis);
+//! - `line_n_mol`: air in the supply line between tank and valve (isothermal, ambient);
+//! - `tank_n_mol`: air in the actuator tank — a state only in [`SupplyMode::Tank`], where the
+//!   tank droops while air flows and the compressor governor refills it. In
+//!   [`SupplyMode::Measured`] the logged tank pressure is the input, as for every model.
+//!
+//! The bellow force is `F = p_g A_eff(h_b, p_g) + k_c (s − h_b) − F_dahl`, with the effective
+//! area stretching with pressure (`A_eff = A_poly(h)(1 + κ p_g / 100 kPa)`).
+
+use airsus_data::{TruckParameters, ValveState};
+use airsus_model::mechanics::{LeverBody, LeverForces, lever_accelerations};
+use airsus_model::params::{Field, ParamSet};
+use airsus_model::submodels::{
+    Damper, bellow_volume_m3, effective_area_clamped_m2, effective_area_slope_m, lever_gain,
+    sensor_height_m, tire_force_n,
+};
+use airsus_model::{
+    InitialCondition, InputSample, MIN_SPRUNG_MASS_KG, ModelError, OutputSample, ParameterInfo,
+    SuspensionModel,
+};
+
+use crate::physics::{
+    GasEnergyBalance, dahl_force_rate, gas_temperature_rate, iso6358_molar_flow,
+    maxwell_position_rate, smoothstep,
+};
+use crate::truth::{EffectParameters, VirtualTruck};
+
+const STATES: &[&str] = &[
+    "x_m",
+    "alpha_rad",
+    "xdot_m_s",
+    "alphadot_rad_s",
+    "n_mol",
+    "gas_t_k",
+    "creep_s_m",
+    "dahl_f_n",
+    "line_n_mol",
+    "tank_n_mol",
+];
+
+/// Where the valve's supply pressure comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SupplyMode {
+    /// The logged tank pressure is an input (fitting and validating against a run).
+    #[default]
+    Measured,
+    /// The tank is simulated: it droops while air flows and the compressor refills it
+    /// (generating experiments; the input's supply pressure is ignored after the start).
+    Tank,
+}
+
+const SPEC_FIELDS: &[Field] = &[
+    Field::EffectiveArea(0),
+    Field::EffectiveArea(1),
+    Field::EffectiveArea(2),
+    Field::EffectiveArea(3),
+    Field::EffectiveArea(4),
+    Field::CrossSection(0),
+    Field::CrossSection(1),
+    Field::Unsprung,
+    Field::LeverInertia,
+    Field::HingeFriction,
+    Field::TireStiffness,
+    Field::LeverCompliance,
+    Field::FillResistance,
+    Field::ExhaustResistance,
+];
+
+/// A parameter of the extra effects: its description and where it lives.
+struct EffectParam {
+    info: ParameterInfo,
+    get: fn(&EffectParameters) -> f64,
+    set: fn(&mut EffectParameters, f64),
+}
+
+const fn effect(
+    name: &'static str,
+    unit: &'static str,
+    description: &'static str,
+    lower: f64,
+    upper: f64,
+    get: fn(&EffectParameters) -> f64,
+    set: fn(&mut EffectParameters, f64),
+) -> EffectParam {
+    EffectParam {
+        info: ParameterInfo {
+            name,
+            unit,
+            description,
+            lower,
+            upper,
+        },
+        get,
+        set,
+    }
+}
+
+/// The truck model's own parameter names (beyond the SPEC §5 names it shares).
+const EFFECT_PARAMS: &[EffectParam] = &[
+    effect(
+        "kc",
+        "N/m",
+        "creep stiffness of the bellow wall (Maxwell element)",
+        0.0,
+        1e6,
+        |e| e.creep_stiffness_n_per_m,
+        |e, v| e.creep_stiffness_n_per_m = v,
+    ),
+    effect(
+        "tc",
+        "s",
+        "creep relaxation time",
+        0.1,
+        1e4,
+        |e| e.creep_time_constant_s,
+        |e, v| e.creep_time_constant_s = v,
+    ),
+    effect(
+        "fc",
+        "N",
+        "bellow wall sliding friction (Dahl)",
+        0.0,
+        1e4,
+        |e| e.friction_force_n,
+        |e, v| e.friction_force_n = v,
+    ),
+    effect(
+        "kdahl",
+        "N/m",
+        "pre-sliding stiffness of the wall friction (Dahl)",
+        1e3,
+        1e8,
+        |e| e.friction_stiffness_n_per_m,
+        |e, v| e.friction_stiffness_n_per_m = v,
+    ),
+    effect(
+        "tth",
+        "s",
+        "thermal time constant of the bellow gas",
+        0.1,
+        1e4,
+        |e| e.thermal_time_constant_s,
+        |e, v| e.thermal_time_constant_s = v,
+    ),
+    effect(
+        "c1",
+        "m3/(s Pa)",
+        "ISO 6358 sonic conductance of the fill channel",
+        1e-11,
+        1e-6,
+        |e| e.fill_conductance_m3_s_pa,
+        |e, v| e.fill_conductance_m3_s_pa = v,
+    ),
+    effect(
+        "c2",
+        "m3/(s Pa)",
+        "ISO 6358 sonic conductance of the exhaust channel",
+        1e-11,
+        1e-6,
+        |e| e.exhaust_conductance_m3_s_pa,
+        |e, v| e.exhaust_conductance_m3_s_pa = v,
+    ),
+    effect(
+        "bcr",
+        "1",
+        "ISO 6358 critical pressure ratio of both channels",
+        0.0,
+        0.9,
+        |e| e.critical_pressure_ratio,
+        |e, v| e.critical_pressure_ratio = v,
+    ),
+    effect(
+        "rline",
+        "Pa s/mol",
+        "supply line resistance between tank and valve",
+        1e3,
+        1e9,
+        |e| e.line_resistance_pa_s_per_mol,
+        |e, v| e.line_resistance_pa_s_per_mol = v,
+    ),
+    effect(
+        "kap",
+        "1/(100 kPa)",
+        "growth of the effective area with pressure (wall stretch)",
+        -0.1,
+        0.1,
+        |e| e.area_pressure_coefficient,
+        |e, v| e.area_pressure_coefficient = v,
+    ),
+];
+
+/// The virtual truck behind the model trait.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TruckModel {
+    truth: VirtualTruck,
+    supply: SupplyMode,
+    spec_params: ParamSet,
+    infos: Vec<ParameterInfo>,
+    c: Consts,
+}
+
+/// Constants precomputed from the parameters so that `rhs` only multiplies and adds.
+#[derive(Debug, Clone, PartialEq)]
+struct Consts {
+    g: f64,
+    gas_constant: f64,
+    ambient_t_k: f64,
+    rt: f64,
+    ambient_pa: f64,
+    h0_m: f64,
+    l1_m: f64,
+    l12_m: f64,
+    l13_m: f64,
+    lever_gain: f64,
+    compliance: f64,
+    unsprung_kg: f64,
+    inertia: f64,
+    tire: f64,
+    friction: f64,
+    area_poly: [f64; 5],
+    cross: [f64; 2],
+    damper: Damper,
+    r_fill: f64,
+    r_exhaust: f64,
+    e: EffectParameters,
+}
+
+impl Consts {
+    fn new(truth: &VirtualTruck) -> Self {
+        let p = &truth.physical;
+        let g = &p.geometry;
+        let env = &p.environment;
+        let mut e = truth.effect_parameters.clone();
+        let fx = truth.effects;
+        // Switching an effect off sets it to its neutral value, so rhs has one path.
+        if !fx.creep {
+            e.creep_stiffness_n_per_m = 0.0;
+        }
+        if !fx.hysteresis {
+            e.friction_force_n = 0.0;
+        }
+        Self {
+            g: env.gravity_m_s2,
+            gas_constant: env.gas_constant_j_mol_k,
+            ambient_t_k: env.temperature_k,
+            rt: env.gas_constant_j_mol_k * env.temperature_k,
+            ambient_pa: env.ambient_pressure_pa,
+            h0_m: g.h0_m,
+            l1_m: g.l1_m,
+            l12_m: g.l1_m + g.l2_m,
+            l13_m: g.l1_m + g.l3_m,
+            lever_gain: lever_gain(g.l1_m, g.l2_m),
+            compliance: g.lever_compliance_m_per_n,
+            unsprung_kg: p.mass.unsprung_kg,
+            inertia: p.mass.lever_inertia_kg_m2,
+            tire: p.tire.stiffness_n_per_m,
+            friction: p.bellow.hinge_friction_n_s_per_m,
+            area_poly: p.bellow.effective_area_poly_m2,
+            cross: p.bellow.cross_section_m2,
+            damper: Damper::new(&p.damper),
+            r_fill: p.valve.fill_resistance_pa_s_per_mol,
+            r_exhaust: p.valve.exhaust_resistance_pa_s_per_mol,
+            e,
+        }
+    }
+
+    fn effective_area_m2(&self, h_m: f64, gauge_pa: f64) -> f64 {
+        effective_area_clamped_m2(&self.area_poly, h_m)
+            * (1.0 + self.e.area_pressure_coefficient * gauge_pa / 1e5)
+    }
+
+    fn sprung_kg(&self, load_kg: f64) -> f64 {
+        (load_kg - self.unsprung_kg).max(MIN_SPRUNG_MASS_KG)
+    }
+}
+
+impl TruckModel {
+    pub fn new(truth: VirtualTruck, supply: SupplyMode) -> Self {
+        let spec_params = ParamSet::new("truck", SPEC_FIELDS);
+        let infos = spec_params
+            .infos()
+            .iter()
+            .cloned()
+            .chain(EFFECT_PARAMS.iter().map(|p| p.info.clone()))
+            .collect();
+        let c = Consts::new(&truth);
+        Self {
+            truth,
+            supply,
+            spec_params,
+            infos,
+            c,
+        }
+    }
+
+    /// The built-in virtual truck, supply pressure from the input.
+    pub fn reference() -> Self {
+        Self::new(VirtualTruck::reference(), SupplyMode::Measured)
+    }
+
+    /// The `truck` model structure started from a truck file's nominal values (effects at
+    /// their built-in defaults), as the grey-box estimator would start it.
+    pub fn from_truck_parameters(truck: &TruckParameters) -> Self {
+        let mut truth = VirtualTruck::reference();
+        truth.physical = truck.clone();
+        Self::new(truth, SupplyMode::Measured)
+    }
+
+    pub fn truth(&self) -> &VirtualTruck {
+        &self.truth
+    }
+
+    pub fn supply_mode(&self) -> SupplyMode {
+        self.supply
+    }
+
+    /// Bellow height of state `x`, m (eq 2.2).
+    pub fn bellow_height_m(&self, x: &[f64]) -> f64 {
+        self.c.h0_m + self.c.l12_m * x[1].sin()
+    }
+
+    /// Tank gauge pressure in state `x`, Pa: the simulated tank in [`SupplyMode::Tank`], the
+    /// input otherwise. This is what the truck's supply sensor logs.
+    pub fn tank_gauge_pa(&self, x: &[f64], u: &InputSample) -> f64 {
+        match self.supply {
+            SupplyMode::Tank => x[9] * self.c.rt / self.c.e.tank_volume_m3 - self.c.ambient_pa,
+            SupplyMode::Measured => u.supply_gauge_pa,
+        }
+    }
+
+    fn gas_temperature_k(&self, x: &[f64]) -> f64 {
+        if self.truth.effects.heat_exchange {
+            x[5]
+        } else {
+            self.c.ambient_t_k
+        }
+    }
+
+    /// The static equilibrium under `u` matching `ic`, with the bellow wall's friction element
+    /// preloaded to `wall_friction_n` (as left by the last movement: positive after the bellow
+    /// extended, negative after it was compressed). The gas then carries the static force plus
+    /// that friction, so the same height shows a different pressure depending on how the
+    /// truck got there — the hysteresis the thesis saw between data-sets 1–2 and 3–4.
+    pub fn equilibrium_with_friction(
+        &self,
+        u: &InputSample,
+        ic: &InitialCondition,
+        wall_friction_n: f64,
+    ) -> Result<Vec<f64>, ModelError> {
+        let friction = if self.truth.effects.hysteresis {
+            wall_friction_n.clamp(-self.c.e.friction_force_n, self.c.e.friction_force_n)
+        } else {
+            0.0
+        };
+        let c = &self.c;
+        let (h_b, gauge_pa) = self.equilibrium(u, ic, friction)?;
+        let sin_a = (h_b - c.h0_m) / c.l12_m;
+        if !(-1.0..=1.0).contains(&sin_a) {
+            return Err(ModelError::NoEquilibrium {
+                model: "truck".to_owned(),
+                what: format!("bellow height {:.1} mm", h_b * 1e3),
+                reason: "the lever cannot reach it".to_owned(),
+            });
+        }
+        let tire_compression = u.wheel_load_kg * c.g / c.tire;
+        let axle = u.road_height_m - tire_compression;
+        let n = (gauge_pa + c.ambient_pa) * bellow_volume_m3(&c.cross, h_b) / c.rt;
+        let supply_abs = u.supply_gauge_pa + c.ambient_pa;
+        Ok(vec![
+            axle + c.h0_m + c.l1_m * sin_a,
+            sin_a.asin(),
+            0.0,
+            0.0,
+            n,
+            c.ambient_t_k,
+            h_b,
+            friction,
+            supply_abs * c.e.line_volume_m3 / c.rt,
+            supply_abs * c.e.tank_volume_m3 / c.rt,
+        ])
+    }
+
+    /// Bellow height in static equilibrium under `u` for `ic`, and the gauge pressure there;
+    /// the gas carries the static force plus `friction_n` (the Dahl force opposing it).
+    fn equilibrium(
+        &self,
+        u: &InputSample,
+        ic: &InitialCondition,
+        friction_n: f64,
+    ) -> Result<(f64, f64), ModelError> {
+        let c = &self.c;
+        let fail = |what: String, reason: String| ModelError::NoEquilibrium {
+            model: "truck".to_owned(),
+            what,
+            reason,
+        };
+        let load = u.wheel_load_kg;
+        if !(load.is_finite() && load > c.unsprung_kg) {
+            return Err(fail(
+                format!("wheel load {load} kg"),
+                format!("it must exceed the unsprung mass {} kg", c.unsprung_kg),
+            ));
+        }
+        let force = c.sprung_kg(load) * c.g / c.lever_gain + friction_n;
+        let h_max = c.h0_m + c.l12_m;
+        match *ic {
+            InitialCondition::SensorHeight { height_m } => {
+                let rigid = height_m + c.compliance * load * c.g;
+                let h = c.h0_m + c.lever_gain * (rigid - c.h0_m);
+                if !(h > 0.0 && h < h_max) {
+                    return Err(fail(
+                        format!("sensor height {:.1} mm", height_m * 1e3),
+                        "the lever cannot reach it".to_owned(),
+                    ));
+                }
+                let a0 = effective_area_clamped_m2(&c.area_poly, h);
+                if a0 <= 0.0 {
+                    return Err(fail(
+                        format!("sensor height {:.1} mm", height_m * 1e3),
+                        "the effective area is not positive there".to_owned(),
+                    ));
+                }
+                // p A0 (1 + κ p / 1e5) = F: a quadratic in p; its positive root.
+                let k = c.e.area_pressure_coefficient / 1e5;
+                let p = if k.abs() < 1e-18 {
+                    force / a0
+                } else {
+                    (-a0 + (a0 * a0 + 4.0 * k * a0 * force).max(0.0).sqrt()) / (2.0 * k * a0)
+                };
+                Ok((h, p))
+            }
+            InitialCondition::BellowPressure { gauge_pa } => {
+                let what = format!("bellow pressure {:.1} kPa", gauge_pa / 1e3);
+                if gauge_pa.is_nan() || gauge_pa <= 0.0 {
+                    return Err(fail(
+                        what,
+                        "a bellow needs a positive gauge pressure".to_owned(),
+                    ));
+                }
+                let target = |h: f64| gauge_pa * c.effective_area_m2(h, gauge_pa) - force;
+                // Lowest root on the rising branch, as the thesis models do.
+                let step = 1e-3;
+                let mut lo = step;
+                while lo < h_max {
+                    let hi = (lo + step).min(h_max);
+                    if target(lo) <= 0.0
+                        && target(hi) > 0.0
+                        && effective_area_slope_m(&c.area_poly, hi) > 0.0
+                    {
+                        let (mut a, mut b) = (lo, hi);
+                        for _ in 0..60 {
+                            let m = 0.5 * (a + b);
+                            if target(m) <= 0.0 { a = m } else { b = m }
+                        }
+                        return Ok((0.5 * (a + b), gauge_pa));
+                    }
+                    lo = hi;
+                }
+                Err(fail(
+                    what,
+                    "the pressure is too low to carry the load at any bellow height".to_owned(),
+                ))
+            }
+        }
+    }
+
+    fn rebuild(&mut self) {
+        self.c = Consts::new(&self.truth);
+    }
+}
+
+impl SuspensionModel for TruckModel {
+    fn name(&self) -> &'static str {
+        "truck"
+    }
+
+    fn description(&self) -> &'static str {
+        "Virtual truck: Model 2 mechanics plus bellow creep, wall friction hysteresis, gas heat exchange, ISO 6358 valve flow and supply line"
+    }
+
+    fn state_names(&self) -> &[&'static str] {
+        STATES
+    }
+
+    fn parameter_info(&self) -> &[ParameterInfo] {
+        &self.infos
+    }
+
+    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
+        match EFFECT_PARAMS.iter().find(|p| p.info.name == name) {
+            Some(p) => Ok((p.get)(&self.truth.effect_parameters)),
+            None => self
+                .spec_params
+                .get(&self.truth.physical, name)
+                .map_err(|e| self.widen(e)),
+        }
+    }
+
+    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
+        match EFFECT_PARAMS.iter().find(|p| p.info.name == name) {
+            Some(p) => {
+                if !(value >= p.info.lower && value <= p.info.upper) {
+                    return Err(ModelError::ParameterOutOfRange {
+                        model: "truck".to_owned(),
+                        name: name.to_owned(),
+                        value,
+                        lower: p.info.lower,
+                        upper: p.info.upper,
+                        unit: p.info.unit.to_owned(),
+                    });
+                }
+                (p.set)(&mut self.truth.effect_parameters, value);
+            }
+            None => self
+                .spec_params
+                .set(&mut self.truth.physical, name, value)
+                .map_err(|e| self.widen(e))?,
+        }
+        self.rebuild();
+        Ok(())
+    }
+
+    fn rhs(&self, _t: f64, x: &[f64], u: &InputSample, dx: &mut [f64]) {
+        let c = &self.c;
+        let fx = self.truth.effects;
+        let (sin_a, cos_a) = x[1].sin_cos();
+        let alpha_dot = x[3];
+        let h_b = c.h0_m + c.l12_m * sin_a;
+        let h_b_dot = c.l12_m * cos_a * alpha_dot;
+        let temperature = self.gas_temperature_k(x);
+        let volume = bellow_volume_m3(&c.cross, h_b);
+        let p_abs = x[4] * c.gas_constant * temperature / volume;
+        let p_gauge = p_abs - c.ambient_pa;
+        let creep_force = c.e.creep_stiffness_n_per_m * (x[6] - h_b);
+        let bellow = p_gauge * c.effective_area_m2(h_b, p_gauge) + creep_force - x[7];
+
+        let axle_height_m = x[0] - c.h0_m - c.l1_m * sin_a;
+        let forces = LeverForces {
+            tire_n: tire_force_n(c.tire, u.road_height_m - axle_height_m),
+            bellow_n: bellow,
+            damper_n: c.damper.force_n(c.l13_m * cos_a * alpha_dot),
+            friction_n: c.friction * c.l1_m * cos_a * alpha_dot,
+        };
+        let body = LeverBody {
+            total_kg: c.sprung_kg(u.wheel_load_kg) + c.unsprung_kg,
+            unsprung_kg: c.unsprung_kg,
+            inertia_kg_m2: c.inertia,
+            l1_m: c.l1_m,
+            l12_m: c.l12_m,
+            l13_m: c.l13_m,
+            gravity_m_s2: c.g,
+        };
+        let (x_dd, alpha_dd) = lever_accelerations(&body, sin_a, cos_a, alpha_dot, &forces);
+        dx[0] = x[2];
+        dx[1] = alpha_dot;
+        dx[2] = x_dd;
+        dx[3] = alpha_dd;
+
+        // Supply side: tank -> line -> valve -> bellow.
+        let tank_pa = match self.supply {
+            SupplyMode::Tank => x[9] * c.rt / c.e.tank_volume_m3,
+            SupplyMode::Measured => u.supply_gauge_pa + c.ambient_pa,
+        };
+        let line_pa = if fx.supply_line {
+            x[8] * c.rt / c.e.line_volume_m3
+        } else {
+            tank_pa
+        };
+        let fill = match u.valve {
+            // A check valve in the fill channel stops backflow from bellow to supply.
+            ValveState::Fill if fx.orifice_flow => iso6358_molar_flow(
+                c.e.fill_conductance_m3_s_pa,
+                c.e.critical_pressure_ratio,
+                line_pa,
+                p_abs,
+                c.ambient_t_k,
+            )
+            .max(0.0),
+            ValveState::Fill => ((line_pa - p_abs) / c.r_fill).max(0.0),
+            _ => 0.0,
+        };
+        let exhaust = match u.valve {
+            ValveState::Exhaust if fx.orifice_flow => iso6358_molar_flow(
+                c.e.exhaust_conductance_m3_s_pa,
+                c.e.critical_pressure_ratio,
+                p_abs,
+                c.ambient_pa,
+                temperature,
+            ),
+            ValveState::Exhaust => (p_abs - c.ambient_pa) / c.r_exhaust,
+            _ => 0.0,
+        };
+        let into_bellow = fill - exhaust;
+        dx[4] = into_bellow;
+
+        dx[5] = if fx.heat_exchange {
+            let dv_dh = c.cross[0] + 2.0 * c.cross[1] * h_b;
+            gas_temperature_rate(
+                &GasEnergyBalance {
+                    amount_mol: x[4],
+                    temperature_k: temperature,
+                    pressure_pa: p_abs,
+                    volume_rate_m3_s: dv_dh * h_b_dot,
+                    net_inflow_mol_s: into_bellow,
+                    inflow_temperature_k: c.ambient_t_k,
+                    wall_temperature_k: c.ambient_t_k,
+                    thermal_time_constant_s: c.e.thermal_time_constant_s,
+                },
+                c.gas_constant,
+            )
+        } else {
+            0.0
+        };
+        dx[6] = if fx.creep {
+            maxwell_position_rate(h_b, x[6], c.e.creep_time_constant_s)
+        } else {
+            0.0
+        };
+        dx[7] = dahl_force_rate(
+            x[7],
+            h_b_dot,
+            c.e.friction_stiffness_n_per_m,
+            c.e.friction_force_n,
+        );
+
+        let line_inflow = if fx.supply_line {
+            (tank_pa - line_pa) / c.e.line_resistance_pa_s_per_mol
+        } else {
+            fill
+        };
+        dx[8] = if fx.supply_line {
+            line_inflow - fill
+        } else {
+            0.0
+        };
+        dx[9] = match self.supply {
+            SupplyMode::Tank => {
+                let governor = smoothstep(
+                    (c.e.governor_cutout_gauge_pa - (tank_pa - c.ambient_pa))
+                        / c.e.governor_band_pa,
+                );
+                c.e.compressor_flow_mol_s * governor - line_inflow
+            }
+            SupplyMode::Measured => 0.0,
+        };
+    }
+
+    fn output(&self, x: &[f64], u: &InputSample) -> OutputSample {
+        let c = &self.c;
+        let h_b = self.bellow_height_m(x);
+        let p_abs =
+            x[4] * c.gas_constant * self.gas_temperature_k(x) / bellow_volume_m3(&c.cross, h_b);
+        OutputSample {
+            sensor_height_m: sensor_height_m(
+                c.h0_m,
+                c.lever_gain,
+                h_b,
+                c.compliance,
+                u.wheel_load_kg,
+                c.g,
+            ),
+            bellow_gauge_pa: p_abs - c.ambient_pa,
+        }
+    }
+
+    fn initial_state(
+        &self,
+        u: &InputSample,
+        ic: &InitialCondition,
+    ) -> Result<Vec<f64>, ModelError> {
+        self.equilibrium_with_friction(u, ic, 0.0)
+    }
+
+    fn box_clone(&self) -> Box<dyn SuspensionModel> {
+        Box::new(self.clone())
+    }
+
+    fn write_parameters(&self, truck: &mut TruckParameters) {
+        self.spec_params.write(&self.truth.physical, truck);
+    }
+}
+
+impl TruckModel {
+    /// Unknown-name errors list both the SPEC names and the truck's own.
+    fn widen(&self, err: ModelError) -> ModelError {
+        match err {
+            ModelError::UnknownParameter { name, .. } => {
+                let valid: Vec<String> = self.infos.iter().map(|i| i.name.to_owned()).collect();
+                ModelError::UnknownParameter {
+                    model: "truck".to_owned(),
+                    suggestion: airsus_data::error::nearest_name(
+                        &name,
+                        valid.iter().map(String::as_str),
+                    ),
+                    name,
+                    valid,
+                }
+            }
+            other => other,
+        }
+    }
+}
