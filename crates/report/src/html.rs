@@ -1,0 +1,730 @@
+//! `report.html`: one self-contained page (figures inline as SVG, no scripts, no network) that
+//! puts our numbers beside the thesis' and says which model to use for what.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use crate::chart::{Chart, write_chart};
+use crate::results::{ModelResult, OutputFit, ProtocolResult, StudyResults};
+use crate::thesis;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error(transparent)]
+    Chart(#[from] crate::chart::ChartError),
+    #[error(transparent)]
+    Data(#[from] airsus_data::DataError),
+    #[error("serialising results.json: {0}")]
+    Json(#[from] serde_json::Error),
+    #[error("cannot create {path}: {source}")]
+    Folder {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+/// What [`write_report`] wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReportFiles {
+    pub html: PathBuf,
+    pub json: PathBuf,
+    pub figures: Vec<PathBuf>,
+    /// Charts that could not be drawn, with the reason; the report says so in their place.
+    pub chart_failures: Vec<String>,
+}
+
+/// Writes `results.json`, every chart (SVG and PNG under `figures/`) and `report.html` into
+/// `dir`. A chart that fails to render is reported in the page and in `chart_failures`; it
+/// does not stop the report.
+pub fn write_report(
+    dir: &Path,
+    results: &StudyResults,
+    charts: &[Chart],
+) -> Result<ReportFiles, ReportError> {
+    let figures_dir = dir.join("figures");
+    std::fs::create_dir_all(&figures_dir).map_err(|source| ReportError::Folder {
+        path: figures_dir.clone(),
+        source,
+    })?;
+    let json = dir.join("results.json");
+    airsus_data::atomic::write_text_atomically(&json, &serde_json::to_string_pretty(results)?)?;
+
+    let mut rendered = Vec::with_capacity(charts.len());
+    let mut figures = Vec::new();
+    let mut chart_failures = Vec::new();
+    for chart in charts {
+        match write_chart(&figures_dir, chart) {
+            Ok(svg) => {
+                figures.push(figures_dir.join(format!("{}.svg", chart.name)));
+                figures.push(figures_dir.join(format!("{}.png", chart.name)));
+                rendered.push((chart, Ok(svg)));
+            }
+            Err(err) => {
+                chart_failures.push(err.to_string());
+                rendered.push((chart, Err(err.to_string())));
+            }
+        }
+    }
+    let html = dir.join("report.html");
+    airsus_data::atomic::write_text_atomically(&html, &render_html(results, &rendered))?;
+    Ok(ReportFiles {
+        html,
+        json,
+        figures,
+        chart_failures,
+    })
+}
+
+fn esc(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn pct(v: Option<f64>) -> String {
+    match v {
+        Some(v) if v.is_finite() => format!("{v:.1}"),
+        _ => "–".to_owned(),
+    }
+}
+
+/// A table cell coloured by fit quality (green ≥ 90 %, amber ≥ 70 %, red below).
+fn fit_cell(v: Option<f64>) -> String {
+    let class = match v {
+        Some(v) if v >= 90.0 => "good",
+        Some(v) if v >= 70.0 => "fair",
+        Some(_) => "poor",
+        None => "none",
+    };
+    format!("<td class=\"num {class}\">{}</td>", pct(v))
+}
+
+const STYLE: &str = "body{font-family:DejaVu Sans,Verdana,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}\
+h1{font-size:1.6em}h2{margin-top:2em;border-bottom:1px solid #ccc}h3{margin-top:1.5em}\
+table{border-collapse:collapse;margin:.8em 0}td,th{border:1px solid #ccc;padding:.25em .6em}th{background:#f3f3f3}\
+td.num{text-align:right;font-variant-numeric:tabular-nums}.good{background:#d9f2d9}.fair{background:#fff1c7}.poor{background:#f8d4d4}.none{color:#999}\
+.thesis{color:#666;font-style:italic}.error{background:#fde2e2;border-left:4px solid #c33;padding:.5em 1em}\
+.note{background:#eef4fb;border-left:4px solid #48c;padding:.5em 1em}figure{margin:1em 0}figcaption{color:#555;font-size:.9em}\
+svg{max-width:100%;height:auto}";
+
+fn render_html(results: &StudyResults, charts: &[(&Chart, Result<String, String>)]) -> String {
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>airsus study report</title><style>{STYLE}</style></head><body>"
+    );
+    let _ = write!(
+        h,
+        "<h1>Air suspension study</h1><p>Study: <code>{}</code> · nominal truck: <code>{}</code> · airsus {} · pipeline time {:.1} s · <a href=\"results.json\">results.json</a></p>",
+        esc(&results.study),
+        esc(&results.truck),
+        esc(&results.airsus_version),
+        results.elapsed_s
+    );
+    runs_table(&mut h, results);
+    summary(&mut h, results);
+    recommendations(&mut h, results);
+    submodels(&mut h, results);
+    for protocol in &results.protocols {
+        protocol_section(&mut h, protocol);
+    }
+    figures(&mut h, charts);
+    h.push_str("</body></html>\n");
+    h
+}
+
+fn runs_table(h: &mut String, results: &StudyResults) {
+    h.push_str("<h2>Runs</h2><table><tr><th>run</th><th>file</th><th>role</th><th>samples</th><th>duration [s]</th><th>valve action</th></tr>");
+    for r in &results.runs {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td><code>{}</code></td><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{:.0}</td><td>{}</td></tr>",
+            esc(&r.name),
+            esc(&r.file),
+            esc(&r.role),
+            r.samples,
+            r.duration_s,
+            if r.valve_action { "yes" } else { "no" }
+        );
+    }
+    h.push_str("</table>");
+}
+
+/// The summary table: models × runs × outputs, estimated NRMSE, per protocol.
+fn summary(h: &mut String, results: &StudyResults) {
+    h.push_str("<h2>Summary: NRMSE [%] with the estimated parameters</h2>");
+    for p in &results.protocols {
+        let _ = write!(
+            h,
+            "<h3>Protocol “{}”: {}</h3>",
+            esc(&p.name),
+            esc(&p.description)
+        );
+        let _ = write!(h, "<table><tr><th rowspan=\"2\">model</th>");
+        for r in &results.runs {
+            let mark = if p.estimation_runs.contains(&r.name) {
+                " (est.)"
+            } else {
+                ""
+            };
+            let _ = write!(h, "<th colspan=\"2\">{}{mark}</th>", esc(&r.name));
+        }
+        h.push_str("</tr><tr>");
+        for _ in &results.runs {
+            h.push_str("<th>height</th><th>pressure</th>");
+        }
+        h.push_str("</tr>");
+        for m in &p.models {
+            let _ = write!(h, "<tr><td>{}</td>", esc(&m.model));
+            for r in &results.runs {
+                let fit = m.run(&r.name).and_then(|f| f.estimated);
+                h.push_str(&fit_cell(fit.map(|f| f.height_percent)));
+                h.push_str(&fit_cell(fit.map(|f| f.pressure_percent)));
+            }
+            h.push_str("</tr>");
+        }
+        h.push_str("</table>");
+    }
+}
+
+/// Mean of height and pressure NRMSE over the runs a predicate selects; `None` if none.
+fn mean_fit(model: &ModelResult, select: impl Fn(&str) -> bool) -> Option<f64> {
+    let fits: Vec<OutputFit> = model
+        .runs
+        .iter()
+        .filter(|r| select(&r.run))
+        .filter_map(|r| r.estimated)
+        .collect();
+    if fits.is_empty() {
+        return None;
+    }
+    Some(
+        fits.iter()
+            .map(|f| 0.5 * (f.height_percent + f.pressure_percent))
+            .sum::<f64>()
+            / fits.len() as f64,
+    )
+}
+
+/// Which model to use for what, in words, from the numbers: the best model on validation
+/// runs without valve action (loading: weighing) and with it (valve: level control).
+fn recommendations(h: &mut String, results: &StudyResults) {
+    h.push_str("<h2>Which model for what</h2>");
+    let valve_runs: Vec<&str> = results
+        .runs
+        .iter()
+        .filter(|r| r.valve_action)
+        .map(|r| r.name.as_str())
+        .collect();
+    let load_runs: Vec<&str> = results
+        .runs
+        .iter()
+        .filter(|r| !r.valve_action)
+        .map(|r| r.name.as_str())
+        .collect();
+    let Some(best_protocol) = results.protocols.last() else {
+        h.push_str(
+            "<p class=\"note\">No grey-box protocol ran, so there is nothing to compare.</p>",
+        );
+        return;
+    };
+    let validation = |p: &ProtocolResult, runs: &[&str]| -> Vec<(String, f64)> {
+        let mut v: Vec<(String, f64)> = p
+            .models
+            .iter()
+            .filter_map(|m| {
+                mean_fit(m, |r| {
+                    runs.contains(&r) && !p.estimation_runs.iter().any(|e| e == r)
+                })
+                .map(|f| (m.model.clone(), f))
+            })
+            .collect();
+        v.sort_by(|a, b| b.1.total_cmp(&a.1));
+        v
+    };
+    let describe = |v: &[(String, f64)]| -> String {
+        v.iter()
+            .map(|(m, f)| format!("{} {:.1} %", esc(m), f))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    h.push_str("<ul>");
+    let load = validation(best_protocol, &load_runs);
+    if let Some((model, fit)) = load.first() {
+        let _ = write!(
+            h,
+            "<li><b>Axle-load estimation and loading simulations:</b> <code>{}</code> reproduces the loading runs best (mean NRMSE of height and pressure {:.1} %; all: {}). Weighing reads the static balance, so what matters is the pressure level after each step.</li>",
+            esc(model),
+            fit,
+            describe(&load)
+        );
+    }
+    let valve = validation(best_protocol, &valve_runs);
+    if let Some((model, fit)) = valve.first() {
+        let _ = write!(
+            h,
+            "<li><b>Level-controller design:</b> <code>{}</code> follows the valve runs best ({:.1} %; all: {}). A level controller acts only through the valve, so fill and exhaust dynamics must be right.</li>",
+            esc(model),
+            fit,
+            describe(&valve)
+        );
+    }
+    if results.protocols.len() >= 2 {
+        let first = &results.protocols[0];
+        let gain: Vec<String> = best_protocol
+            .models
+            .iter()
+            .filter_map(|m| {
+                let before = first.models.iter().find(|f| f.model == m.model)?;
+                let runs: Vec<&str> = valve_runs
+                    .iter()
+                    .copied()
+                    .filter(|r| !best_protocol.estimation_runs.iter().any(|e| e == r))
+                    .collect();
+                let a = mean_fit(before, |r| runs.contains(&r))?;
+                let b = mean_fit(m, |r| runs.contains(&r))?;
+                Some(format!("{} {:+.1} points", esc(&m.model), b - a))
+            })
+            .collect();
+        if !gain.is_empty() {
+            let _ = write!(
+                h,
+                "<li><b>What valve-action data buys:</b> estimating on “{}” instead of “{}” changes the mean NRMSE on the valve runs not used for estimation by {}. A closed-valve run cannot determine the gas volume's scale or the flow resistances (SPEC §4).</li>",
+                esc(&best_protocol.name),
+                esc(&first.name),
+                gain.join(", ")
+            );
+        }
+    }
+    h.push_str("</ul>");
+}
+
+fn submodels(h: &mut String, results: &StudyResults) {
+    h.push_str("<h2>Submodel fits (thesis 5.2)</h2><table><tr><th>fit</th><th>parameters</th><th>NRMSE est. [%]</th><th>NRMSE val. [%]</th><th class=\"thesis\">thesis</th><th>notes</th></tr>");
+    for fit in &results.submodels.fits {
+        let params: Vec<String> = fit
+            .parameters
+            .iter()
+            .map(|p| match p.std {
+                Some(s) => format!(
+                    "{} = {:.5e} ± {:.1e} {}",
+                    esc(&p.name),
+                    p.value,
+                    s,
+                    esc(&p.unit)
+                ),
+                None => format!("{} = {:.5e} {}", esc(&p.name), p.value, esc(&p.unit)),
+            })
+            .collect();
+        let reference = match fit.name.as_str() {
+            "cross_section" => format!(
+                "{} / {} (Table 5.1)",
+                thesis::TABLE_5_1_CROSS_SECTION.0,
+                thesis::TABLE_5_1_CROSS_SECTION.1
+            ),
+            "fill_valve" => format!("val. {} (Table 5.3)", thesis::TABLE_5_3_VALVE.0),
+            "exhaust_valve" => format!("val. {} (Table 5.3)", thesis::TABLE_5_3_VALVE.1),
+            "slow_dynamics" => "est. 95.8 (5.2.4)".to_owned(),
+            _ => "–".to_owned(),
+        };
+        let notes = match &fit.error {
+            Some(e) => format!("<span class=\"error\">failed: {}</span>", esc(e)),
+            None => fit
+                .notes
+                .iter()
+                .map(|n| esc(n))
+                .collect::<Vec<_>>()
+                .join("<br>"),
+        };
+        let _ = write!(
+            h,
+            "<tr><td>{}<br><small>{}</small></td><td>{}</td>{}{}<td class=\"thesis\">{}</td><td>{}</td></tr>",
+            esc(&fit.name),
+            esc(&fit.description),
+            params.join("<br>"),
+            fit_cell(fit.nrmse_estimation_percent),
+            fit_cell(fit.nrmse_validation_percent),
+            reference,
+            notes
+        );
+    }
+    h.push_str("</table>");
+}
+
+fn protocol_section(h: &mut String, p: &ProtocolResult) {
+    let _ = write!(
+        h,
+        "<h2>Grey-box estimation, protocol “{}”</h2><p>{} Estimation runs: {}.</p>",
+        esc(&p.name),
+        esc(&p.description),
+        esc(&p.estimation_runs.join(", "))
+    );
+    // Estimation-data table beside thesis Tables 5.10–5.12.
+    h.push_str("<table><tr><th>model</th><th>freed</th><th>nominal height</th><th>nominal pressure</th><th>estimated height</th><th>estimated pressure</th><th class=\"thesis\">thesis (nominal → est. 2)</th><th>simulations</th><th>time [s]</th><th>stop</th></tr>");
+    for m in &p.models {
+        let est_runs: Vec<&crate::results::RunFit> = m
+            .runs
+            .iter()
+            .filter(|r| p.estimation_runs.contains(&r.run))
+            .collect();
+        let avg = |f: &dyn Fn(&crate::results::RunFit) -> Option<f64>| -> Option<f64> {
+            let v: Vec<f64> = est_runs.iter().filter_map(|r| f(r)).collect();
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        };
+        let reference = thesis::GREYBOX
+            .iter()
+            .find(|r| r.model == m.model)
+            .map(|r| {
+                format!(
+                    "{:.1}/{:.1} → {:.1}/{:.1} (Table {}, {})",
+                    r.nominal.0, r.nominal.1, r.estimated.0, r.estimated.1, r.table, r.free
+                )
+            })
+            .unwrap_or_else(|| "–".to_owned());
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{}</td>{}{}{}{}<td class=\"thesis\">{}</td><td class=\"num\">{}</td><td class=\"num\">{:.2}</td><td>{}</td></tr>",
+            esc(&m.model),
+            esc(&m.free.join(", ")),
+            fit_cell(avg(&|r| r.nominal.map(|f| f.height_percent))),
+            fit_cell(avg(&|r| r.nominal.map(|f| f.pressure_percent))),
+            fit_cell(avg(&|r| r.estimated.map(|f| f.height_percent))),
+            fit_cell(avg(&|r| r.estimated.map(|f| f.pressure_percent))),
+            reference,
+            m.simulations,
+            m.estimation_time_s,
+            esc(m.stop_reason.as_deref().unwrap_or("–"))
+        );
+    }
+    h.push_str("</table>");
+
+    // Validation beside thesis Tables 5.13–5.16.
+    h.push_str("<h3>Validation</h3><table><tr><th>model</th><th>run</th><th>height</th><th>pressure</th><th class=\"thesis\">thesis height / pressure</th><th>residual correlation outside the 99 % band</th></tr>");
+    for m in &p.models {
+        for r in m
+            .runs
+            .iter()
+            .filter(|r| !p.estimation_runs.contains(&r.run))
+        {
+            let data_set = r.run.trim_start_matches("data-set ").parse::<usize>().ok();
+            let reference = data_set
+                .and_then(|n| thesis::validation(&m.model, n))
+                .map(|(a, b)| format!("{a:.1} / {b:.1}"))
+                .unwrap_or_else(|| "–".to_owned());
+            let residuals: Vec<String> = r
+                .residuals
+                .iter()
+                .filter(|s| s.note.is_none() && s.lags_outside > 0)
+                .map(|s| {
+                    format!(
+                        "{}×{}: {}/{}",
+                        esc(&s.output),
+                        esc(&s.input),
+                        s.lags_outside,
+                        s.lags_total
+                    )
+                })
+                .collect();
+            let cells = match &r.error {
+                Some(e) => format!("<td colspan=\"2\" class=\"error\">{}</td>", esc(e)),
+                None => format!(
+                    "{}{}",
+                    fit_cell(r.estimated.map(|f| f.height_percent)),
+                    fit_cell(r.estimated.map(|f| f.pressure_percent))
+                ),
+            };
+            let _ = write!(
+                h,
+                "<tr><td>{}</td><td>{}</td>{}<td class=\"thesis\">{}</td><td><small>{}</small></td></tr>",
+                esc(&m.model),
+                esc(&r.run),
+                cells,
+                reference,
+                if residuals.is_empty() {
+                    "none".to_owned()
+                } else {
+                    residuals.join(", ")
+                }
+            );
+        }
+    }
+    h.push_str("</table>");
+
+    for m in &p.models {
+        let _ = write!(
+            h,
+            "<h3>{} <small>{}</small></h3>",
+            esc(&m.model),
+            esc(&m.description)
+        );
+        if let Some(e) = &m.error {
+            let _ = write!(h, "<p class=\"error\">This model failed: {}</p>", esc(e));
+        }
+        if !m.estimates.is_empty() {
+            h.push_str("<table><tr><th>parameter</th><th>nominal</th><th>estimate</th><th>± std</th><th>unit</th><th>determined by the runs</th></tr>");
+            for e in &m.estimates {
+                let _ = write!(
+                    h,
+                    "<tr><td>{}</td><td class=\"num\">{:.5e}</td><td class=\"num\">{:.5e}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td></tr>",
+                    esc(&e.name),
+                    e.nominal,
+                    e.estimate,
+                    e.std.map_or("–".to_owned(), |s| format!("{s:.2e}")),
+                    esc(&e.unit),
+                    if e.identifiable {
+                        "yes"
+                    } else {
+                        "<b>no</b> (kept nominal)"
+                    }
+                );
+            }
+            h.push_str("</table>");
+        }
+        for note in &m.notes {
+            let _ = write!(h, "<p class=\"note\">{}</p>", esc(note));
+        }
+        if let Some(file) = &m.truck_file {
+            let _ = write!(
+                h,
+                "<p>Estimated truck file: <a href=\"{0}\"><code>{0}</code></a></p>",
+                esc(file)
+            );
+        }
+    }
+}
+
+fn figures(h: &mut String, charts: &[(&Chart, Result<String, String>)]) {
+    if charts.is_empty() {
+        return;
+    }
+    h.push_str("<h2>Figures</h2>");
+    let mut sections: Vec<&str> = Vec::new();
+    for (c, _) in charts {
+        if !sections.contains(&c.section.as_str()) {
+            sections.push(&c.section);
+        }
+    }
+    for section in sections {
+        let _ = write!(h, "<h3>{}</h3>", esc(section));
+        for (chart, svg) in charts.iter().filter(|(c, _)| c.section == section) {
+            match svg {
+                Ok(svg) => {
+                    // The SVG document's XML prolog, if any, is not allowed inside HTML.
+                    let body = svg.find("<svg").map_or(svg.as_str(), |i| &svg[i..]);
+                    let _ = write!(
+                        h,
+                        "<figure>{}<figcaption>{} (<a href=\"figures/{2}.svg\">SVG</a>, <a href=\"figures/{2}.png\">PNG</a>)</figcaption></figure>",
+                        body,
+                        esc(&chart.title),
+                        esc(&chart.name)
+                    );
+                }
+                Err(e) => {
+                    let _ = write!(
+                        h,
+                        "<p class=\"error\">Figure {} could not be drawn: {}</p>",
+                        esc(&chart.name),
+                        esc(e)
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::chart::{Panel, Series, SeriesStyle};
+    use crate::results::*;
+
+    fn results() -> StudyResults {
+        let fit = |h: f64, p: f64| {
+            Some(OutputFit {
+                height_percent: h,
+                pressure_percent: p,
+            })
+        };
+        let run = |name: &str, role: &str, est: Option<OutputFit>| RunFit {
+            run: name.to_owned(),
+            role: role.to_owned(),
+            nominal: fit(50.0, 40.0),
+            estimated: est,
+            residuals: vec![ResidualSummary {
+                output: "height".to_owned(),
+                input: "wheel_load".to_owned(),
+                confidence: 0.99,
+                band: 0.05,
+                lags_outside: 3,
+                lags_total: 51,
+                worst_ratio: 2.0,
+                note: None,
+            }],
+            error: None,
+        };
+        let good = ModelResult {
+            model: "m2".to_owned(),
+            description: "Model 2".to_owned(),
+            free: vec!["m2".to_owned(), "rflow1".to_owned()],
+            estimates: vec![
+                ParameterEstimate {
+                    name: "m2".to_owned(),
+                    unit: "kg".to_owned(),
+                    nominal: 520.0,
+                    estimate: 561.0,
+                    std: Some(3.0),
+                    identifiable: true,
+                },
+                ParameterEstimate {
+                    name: "rflow1".to_owned(),
+                    unit: "Pa s/mol".to_owned(),
+                    nominal: 2.5e6,
+                    estimate: 2.5e6,
+                    std: None,
+                    identifiable: false,
+                },
+            ],
+            stop_reason: Some("converged".to_owned()),
+            simulations: 57,
+            estimation_time_s: 0.3,
+            runs: vec![
+                run("data-set 1", "estimation", fit(95.0, 93.0)),
+                run("data-set 2", "validation", fit(91.0, 88.0)),
+                run("data-set 3", "validation", fit(60.0, 75.0)),
+            ],
+            truck_file: Some("m2_thesis.toml".to_owned()),
+            notes: vec!["rflow1 is not determined by data-set 1 <closed valve>".to_owned()],
+            error: None,
+        };
+        let failed = ModelResult {
+            model: "m3".to_owned(),
+            description: "Model 3".to_owned(),
+            free: vec![],
+            estimates: vec![],
+            stop_reason: None,
+            simulations: 0,
+            estimation_time_s: 0.0,
+            runs: vec![],
+            truck_file: None,
+            notes: vec![],
+            error: Some("no static equilibrium at 329 kPa".to_owned()),
+        };
+        StudyResults {
+            schema_version: SCHEMA_VERSION,
+            airsus_version: "0.1.0".to_owned(),
+            study: "built-in".to_owned(),
+            truck: "truck.toml".to_owned(),
+            runs: ["data-set 1", "data-set 2", "data-set 3"]
+                .iter()
+                .enumerate()
+                .map(|(i, n)| RunInfo {
+                    name: (*n).to_owned(),
+                    file: format!("ds{}.csv", i + 1),
+                    role: if i == 0 { "estimation" } else { "validation" }.to_owned(),
+                    samples: 100,
+                    duration_s: 10.0,
+                    valve_action: i == 2,
+                })
+                .collect(),
+            submodels: SubmodelResults {
+                fits: vec![SubmodelFit {
+                    name: "fill_valve".to_owned(),
+                    description: "R_flow1".to_owned(),
+                    parameters: vec![],
+                    nrmse_estimation_percent: None,
+                    nrmse_validation_percent: None,
+                    notes: vec![],
+                    error: Some("no fill discharge in the study".to_owned()),
+                }],
+            },
+            protocols: vec![ProtocolResult {
+                name: "thesis".to_owned(),
+                description: "estimation on data-set 1".to_owned(),
+                estimation_runs: vec!["data-set 1".to_owned()],
+                models: vec![good, failed],
+            }],
+            elapsed_s: 2.0,
+        }
+    }
+
+    fn charts() -> Vec<Chart> {
+        vec![
+            Chart {
+                name: "ok".to_owned(),
+                section: "thesis protocol: m2".to_owned(),
+                title: "m2 on data-set 2".to_owned(),
+                panels: vec![Panel {
+                    title: "height".to_owned(),
+                    x_label: "time [s]".to_owned(),
+                    y_label: "height [mm]".to_owned(),
+                    series: vec![Series {
+                        name: "measured".to_owned(),
+                        x: vec![0.0, 1.0, 2.0],
+                        y: vec![240.0, 238.0, 239.0],
+                        style: SeriesStyle::Line,
+                        color: 0,
+                    }],
+                    band: None,
+                }],
+            },
+            Chart {
+                name: "all_nan".to_owned(),
+                section: "thesis protocol: m3".to_owned(),
+                title: "nothing finite".to_owned(),
+                panels: vec![Panel {
+                    series: vec![Series {
+                        name: "broken".to_owned(),
+                        x: vec![f64::NAN],
+                        y: vec![f64::NAN],
+                        style: SeriesStyle::Dots,
+                        color: 1,
+                    }],
+                    ..Default::default()
+                }],
+            },
+        ]
+    }
+
+    #[test]
+    fn a_report_with_a_failed_model_still_renders_and_says_what_failed() {
+        let dir = tempfile::tempdir().unwrap();
+        let files = write_report(dir.path(), &results(), &charts()).unwrap();
+        let html = std::fs::read_to_string(&files.html).unwrap();
+        assert!(html.contains("This model failed: no static equilibrium at 329 kPa"));
+        assert!(html.contains("failed: no fill discharge in the study"));
+        assert!(
+            html.contains("<b>no</b> (kept nominal)"),
+            "non-identifiable parameters are marked"
+        );
+        // Notes are escaped, not injected.
+        assert!(html.contains("&lt;closed valve&gt;"));
+        // Our numbers beside the thesis': Table 5.14 for m2 on data-set 2.
+        assert!(
+            html.contains("86.9 / 89.7"),
+            "thesis validation numbers shown"
+        );
+        assert!(html.contains("Table 5.11"));
+        assert!(
+            html.contains("Level-controller design"),
+            "recommendations in words"
+        );
+        assert!(html.contains("<svg"), "figures inline");
+        // Self-contained: no scripts and nothing fetched (the SVG namespace URI is a name).
+        assert!(!html.contains("<script"));
+        for fetch in ["src=\"http", "href=\"http", "url(http", "@import"] {
+            assert!(!html.contains(fetch), "external resource: {fetch}");
+        }
+        assert!(files.chart_failures.is_empty() || html.contains("could not be drawn"));
+    }
+
+    #[test]
+    fn results_json_round_trips_from_disk() {
+        let dir = tempfile::tempdir().unwrap();
+        let r = results();
+        let files = write_report(dir.path(), &r, &[]).unwrap();
+        let back: StudyResults =
+            serde_json::from_str(&std::fs::read_to_string(files.json).unwrap()).unwrap();
+        assert_eq!(back, r);
+    }
+}

@@ -1,0 +1,227 @@
+//! Everything a study computes, as plain serialisable data: this is `results.json`.
+//!
+//! Keys are stable (snake_case field names, units in the names); a change that renames or
+//! removes a key bumps [`SCHEMA_VERSION`]. NRMSE values are percent (thesis eq 3.33); `null`
+//! means "not computed" and is always explained by an entry in a `notes` or `error` field.
+
+use serde::{Deserialize, Serialize};
+
+/// Version of the `results.json` layout.
+pub const SCHEMA_VERSION: u32 = 1;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StudyResults {
+    pub schema_version: u32,
+    pub airsus_version: String,
+    /// The study file, or `built-in virtual truck (seed N)`.
+    pub study: String,
+    /// The nominal truck file the study started from.
+    pub truck: String,
+    pub runs: Vec<RunInfo>,
+    pub submodels: SubmodelResults,
+    /// One entry per estimation protocol (which runs the grey-box fits used).
+    pub protocols: Vec<ProtocolResult>,
+    /// Wall-clock time of the whole pipeline, s.
+    pub elapsed_s: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunInfo {
+    pub name: String,
+    pub file: String,
+    /// `estimation` or `validation`, as the study file says.
+    pub role: String,
+    pub samples: usize,
+    pub duration_s: f64,
+    /// Whether the valve moves during the run (what makes flow parameters identifiable).
+    pub valve_action: bool,
+}
+
+/// A named number with its unit and, where known, its standard deviation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NamedValue {
+    pub name: String,
+    pub unit: String,
+    pub value: f64,
+    pub std: Option<f64>,
+}
+
+/// One submodel fit of thesis 5.2.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SubmodelFit {
+    /// `cross_section`, `effective_area`, `fill_valve`, `exhaust_valve`, `slow_dynamics`.
+    pub name: String,
+    pub description: String,
+    pub parameters: Vec<NamedValue>,
+    pub nrmse_estimation_percent: Option<f64>,
+    pub nrmse_validation_percent: Option<f64>,
+    pub notes: Vec<String>,
+    /// Set when the fit could not be done; the other fields are then empty.
+    pub error: Option<String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct SubmodelResults {
+    pub fits: Vec<SubmodelFit>,
+}
+
+impl SubmodelResults {
+    pub fn get(&self, name: &str) -> Option<&SubmodelFit> {
+        self.fits.iter().find(|f| f.name == name)
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProtocolResult {
+    /// `thesis` (estimation on data-set 1) or `valve` (plus data-set 3), or the study's own.
+    pub name: String,
+    pub description: String,
+    pub estimation_runs: Vec<String>,
+    pub models: Vec<ModelResult>,
+}
+
+/// A parameter the grey-box fit freed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParameterEstimate {
+    pub name: String,
+    pub unit: String,
+    pub nominal: f64,
+    pub estimate: f64,
+    pub std: Option<f64>,
+    /// False when the estimation runs cannot determine it; it is then kept at its nominal.
+    pub identifiable: bool,
+}
+
+/// NRMSE of both outputs, percent.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OutputFit {
+    pub height_percent: f64,
+    pub pressure_percent: f64,
+}
+
+/// Residual analysis of one output against one input (eq 3.35/3.36), or the residual's
+/// autocorrelation (`input` = `self`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResidualSummary {
+    /// `height` or `pressure`.
+    pub output: String,
+    /// `wheel_load`, `valve`, `supply` or `self`.
+    pub input: String,
+    pub confidence: f64,
+    pub band: f64,
+    pub lags_outside: usize,
+    pub lags_total: usize,
+    /// Largest |r| over the band; above 1 the residual is correlated somewhere.
+    pub worst_ratio: f64,
+    /// Why it could not be computed (e.g. a constant input).
+    pub note: Option<String>,
+}
+
+/// How one model did on one run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunFit {
+    pub run: String,
+    pub role: String,
+    /// With the nominal (start) parameters.
+    pub nominal: Option<OutputFit>,
+    /// With the estimated parameters.
+    pub estimated: Option<OutputFit>,
+    pub residuals: Vec<ResidualSummary>,
+    pub error: Option<String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelResult {
+    pub model: String,
+    pub description: String,
+    pub free: Vec<String>,
+    pub estimates: Vec<ParameterEstimate>,
+    /// The optimiser's stop reason (`converged`, `max_iterations`, ...).
+    pub stop_reason: Option<String>,
+    pub simulations: usize,
+    pub estimation_time_s: f64,
+    pub runs: Vec<RunFit>,
+    /// The estimated truck file, relative to the output folder.
+    pub truck_file: Option<String>,
+    pub notes: Vec<String>,
+    /// Set when the model failed as a whole (its runs may be empty).
+    pub error: Option<String>,
+}
+
+impl ModelResult {
+    pub fn run(&self, name: &str) -> Option<&RunFit> {
+        self.runs.iter().find(|r| r.run == name)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn results_round_trip_through_json() {
+        let results = StudyResults {
+            schema_version: SCHEMA_VERSION,
+            airsus_version: "0.1.0".to_owned(),
+            study: "study.toml".to_owned(),
+            truck: "truck.toml".to_owned(),
+            runs: vec![RunInfo {
+                name: "data-set 1".to_owned(),
+                file: "ds1.csv".to_owned(),
+                role: "estimation".to_owned(),
+                samples: 15_001,
+                duration_s: 1500.0,
+                valve_action: false,
+            }],
+            submodels: SubmodelResults {
+                fits: vec![SubmodelFit {
+                    name: "cross_section".to_owned(),
+                    description: "A(h) = A0 + A1 h".to_owned(),
+                    parameters: vec![NamedValue {
+                        name: "a0".to_owned(),
+                        unit: "m2".to_owned(),
+                        value: 0.25,
+                        std: Some(1e-3),
+                    }],
+                    nrmse_estimation_percent: Some(90.85),
+                    nrmse_validation_percent: None,
+                    notes: vec![],
+                    error: None,
+                }],
+            },
+            protocols: vec![ProtocolResult {
+                name: "thesis".to_owned(),
+                description: "estimation on data-set 1".to_owned(),
+                estimation_runs: vec!["data-set 1".to_owned()],
+                models: vec![ModelResult {
+                    model: "m2".to_owned(),
+                    description: "Model 2".to_owned(),
+                    free: vec!["m2".to_owned()],
+                    estimates: vec![],
+                    stop_reason: Some("converged".to_owned()),
+                    simulations: 42,
+                    estimation_time_s: 0.2,
+                    runs: vec![RunFit {
+                        run: "data-set 1".to_owned(),
+                        role: "estimation".to_owned(),
+                        nominal: Some(OutputFit {
+                            height_percent: 65.18,
+                            pressure_percent: 65.77,
+                        }),
+                        estimated: None,
+                        residuals: vec![],
+                        error: Some("failed".to_owned()),
+                    }],
+                    truck_file: None,
+                    notes: vec![],
+                    error: None,
+                }],
+            }],
+            elapsed_s: 1.5,
+        };
+        let json = serde_json::to_string_pretty(&results).unwrap();
+        assert!(json.contains("\"height_percent\": 65.18"));
+        let back: StudyResults = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, results);
+    }
+}
