@@ -7,7 +7,7 @@ use airsus_data::TruckParameters;
 use crate::model::{InitialCondition, InputSample, ModelError};
 use crate::submodels::{
     Damper, air_amount_mol, air_flow_mol_s, bellow_volume_m3, effective_area_clamped_m2,
-    effective_area_slope_m, lever_gain, pressure_abs_pa, sensor_height_m,
+    first_upward_crossing_m, lever_gain, pressure_abs_pa, sensor_height_m,
 };
 
 /// Smallest sprung mass a model uses, kg. A wheel load below the unsprung mass (a wheel
@@ -266,32 +266,11 @@ impl Corner {
 
     /// Lowest `h` in (0, max] with `A_eff(h) = target` and `A_eff` rising there.
     fn rising_root(&self, target_m2: f64) -> Option<f64> {
-        let f = |h: f64| effective_area_clamped_m2(&self.area_poly, h) - target_m2;
-        let h_max = self.max_bellow_height_m();
-        let mut lo = SEARCH_STEP_M;
-        let mut f_lo = f(lo);
-        while lo < h_max {
-            let hi = (lo + SEARCH_STEP_M).min(h_max);
-            let f_hi = f(hi);
-            if f_lo <= 0.0 && f_hi > 0.0 {
-                return Some(self.bisect(f, lo, hi));
-            }
-            if f_lo == 0.0 && effective_area_slope_m(&self.area_poly, lo) > 0.0 {
-                return Some(lo);
-            }
-            lo = hi;
-            f_lo = f_hi;
-        }
-        None
-    }
-
-    fn bisect(&self, f: impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
-        // f(lo) <= 0 < f(hi); 60 halvings take a 1 mm bracket below f64 resolution.
-        for _ in 0..60 {
-            let mid = 0.5 * (lo + hi);
-            if f(mid) <= 0.0 { lo = mid } else { hi = mid }
-        }
-        0.5 * (lo + hi)
+        first_upward_crossing_m(
+            |h| effective_area_clamped_m2(&self.area_poly, h) - target_m2,
+            self.max_bellow_height_m(),
+            SEARCH_STEP_M,
+        )
     }
 
     /// Largest effective area over the lever's range and where it occurs (for error messages).

@@ -106,22 +106,7 @@ pub const DEFAULT_CREEP_STIFFNESS_N_PER_M: f64 = 2.5e4;
 const BASE_STATES: &[&str] = &["x_m", "alpha_rad", "xdot_m_s", "alphadot_rad_s", "n_mol"];
 const OE_STATES: &[&str] = &["oe1", "oe2", "oe3", "oe4", "oe5", "oe6", "oe7", "oe8"];
 
-const FIELDS: &[Field] = &[
-    Field::EffectiveArea(0),
-    Field::EffectiveArea(1),
-    Field::EffectiveArea(2),
-    Field::EffectiveArea(3),
-    Field::EffectiveArea(4),
-    Field::CrossSection(0),
-    Field::CrossSection(1),
-    Field::Unsprung,
-    Field::LeverInertia,
-    Field::HingeFriction,
-    Field::TireStiffness,
-    Field::LeverCompliance,
-    Field::FillResistance,
-    Field::ExhaustResistance,
-];
+const FIELDS: &[Field] = crate::params::LEVER_MODEL_FIELDS;
 
 /// Which slow bellow force the model carries.
 #[derive(Debug, Clone, PartialEq)]

@@ -45,6 +45,24 @@ pub enum Field {
     CreepTimeConstant,
 }
 
+/// The SPEC parameters of every model on Model 2's lever (QCM 2 and the models built on it).
+pub const LEVER_MODEL_FIELDS: &[Field] = &[
+    Field::EffectiveArea(0),
+    Field::EffectiveArea(1),
+    Field::EffectiveArea(2),
+    Field::EffectiveArea(3),
+    Field::EffectiveArea(4),
+    Field::CrossSection(0),
+    Field::CrossSection(1),
+    Field::Unsprung,
+    Field::LeverInertia,
+    Field::HingeFriction,
+    Field::TireStiffness,
+    Field::LeverCompliance,
+    Field::FillResistance,
+    Field::ExhaustResistance,
+];
+
 /// One named parameter: its description and its home in the truck parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Param {

@@ -22,7 +22,7 @@ use airsus_data::{TruckParameters, ValveState};
 use airsus_model::mechanics::{LeverBody, LeverForces, lever_accelerations};
 use airsus_model::params::{Field, ParamSet};
 use airsus_model::submodels::{
-    Damper, bellow_volume_m3, effective_area_clamped_m2, effective_area_slope_m, lever_gain,
+    Damper, bellow_volume_m3, effective_area_clamped_m2, first_upward_crossing_m, lever_gain,
     sensor_height_m, tire_force_n,
 };
 use airsus_model::{
@@ -60,22 +60,8 @@ pub enum SupplyMode {
     Tank,
 }
 
-const SPEC_FIELDS: &[Field] = &[
-    Field::EffectiveArea(0),
-    Field::EffectiveArea(1),
-    Field::EffectiveArea(2),
-    Field::EffectiveArea(3),
-    Field::EffectiveArea(4),
-    Field::CrossSection(0),
-    Field::CrossSection(1),
-    Field::Unsprung,
-    Field::LeverInertia,
-    Field::HingeFriction,
-    Field::TireStiffness,
-    Field::LeverCompliance,
-    Field::FillResistance,
-    Field::ExhaustResistance,
-];
+/// The SPEC names it shares with Model 2: the same lever, bellow, tire and valve.
+const SPEC_FIELDS: &[Field] = airsus_model::params::LEVER_MODEL_FIELDS;
 
 /// A parameter of the extra effects: its description and where it lives.
 struct EffectParam {
@@ -450,22 +436,8 @@ impl TruckModel {
                 }
                 let target = |h: f64| gauge_pa * c.effective_area_m2(h, gauge_pa) - force;
                 // Lowest root on the rising branch, as the thesis models do.
-                let step = 1e-3;
-                let mut lo = step;
-                while lo < h_max {
-                    let hi = (lo + step).min(h_max);
-                    if target(lo) <= 0.0
-                        && target(hi) > 0.0
-                        && effective_area_slope_m(&c.area_poly, hi) > 0.0
-                    {
-                        let (mut a, mut b) = (lo, hi);
-                        for _ in 0..60 {
-                            let m = 0.5 * (a + b);
-                            if target(m) <= 0.0 { a = m } else { b = m }
-                        }
-                        return Ok((0.5 * (a + b), gauge_pa));
-                    }
-                    lo = hi;
+                if let Some(h) = first_upward_crossing_m(target, h_max, 1e-3) {
+                    return Ok((h, gauge_pa));
                 }
                 Err(fail(
                     what,

@@ -45,9 +45,46 @@ pub fn bellow_force_n(poly: &[f64; 5], height_m: f64, gauge_pa: f64) -> f64 {
     gauge_pa * effective_area_m2(poly, height_m)
 }
 
+/// The lowest height in `(0, h_max_m]` where `f` crosses zero upward, found by a scan in
+/// steps of `step_m` and bisection to machine precision; `None` when it never does.
+///
+/// Static equilibria of a bellow solve `p A_eff(h) = F`; the effective area (eq 5.4) rises,
+/// peaks and falls over the stroke, so a pressure can have two heights. The upward crossing
+/// is the one on the rising branch, the convention every model's `initial_state` follows.
+pub fn first_upward_crossing_m(f: impl Fn(f64) -> f64, h_max_m: f64, step_m: f64) -> Option<f64> {
+    let mut lo = step_m;
+    let mut f_lo = f(lo);
+    while lo < h_max_m {
+        let hi = (lo + step_m).min(h_max_m);
+        let f_hi = f(hi);
+        if f_lo <= 0.0 && f_hi > 0.0 {
+            let (mut a, mut b) = (lo, hi);
+            // 60 halvings take a millimetre bracket below f64 resolution.
+            for _ in 0..60 {
+                let mid = 0.5 * (a + b);
+                if f(mid) <= 0.0 { a = mid } else { b = mid }
+            }
+            return Some(0.5 * (a + b));
+        }
+        lo = hi;
+        f_lo = f_hi;
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn first_upward_crossing_takes_the_rising_branch() {
+        // A hump: rises to 1 at 0.5, falls after; the level 0.75 is crossed at 0.25 (up) and
+        // 0.75 (down).
+        let hump = |h: f64| 1.0 - 4.0 * (h - 0.5) * (h - 0.5) - 0.75;
+        let h = first_upward_crossing_m(hump, 1.0, 1e-3).unwrap();
+        assert!((h - 0.25).abs() < 1e-12, "{h}");
+        assert_eq!(first_upward_crossing_m(|h| h - 2.0, 1.0, 1e-3), None);
+    }
 
     const REF: [f64; 5] = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941];
 

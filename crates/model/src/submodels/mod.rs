@@ -14,7 +14,7 @@ pub mod valve;
 
 pub use bellow::{
     EFFECTIVE_AREA_RANGE_M, bellow_force_n, effective_area_clamped_m2, effective_area_m2,
-    effective_area_slope_m,
+    effective_area_slope_m, first_upward_crossing_m,
 };
 pub use damper::Damper;
 pub use friction::hinge_friction_n;
