@@ -13,6 +13,8 @@ Typical workflow:
   airsus check study.toml                    validate a study and every file it names
   airsus generate --out ref/                  the virtual truck's reference experiments
   airsus simulate --model m2 --truck ref/truck.toml --run ref/ds1.csv --out sim.csv
+  airsus greybox --model m2 --free p0,p1,p2,p3,p4,m2,ig --truck ref/truck.toml \
+      --run ref/ds1.csv --out est.toml
   airsus ident --structure oe --nb 2 --nf 2 --nk 1 \\
       --inputs wheel_load_kg,pressure_kpa --output height_mm ds1.csv
 
@@ -42,6 +44,10 @@ enum Command {
     Ident(commands::ident::IdentArgs),
     /// Simulate a model over a run's inputs and write the simulated outputs as a run file.
     Simulate(commands::simulate::SimulateArgs),
+    /// Grey-box estimation: fit any named subset of a model's parameters to one or more runs.
+    Greybox(commands::greybox::GreyboxArgs),
+    /// Submodel fits from lab and run data (thesis 5.2): cross-section, effective area, valve, slow dynamics.
+    Fit(commands::fit::FitArgs),
     /// Generate the reference experiments (data-sets 1-4, lab data, study) with the virtual truck.
     Generate(commands::generate::GenerateArgs),
 }
@@ -54,6 +60,8 @@ fn main() -> std::process::ExitCode {
         Command::Ident(args) => commands::ident::run(args),
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Generate(args) => commands::generate::run(args),
+        Command::Greybox(args) => commands::greybox::run(args),
+        Command::Fit(args) => commands::fit::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

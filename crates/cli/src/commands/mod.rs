@@ -1,7 +1,9 @@
 //! One module per subcommand: each has an `Args` struct and a `run` function.
 
 pub mod check;
+pub mod fit;
 pub mod generate;
+pub mod greybox;
 pub mod ident;
 pub mod params;
 pub mod simulate;

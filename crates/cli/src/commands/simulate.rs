@@ -3,10 +3,11 @@
 //! Initial condition, in order of precedence:
 //! 1. `--initial-pressure-kpa` or `--initial-height-mm` (static equilibrium at that bellow gauge
 //!    pressure or sensor height under the first sample's inputs);
-//! 2. the run's first measured bellow pressure, when the run has measured outputs (SPEC §3);
-//!    where that pressure has no static equilibrium under the model's parameters (the
-//!    effective area has a flat top, so a slightly low pressure cannot carry the load at any
-//!    height), the run's first measured sensor height instead, with a note saying so;
+//! 2. the run's first measured sensor height, when the run has measured outputs. Not the
+//!    pressure, although the SPEC words it so: the effective area rises, peaks and falls over
+//!    the stroke, so one pressure can mean two heights (or none, for a slightly low pressure),
+//!    while a height gives exactly one pressure. The grey-box estimator starts the same way, so
+//!    a simulation reproduces the fit it came from;
 //! 3. otherwise an error asking for one of the two flags: an inputs-only scenario carries no
 //!    information about the amount of air in the bellows, and guessing it would silently shift
 //!    the whole simulated pressure and height.
@@ -15,7 +16,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use airsus_data::{Outputs, RunOutputs, read_run_with, read_truck, write_run};
-use airsus_model::{InitialCondition, SuspensionModel};
+use airsus_model::InitialCondition;
 use airsus_sim::{InitialState, InputSeries, Method, SimulationProblem, SolverOptions, simulate};
 use airsus_truck::models::build_any_model;
 use anyhow::{Context, bail};
@@ -99,8 +100,10 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         (None, Some(mm)) => InitialState::Equilibrium(InitialCondition::SensorHeight {
             height_m: mm * 1e-3,
         }),
-        (None, None) => match InitialState::from_run(&run) {
-            Some(initial) => fall_back_to_height(&*model, &run, initial),
+        (None, None) => match run.outputs.as_ref().and_then(|o| o.sensor_height_m.first()) {
+            Some(&height_m) => {
+                InitialState::Equilibrium(InitialCondition::SensorHeight { height_m })
+            }
             None => bail!(
                 "run {} has no measured outputs to start from: give --initial-pressure-kpa or --initial-height-mm",
                 args.run.display()
@@ -176,40 +179,4 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     }
     eprintln!("wrote {}", args.out.display());
     Ok(())
-}
-
-/// Keeps the pressure-based start when the model has an equilibrium there; otherwise starts
-/// from the first measured sensor height and says why.
-fn fall_back_to_height(
-    model: &dyn SuspensionModel,
-    run: &airsus_data::Run,
-    initial: InitialState,
-) -> InitialState {
-    let (InitialState::Equilibrium(ic), Some(measured)) = (&initial, &run.outputs) else {
-        return initial;
-    };
-    let Some(u0) = first_input(run) else {
-        return initial;
-    };
-    match model.initial_state(&u0, ic) {
-        Ok(_) => initial,
-        Err(err) => {
-            let height_m = measured.sensor_height_m[0];
-            eprintln!(
-                "note: {err}; starting from the first measured sensor height {:.1} mm instead",
-                height_m * 1e3
-            );
-            InitialState::Equilibrium(InitialCondition::SensorHeight { height_m })
-        }
-    }
-}
-
-fn first_input(run: &airsus_data::Run) -> Option<airsus_model::InputSample> {
-    let i = &run.inputs;
-    Some(airsus_model::InputSample {
-        wheel_load_kg: *i.wheel_load_kg.first()?,
-        valve: *i.valve.first()?,
-        supply_gauge_pa: *i.supply_gauge_pa.first()?,
-        road_height_m: *i.road_height_m.first()?,
-    })
 }

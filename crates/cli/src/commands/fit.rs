@@ -1,0 +1,407 @@
+//! `airsus fit <submodel>`: the thesis' submodel fits (5.2), each printing its parameters
+//! and residual NRMSE, optionally writing an updated truck file (`--out`, starting from
+//! `--truck` or the reference truck).
+//!
+//! * `cross-section` — `A(h) = A0 + A1 h` from a closed-valve run (eq 5.1–5.3, Table 5.1);
+//! * `effective-area` — 4th-degree `A_eff(h)` from a bellow force map (eq 3.16/5.4);
+//! * `valve` — `R_flow1`, `R_flow2` from tank discharges (eq 3.19/5.5/5.6, Table 5.3), from a
+//!   study file or from `--discharge` files with their metadata;
+//! * `slow-dynamics` — the OE block of Model 2 extended from one load step (5.2.4).
+
+use std::path::{Path, PathBuf};
+
+use airsus_data::{
+    Channel, Role, TruckParameters, read_discharge, read_force_map, read_run, read_study,
+    read_truck, write_truck,
+};
+use airsus_estimate::submodel::{
+    CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions,
+    SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area, fit_slow_dynamics,
+    fit_valve,
+};
+use airsus_ident::linear::OeOrders;
+use anyhow::{Context, bail};
+
+/// Fit one submodel to lab or run data (thesis 5.2).
+#[derive(Debug, Clone, clap::Args)]
+pub struct FitArgs {
+    #[command(subcommand)]
+    pub fit: FitCommand,
+    /// Truck parameter file to start from (default: the reference truck).
+    #[arg(long, global = true)]
+    pub truck: Option<PathBuf>,
+    /// Write the truck with the fitted parameters to this file.
+    #[arg(long, global = true)]
+    pub out: Option<PathBuf>,
+    /// Print the result as JSON.
+    #[arg(long, global = true)]
+    pub json: bool,
+}
+
+#[derive(Debug, Clone, clap::Subcommand)]
+pub enum FitCommand {
+    /// Gas-volume cross-section A(h) = A0 + A1 h from a closed-valve load-step run. The run
+    /// fixes only the shape A1/A0; the scale A0 is kept from the truck unless
+    /// --known-volume-l and --at-height-mm are given.
+    CrossSection {
+        /// Closed-valve run (estimation).
+        #[arg(long)]
+        run: PathBuf,
+        /// Closed-valve run(s) to validate on; repeatable.
+        #[arg(long)]
+        validation: Vec<PathBuf>,
+        /// Known gas volume of the circuit, litres, at --at-height-mm.
+        #[arg(long, requires = "at_height_mm")]
+        known_volume_l: Option<f64>,
+        /// Bellow height of --known-volume-l, mm.
+        #[arg(long, requires = "known_volume_l")]
+        at_height_mm: Option<f64>,
+    },
+    /// Effective area: per-height least squares of F = p A_eff, then a polynomial.
+    EffectiveArea {
+        /// Bellow force map (CSV: bellow_height_mm, pressure_kpa, force_n).
+        #[arg(long)]
+        force_map: PathBuf,
+        /// Polynomial degree (the truck file holds degree 4).
+        #[arg(long, default_value_t = 4)]
+        degree: usize,
+    },
+    /// Valve flow resistances from tank discharges, via the ideal gas law and a
+    /// Savitzky–Golay derivative of the tank pressure.
+    Valve {
+        /// Study file: its [[discharge]] entries are used.
+        #[arg(long, conflicts_with = "discharge")]
+        study: Option<PathBuf>,
+        /// Tank-discharge file (CSV: time_s, tank_kpa); repeatable.
+        #[arg(long)]
+        discharge: Vec<PathBuf>,
+        /// Channel of each --discharge (one value for all, or one per file).
+        #[arg(long, value_enum, value_delimiter = ',')]
+        channel: Vec<ChannelArg>,
+        /// Tank volume in litres (one value, or one per file).
+        #[arg(long, value_delimiter = ',')]
+        tank_volume_l: Vec<f64>,
+        /// Gas temperature in K (one value, or one per file; default 293.15).
+        #[arg(long, value_delimiter = ',')]
+        temperature_k: Vec<f64>,
+        /// Role of each --discharge (default estimation).
+        #[arg(long, value_enum, value_delimiter = ',')]
+        role: Vec<RoleArg>,
+        /// Savitzky–Golay half window (window 2m+1 samples).
+        #[arg(long, default_value_t = 5)]
+        half_window: usize,
+    },
+    /// Slow-dynamics OE model (load change → slow height change) from one load step.
+    SlowDynamics {
+        /// Run with a load step (valve closed).
+        #[arg(long)]
+        run: PathBuf,
+        /// Time of the step to use, s (default: the largest load change).
+        #[arg(long)]
+        step_time_s: Option<f64>,
+        /// Seconds after the step before the window starts (fast response settled).
+        #[arg(long, default_value_t = 3.0)]
+        settle_s: f64,
+        /// Longest window, s (default: up to the next load change).
+        #[arg(long)]
+        window_s: Option<f64>,
+        #[arg(long, default_value_t = 1)]
+        nb: usize,
+        #[arg(long, default_value_t = 1)]
+        nf: usize,
+        #[arg(long, default_value_t = 2)]
+        nk: usize,
+    },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ChannelArg {
+    Fill,
+    Exhaust,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RoleArg {
+    Estimation,
+    Validation,
+}
+
+/// One value for all files, or one per file.
+fn per_file<T: Copy>(
+    values: &[T],
+    n: usize,
+    flag: &str,
+    default: Option<T>,
+) -> anyhow::Result<Vec<T>> {
+    match (values.len(), default) {
+        (0, Some(d)) => Ok(vec![d; n]),
+        (0, None) => bail!("{flag} is required with --discharge"),
+        (1, _) => Ok(vec![values[0]; n]),
+        (k, _) if k == n => Ok(values.to_vec()),
+        (k, _) => bail!("{flag} has {k} values for {n} discharge files: give one, or one per file"),
+    }
+}
+
+fn load_truck(path: Option<&Path>) -> anyhow::Result<TruckParameters> {
+    Ok(match path {
+        Some(p) => read_truck(p)?.parameters,
+        None => TruckParameters::reference(),
+    })
+}
+
+fn print_json<T: serde::Serialize>(value: &T) -> anyhow::Result<()> {
+    println!("{}", serde_json::to_string_pretty(value)?);
+    Ok(())
+}
+
+pub fn run(args: &FitArgs) -> anyhow::Result<()> {
+    let mut truck = load_truck(args.truck.as_deref())?;
+    match &args.fit {
+        FitCommand::CrossSection {
+            run,
+            validation,
+            known_volume_l,
+            at_height_mm,
+        } => {
+            let est = read_run(run).with_context(|| format!("run {}", run.display()))?;
+            let vals = validation
+                .iter()
+                .map(|p| read_run(p).with_context(|| format!("validation run {}", p.display())))
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let val_refs: Vec<&_> = vals.iter().collect();
+            let scale = match (known_volume_l, at_height_mm) {
+                (Some(v), Some(h)) => CrossSectionScale::KnownVolume {
+                    bellow_height_m: h * 1e-3,
+                    volume_m3: v * 1e-3,
+                },
+                _ => CrossSectionScale::KeepA0,
+            };
+            let options = CrossSectionOptions {
+                scale,
+                ..CrossSectionOptions::default()
+            };
+            let fit = fit_cross_section(&est, &val_refs, &truck, &options)?;
+            if args.json {
+                print_json(&fit)?;
+            } else {
+                println!(
+                    "Cross-section A(h) = A0 + A1 h (thesis eq 5.1-5.3), run {}",
+                    est.name
+                );
+                println!(
+                    "  shape A1/A0 = {:.5} ± {:.5} 1/m (what a closed-valve run determines)",
+                    fit.ratio_per_m, fit.ratio_std_per_m
+                );
+                match fit.scale {
+                    CrossSectionScale::KeepA0 => println!(
+                        "  A0 = {:.5} m² kept from the truck (a closed-valve run cannot determine the scale)",
+                        fit.a0_m2
+                    ),
+                    CrossSectionScale::KnownVolume { .. } => {
+                        println!("  A0 = {:.5} m² from the known volume", fit.a0_m2)
+                    }
+                }
+                println!("  A1 = {:.5} ± {:.5} m", fit.a1_m, fit.a1_std_m);
+                println!(
+                    "  {} samples, bellow height {:.1}-{:.1} mm{}",
+                    fit.samples,
+                    fit.bellow_height_range_m.0 * 1e3,
+                    fit.bellow_height_range_m.1 * 1e3,
+                    if fit.converged {
+                        ""
+                    } else {
+                        " (Gauss-Newton NOT converged)"
+                    }
+                );
+                println!(
+                    "  pressure-model NRMSE: estimation {:.2} %",
+                    fit.nrmse_estimation_percent
+                );
+                for (name, v) in &fit.nrmse_validation_percent {
+                    println!("                        validation {name}: {v:.2} %");
+                }
+            }
+            fit.write_to(&mut truck);
+        }
+        FitCommand::EffectiveArea { force_map, degree } => {
+            let map = read_force_map(force_map)?;
+            let options = EffectiveAreaOptions {
+                degree: *degree,
+                ..EffectiveAreaOptions::default()
+            };
+            let fit = fit_effective_area(&map, &options)?;
+            if args.json {
+                print_json(&fit)?;
+            } else {
+                println!(
+                    "Effective area A_eff(h) = sum p_i h^i (thesis eq 3.16/5.4), {} points at {} heights",
+                    fit.points,
+                    fit.per_height.len()
+                );
+                for (i, (p, s)) in fit.poly.iter().zip(&fit.poly_std).enumerate() {
+                    println!("  p{i} = {p:>12.5} ± {s:.5}");
+                }
+                println!(
+                    "  NRMSE: area vs per-height LS {:.2} %, force {:.2} %",
+                    fit.area_nrmse_percent, fit.force_nrmse_percent
+                );
+            }
+            if args.out.is_some() {
+                fit.write_to(&mut truck)?;
+            }
+        }
+        FitCommand::Valve {
+            study,
+            discharge,
+            channel,
+            tank_volume_l,
+            temperature_k,
+            role,
+            half_window,
+        } => {
+            // (name, file, channel, volume m³, temperature, role)
+            let mut specs = Vec::new();
+            if let Some(study_path) = study {
+                let s = read_study(study_path)?;
+                if s.discharges.is_empty() {
+                    bail!("study {} lists no [[discharge]]", study_path.display());
+                }
+                for d in s.discharges {
+                    specs.push((d.file, d.channel, d.tank_volume_m3, d.temperature_k, d.role));
+                }
+            } else {
+                let n = discharge.len();
+                if n == 0 {
+                    bail!("give --study or at least one --discharge");
+                }
+                let channels = per_file(channel, n, "--channel", None)?;
+                let volumes = per_file(tank_volume_l, n, "--tank-volume-l", None)?;
+                let temps = per_file(temperature_k, n, "--temperature-k", Some(293.15))?;
+                let roles = per_file(role, n, "--role", Some(RoleArg::Estimation))?;
+                for i in 0..n {
+                    specs.push((
+                        discharge[i].clone(),
+                        match channels[i] {
+                            ChannelArg::Fill => Channel::Fill,
+                            ChannelArg::Exhaust => Channel::Exhaust,
+                        },
+                        volumes[i] * 1e-3,
+                        temps[i],
+                        match roles[i] {
+                            RoleArg::Estimation => Role::Estimation,
+                            RoleArg::Validation => Role::Validation,
+                        },
+                    ));
+                }
+            }
+            let loaded = specs
+                .iter()
+                .map(|(file, ..)| {
+                    read_discharge(file).with_context(|| format!("discharge {}", file.display()))
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let data: Vec<DischargeData<'_>> = specs
+                .iter()
+                .zip(&loaded)
+                .map(|((file, ch, v, t, r), d)| DischargeData {
+                    name: file.display().to_string(),
+                    discharge: d,
+                    channel: *ch,
+                    tank_volume_m3: *v,
+                    temperature_k: *t,
+                    role: *r,
+                })
+                .collect();
+            let options = ValveFitOptions {
+                half_window: *half_window,
+                ..ValveFitOptions::for_truck(&truck)
+            };
+            let fit = fit_valve(&data, &options)?;
+            if args.json {
+                print_json(&fit)?;
+            } else {
+                println!(
+                    "Valve flow resistances (thesis eq 3.19/5.5/5.6), Savitzky-Golay slope over {} samples",
+                    2 * half_window + 1
+                );
+                for (label, c) in [
+                    ("R_flow1 (fill)", &fit.fill),
+                    ("R_flow2 (exhaust)", &fit.exhaust),
+                ] {
+                    match c {
+                        Some(c) => {
+                            println!(
+                                "  {label} = {:.4e} ± {:.2e} Pa s/mol",
+                                c.resistance_pa_s_per_mol, c.resistance_std
+                            );
+                            for d in &c.discharges {
+                                println!(
+                                    "    {:<40} {:<10} {:>6} samples  flow NRMSE {}",
+                                    d.name,
+                                    d.role.as_str(),
+                                    d.samples_used,
+                                    d.nrmse_percent
+                                        .map_or_else(|| "—".to_owned(), |v| format!("{v:.2} %"))
+                                );
+                            }
+                        }
+                        None => println!("  {label}: no estimation discharge, not fitted"),
+                    }
+                }
+            }
+            fit.write_to(&mut truck);
+        }
+        FitCommand::SlowDynamics {
+            run,
+            step_time_s,
+            settle_s,
+            window_s,
+            nb,
+            nf,
+            nk,
+        } => {
+            let r = read_run(run).with_context(|| format!("run {}", run.display()))?;
+            let options = SlowDynamicsOptions {
+                orders: OeOrders::siso(*nb, *nf, *nk),
+                step_time_s: *step_time_s,
+                settle_s: *settle_s,
+                window_s: *window_s,
+                ..SlowDynamicsOptions::default()
+            };
+            let fit = fit_slow_dynamics(&r, &options)?;
+            if args.json {
+                print_json(&fit)?;
+            } else {
+                println!(
+                    "Slow dynamics OE [nb nf nk] = [{nb} {nf} {nk}] (thesis 5.2.4), step {:+.0} kg at {:.1} s, window {:.1}-{:.1} s",
+                    fit.step_kg, fit.step_time_s, fit.window_s.0, fit.window_s.1
+                );
+                for p in &fit.estimate.parameters {
+                    println!(
+                        "  {:<4} = {:>12.4e} ± {:.3e} (on the window)",
+                        p.name, p.value, p.std
+                    );
+                }
+                println!(
+                    "  b after the settling correction (÷{:.4}): {:?} m/kg",
+                    fit.gain_correction, fit.b
+                );
+                println!(
+                    "  static gain {:.4e} m/kg{}",
+                    fit.static_gain_m_per_kg,
+                    fit.time_constant_s
+                        .map_or_else(String::new, |t| format!(", time constant {t:.1} s"))
+                );
+                println!("  NRMSE on the window {:.2} %", fit.nrmse_percent);
+            }
+            fit.write_to(&mut truck);
+        }
+    }
+    if let Some(out) = &args.out {
+        write_truck(out, &truck)?;
+        if !args.json {
+            println!("updated truck written to {}", out.display());
+        }
+    }
+    Ok(())
+}

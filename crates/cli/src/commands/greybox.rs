@@ -1,0 +1,173 @@
+//! `airsus greybox`: grey-box estimation of a model's physical parameters from one or more
+//! runs at once (thesis 5.2.6, Tables 5.10–5.12; MATLAB `nlgreyest` with simulation focus).
+//!
+//! Prints the NRMSE per run and output (nominal and estimated), the estimates with standard
+//! deviations, the identifiability findings (freed parameters the runs cannot determine are
+//! kept at their nominal values and listed), the number of simulations and the time; or the
+//! same as JSON with `--json`. `--out` writes the truck file with the estimates, which loads
+//! back with `--truck`.
+//!
+//! Each run starts in static equilibrium at its first measured sensor height (default; the
+//! reference truck's effective area is flat near its working point, so the pressure would pin
+//! the height poorly), or at its first measured pressure with `--initial pressure`.
+
+use std::path::PathBuf;
+
+use airsus_data::{read_run, read_truck, write_truck};
+use airsus_estimate::{
+    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
+    NoProgress, Observer, OutputWeights, TerminalProgress, estimate,
+};
+use airsus_model::build_model;
+use anyhow::{Context, bail};
+
+/// What fixes each run's initial equilibrium.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum InitialArg {
+    /// The first measured sensor height (default).
+    Height,
+    /// The first measured bellow pressure.
+    Pressure,
+}
+
+/// Estimate named physical parameters of a model by minimising the simulation error of
+/// height and pressure (each normalised by its spread in each run) over all runs at once.
+#[derive(Debug, Clone, clap::Args)]
+pub struct GreyboxArgs {
+    /// Model: m1, m2, m2x, m2xh or m3.
+    #[arg(long)]
+    pub model: String,
+    /// Parameters to estimate, comma-separated short names: p0..p4, a0, a1, m2, ig, kf, kw,
+    /// kscl, rflow1, rflow2, ksd (m2x, m2xh), tsd (m2xh). The others stay fixed.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub free: Vec<String>,
+    /// Truck parameter file with the nominal (start) values.
+    #[arg(long)]
+    pub truck: PathBuf,
+    /// Estimation run (CSV with measured height and pressure); repeat for several runs.
+    #[arg(long = "run", required = true)]
+    pub runs: Vec<PathBuf>,
+    /// Write the estimated parameters as a truck file.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Bounds for a freed parameter, NAME=LOWER:UPPER (default: the model's admissible
+    /// range); repeatable.
+    #[arg(long = "bounds", value_name = "NAME=LOWER:UPPER")]
+    pub bounds: Vec<String>,
+    /// Maximum Levenberg–Marquardt iterations per fit round.
+    #[arg(long, default_value_t = GreyboxOptions::default().max_iterations)]
+    pub max_iterations: usize,
+    /// Relative tolerance on the loss decrease and the scaled step (convergence test).
+    #[arg(long, default_value_t = GreyboxOptions::default().tolerance)]
+    pub tolerance: f64,
+    /// What fixes each run's initial equilibrium.
+    #[arg(long, value_enum, default_value_t = InitialArg::Height)]
+    pub initial: InitialArg,
+    /// Weight of the height error (after normalisation; 0 leaves it out).
+    #[arg(long, default_value_t = 1.0)]
+    pub height_weight: f64,
+    /// Weight of the pressure error (after normalisation; 0 leaves it out).
+    #[arg(long, default_value_t = 1.0)]
+    pub pressure_weight: f64,
+    /// Relative standard deviation above which a parameter counts as not determined by the
+    /// runs (kept at its nominal value).
+    #[arg(long, default_value_t = 0.5)]
+    pub max_relative_std: f64,
+    /// Estimate parameters found not identifiable anyway (they are only reported).
+    #[arg(long)]
+    pub keep_unidentifiable: bool,
+    /// Print the result as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_bounds(text: &str) -> anyhow::Result<(String, f64, f64)> {
+    let parse = || -> Option<(String, f64, f64)> {
+        let (name, range) = text.split_once('=')?;
+        let (lo, hi) = range.split_once(':')?;
+        Some((
+            name.trim().to_owned(),
+            lo.trim().parse().ok()?,
+            hi.trim().parse().ok()?,
+        ))
+    };
+    parse()
+        .with_context(|| format!("--bounds `{text}`: expected NAME=LOWER:UPPER, e.g. m2=300:800"))
+}
+
+pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
+    let loaded = read_truck(&args.truck)?;
+    if !loaded.defaulted.is_empty() {
+        eprintln!(
+            "truck {}: {} key(s) not in the file, using defaults: {}",
+            args.truck.display(),
+            loaded.defaulted.len(),
+            loaded
+                .defaulted
+                .iter()
+                .map(|d| format!("{} = {}", d.key, d.value))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let mut truck = loaded.parameters;
+    let model = build_model(&args.model, &truck)?;
+    let runs = args
+        .runs
+        .iter()
+        .map(|p| read_run(p).with_context(|| format!("estimation run {}", p.display())))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let run_refs: Vec<&_> = runs.iter().collect();
+
+    let mut free: Vec<FreeParameter> = args.free.iter().map(FreeParameter::new).collect();
+    for text in &args.bounds {
+        let (name, lo, hi) = parse_bounds(text)?;
+        let Some(p) = free.iter_mut().find(|p| p.name == name) else {
+            bail!("--bounds {name}: `{name}` is not in --free");
+        };
+        *p = FreeParameter::new(name).with_bounds(lo, hi);
+    }
+    let mut problem = GreyboxProblem::new(&*model, &run_refs, &[])
+        .with_weights(OutputWeights {
+            height: args.height_weight,
+            pressure: args.pressure_weight,
+        })
+        .with_initial(match args.initial {
+            InitialArg::Height => InitialChoice::SensorHeight,
+            InitialArg::Pressure => InitialChoice::BellowPressure,
+        });
+    problem.free = free;
+    let options = GreyboxOptions {
+        max_iterations: args.max_iterations,
+        tolerance: args.tolerance,
+        max_relative_std: args.max_relative_std,
+        policy: if args.keep_unidentifiable {
+            IdentifiabilityPolicy::ReportOnly
+        } else {
+            IdentifiabilityPolicy::FixAtNominal
+        },
+        ..GreyboxOptions::default()
+    };
+    let mut terminal = TerminalProgress::new();
+    let mut quiet = NoProgress;
+    let observer: &mut dyn Observer = if args.json { &mut quiet } else { &mut terminal };
+    let result = estimate(&problem, &options, observer)?;
+
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&result)?);
+    } else {
+        print!("{result}");
+    }
+    if let Some(out) = &args.out {
+        result.estimated_model.write_parameters(&mut truck);
+        write_truck(out, &truck)?;
+        if !args.json {
+            println!();
+            println!("estimated parameters written to {}", out.display());
+        }
+    }
+    if !result.stop.is_converged() {
+        eprintln!("warning: the estimation did not converge ({})", result.stop);
+    }
+    Ok(())
+}

@@ -1,0 +1,130 @@
+//! `airsus greybox` and `airsus fit` on the virtual truck's study.
+
+use std::process::Command;
+
+fn airsus(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_airsus"))
+        .args(args)
+        .output()
+        .expect("the airsus binary runs")
+}
+
+fn generated() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    assert!(
+        airsus(&["generate", "--out", dir.path().to_str().unwrap()])
+            .status
+            .success()
+    );
+    dir
+}
+
+#[test]
+fn greybox_improves_the_fit_and_writes_a_truck_file_that_loads_back() {
+    let dir = generated();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let out = airsus(&[
+        "greybox",
+        "--model",
+        "m2",
+        "--free",
+        "p0,p1,m2",
+        "--bounds",
+        "m2=300:900",
+        "--truck",
+        &p("truck.toml"),
+        "--run",
+        &p("ds1.csv"),
+        "--run",
+        &p("ds3.csv"),
+        "--out",
+        &p("est.toml"),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let text = json.to_string();
+    assert!(text.contains("\"m2\""), "{text}");
+    let est = airsus_data::read_truck(std::path::Path::new(&p("est.toml")))
+        .unwrap()
+        .parameters;
+    assert!(
+        (300.0..=900.0).contains(&est.mass.unsprung_kg),
+        "bounds respected: {}",
+        est.mass.unsprung_kg
+    );
+    assert_ne!(
+        est.bellow.effective_area_poly_m2,
+        airsus_data::TruckParameters::reference()
+            .bellow
+            .effective_area_poly_m2
+    );
+
+    // The estimated parameters simulate the estimation run better than the nominal ones.
+    let nrmse = |truck: &str| {
+        let sim = airsus(&[
+            "simulate",
+            "--model",
+            "m2",
+            "--truck",
+            truck,
+            "--run",
+            &p("ds1.csv"),
+            "--out",
+            &p("s.csv"),
+        ]);
+        let stderr = String::from_utf8_lossy(&sim.stderr).into_owned();
+        let line = stderr
+            .lines()
+            .find(|l| l.contains("NRMSE"))
+            .unwrap_or_else(|| panic!("{stderr}"))
+            .to_owned();
+        let pressure = line
+            .split("pressure ")
+            .nth(1)
+            .and_then(|s| s.trim_end_matches(" %").trim().parse::<f64>().ok());
+        pressure.unwrap_or_else(|| panic!("{line}"))
+    };
+    assert!(nrmse(&p("est.toml")) > nrmse(&p("truck.toml")) + 10.0);
+}
+
+#[test]
+fn fit_valve_from_the_study_reports_both_channels() {
+    let dir = generated();
+    let study = dir.path().join("study.toml");
+    let out = airsus(&["fit", "valve", "--study", study.to_str().unwrap(), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("fill") && text.contains("exhaust"), "{text}");
+}
+
+#[test]
+fn greybox_names_an_unknown_parameter() {
+    let dir = generated();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let out = airsus(&[
+        "greybox",
+        "--model",
+        "m2",
+        "--free",
+        "p0,mass2",
+        "--truck",
+        &p("truck.toml"),
+        "--run",
+        &p("ds1.csv"),
+        "--out",
+        &p("est.toml"),
+    ]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("mass2"), "{stderr}");
+    assert!(!dir.path().join("est.toml").exists());
+}

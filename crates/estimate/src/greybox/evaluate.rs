@@ -1,0 +1,463 @@
+//! Evaluating the loss: parameters → simulations of every run → normalised residuals; and the
+//! forward-difference Jacobian, parallel over parameters.
+//!
+//! Scaled coordinates: every freed parameter `θ_i` is written `θ_i = θ0_i + s_i z_i` with
+//! `θ0_i` the nominal value and the scale `s_i = |θ0_i|` (or, for a nominal 0, a thousandth
+//! of the bound width, else 1), so `z` is O(1) whatever the units (an `m2` in kg and a
+//! `kscl` in m/N both move by "a fraction of nominal"). Bounds are handled by projection:
+//! the model always sees `clamp(θ, lower, upper)`; the least-squares vector carries one
+//! extra penalty row per parameter, `κ (z_i − clamp(z_i))`, zero inside the box, so a step
+//! that leaves the box costs more than anything it could gain and the solver is pushed back
+//! to the boundary (an exterior penalty on top of the projection; the loss stays continuous).
+
+use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use airsus_data::Run;
+use airsus_model::{InitialCondition, ModelError, SuspensionModel};
+use airsus_sim::{
+    InitialState, InputSeries, SimError, SimulationProblem, SimulationResponse, SolverOptions,
+    simulate,
+};
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+
+use super::problem::{GreyboxProblem, InitialChoice};
+use crate::error::EstimateError;
+
+/// Sensor resolutions (SPEC §1), the floors of the normalisation: a run whose height or
+/// pressure hardly moves is not allowed to blow its residuals up by dividing by ~0.
+pub const HEIGHT_RESOLUTION_M: f64 = 1e-4;
+pub const PRESSURE_RESOLUTION_PA: f64 = 100.0;
+
+/// A freed parameter, resolved against the model.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Resolved {
+    pub name: String,
+    pub unit: String,
+    pub nominal: f64,
+    pub lower: f64,
+    pub upper: f64,
+    pub scale: f64,
+}
+
+impl Resolved {
+    pub fn z_range(&self) -> (f64, f64) {
+        (
+            (self.lower - self.nominal) / self.scale,
+            (self.upper - self.nominal) / self.scale,
+        )
+    }
+
+    pub fn value(&self, z: f64) -> f64 {
+        (self.nominal + self.scale * z).clamp(self.lower, self.upper)
+    }
+}
+
+/// One estimation run, with its normalisation.
+#[derive(Debug)]
+pub(crate) struct RunData<'a> {
+    pub name: String,
+    pub inputs: InputSeries<'a>,
+    pub initial: InitialState,
+    pub height: &'a [f64],
+    pub pressure: &'a [f64],
+    /// `w_h / σ_h` and `w_p / σ_p`.
+    pub height_factor: f64,
+    pub pressure_factor: f64,
+}
+
+impl RunData<'_> {
+    fn len(&self) -> usize {
+        self.height.len()
+    }
+}
+
+/// Simulated outputs of all runs at one parameter point.
+pub(crate) type Responses = Vec<Result<SimulationResponse, SimError>>;
+
+/// The loss machinery shared by the solver, the identifiability analysis and the report.
+#[derive(Debug)]
+pub(crate) struct Evaluator<'a> {
+    pub base: Box<dyn SuspensionModel>,
+    pub params: Vec<Resolved>,
+    pub runs: Vec<RunData<'a>>,
+    pub solver: SolverOptions,
+    pub parallel: bool,
+    pub simulations: AtomicUsize,
+    pub failures: AtomicUsize,
+}
+
+fn std_dev(x: &[f64]) -> f64 {
+    let n = x.len() as f64;
+    let mean = x.iter().sum::<f64>() / n;
+    (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt()
+}
+
+impl<'a> Evaluator<'a> {
+    pub fn new(problem: &GreyboxProblem<'a>) -> Result<Self, EstimateError> {
+        let model = problem.model;
+        if problem.runs.is_empty() {
+            return Err(EstimateError::NoRuns);
+        }
+        let w = problem.weights;
+        if !(w.height.is_finite() && w.pressure.is_finite() && w.height >= 0.0 && w.pressure >= 0.0)
+            || w.height + w.pressure <= 0.0
+        {
+            return Err(EstimateError::InvalidOption(format!(
+                "output weights must be finite, non-negative and not both zero, got height {} and pressure {}",
+                w.height, w.pressure
+            )));
+        }
+        let mut params: Vec<Resolved> = Vec::new();
+        for free in &problem.free {
+            if params.iter().any(|p| p.name == free.name) {
+                return Err(EstimateError::DuplicateParameter {
+                    name: free.name.clone(),
+                });
+            }
+            let nominal = model.parameter(&free.name)?;
+            let info = model
+                .parameter_info()
+                .iter()
+                .find(|i| i.name == free.name)
+                .ok_or_else(|| EstimateError::InvalidBounds {
+                    name: free.name.clone(),
+                    reason: "the model lists no admissible range for it".to_owned(),
+                })?;
+            let lower = free.lower.unwrap_or(info.lower);
+            let upper = free.upper.unwrap_or(info.upper);
+            let bad = |reason: String| EstimateError::InvalidBounds {
+                name: free.name.clone(),
+                reason,
+            };
+            if !(lower.is_finite() && upper.is_finite() && lower < upper) {
+                return Err(bad(format!(
+                    "bounds [{lower}, {upper}] must be finite with lower < upper"
+                )));
+            }
+            if lower < info.lower || upper > info.upper {
+                return Err(bad(format!(
+                    "bounds [{lower}, {upper}] reach outside the admissible range [{}, {}] {}",
+                    info.lower, info.upper, info.unit
+                )));
+            }
+            if !(nominal >= lower && nominal <= upper) {
+                return Err(bad(format!(
+                    "the nominal value {nominal} lies outside the bounds [{lower}, {upper}]"
+                )));
+            }
+            let scale = if nominal != 0.0 {
+                nominal.abs()
+            } else {
+                1e-3 * (upper - lower)
+            };
+            params.push(Resolved {
+                name: free.name.clone(),
+                unit: info.unit.to_owned(),
+                nominal,
+                lower,
+                upper,
+                scale,
+            });
+        }
+        let mut runs = Vec::with_capacity(problem.runs.len());
+        for run in &problem.runs {
+            runs.push(run_data(run, problem, w)?);
+        }
+        Ok(Self {
+            base: model.box_clone(),
+            params,
+            runs,
+            solver: problem.solver.clone(),
+            parallel: true,
+            simulations: AtomicUsize::new(0),
+            failures: AtomicUsize::new(0),
+        })
+    }
+
+    /// Number of data residuals (both outputs of all runs).
+    pub fn n_data(&self) -> usize {
+        self.runs.iter().map(|r| 2 * r.len()).sum()
+    }
+
+    /// Row ranges of the (run, output) blocks: run `r` height is block `2r`, pressure `2r+1`.
+    pub fn blocks(&self) -> Vec<Range<usize>> {
+        let mut out = Vec::with_capacity(2 * self.runs.len());
+        let mut start = 0;
+        for r in &self.runs {
+            let n = r.len();
+            out.push(start..start + n);
+            out.push(start + n..start + 2 * n);
+            start += 2 * n;
+        }
+        out
+    }
+
+    /// Physical values (projected onto the box) for scaled coordinates `z` (all freed).
+    pub fn theta(&self, z: &[f64]) -> Vec<f64> {
+        self.params
+            .iter()
+            .zip(z)
+            .map(|(p, &zi)| p.value(zi))
+            .collect()
+    }
+
+    /// The model with the freed parameters set to `theta`.
+    pub fn model_at(&self, theta: &[f64]) -> Result<Box<dyn SuspensionModel>, ModelError> {
+        let mut model = self.base.box_clone();
+        for (p, &v) in self.params.iter().zip(theta) {
+            model.set_parameter(&p.name, v)?;
+        }
+        Ok(model)
+    }
+
+    /// Simulates every run at `theta`. A parameter set the model rejects fails every run.
+    pub fn simulate(&self, theta: &[f64]) -> Result<Responses, ModelError> {
+        let model = self.model_at(theta)?;
+        let one = |run: &RunData<'a>| {
+            self.simulations.fetch_add(1, Ordering::Relaxed);
+            let problem = SimulationProblem::new(&*model, run.inputs, run.initial.clone())
+                .with_options(self.solver.clone());
+            let result = simulate(&problem);
+            if result.is_err() {
+                self.failures.fetch_add(1, Ordering::Relaxed);
+            }
+            result
+        };
+        Ok(if self.parallel && self.runs.len() > 1 {
+            self.runs.par_iter().map(one).collect()
+        } else {
+            self.runs.iter().map(one).collect()
+        })
+    }
+
+    /// Writes the normalised residuals `w (y − ŷ)/σ` into `out` (length [`Self::n_data`]); a
+    /// failed run's residuals are `fail_value`. Returns whether any run failed.
+    pub fn residuals_into(&self, responses: &Responses, fail_value: f64, out: &mut [f64]) -> bool {
+        let mut failed = false;
+        let mut start = 0;
+        for (run, response) in self.runs.iter().zip(responses) {
+            let n = run.len();
+            let (h_out, rest) = out[start..start + 2 * n].split_at_mut(n);
+            match response {
+                Ok(sim) => {
+                    for (k, r) in h_out.iter_mut().enumerate() {
+                        *r = run.height_factor * (run.height[k] - sim.sensor_height_m[k]);
+                    }
+                    for (k, r) in rest.iter_mut().enumerate() {
+                        *r = run.pressure_factor * (run.pressure[k] - sim.bellow_gauge_pa[k]);
+                    }
+                }
+                Err(_) => {
+                    failed = true;
+                    h_out.fill(fail_value);
+                    rest.fill(fail_value);
+                }
+            }
+            start += 2 * n;
+        }
+        failed
+    }
+
+    /// Data residuals at scaled point `z`; `None` if any simulation failed (or the model
+    /// rejected the values).
+    pub fn residuals_at(&self, z: &[f64]) -> Option<Vec<f64>> {
+        let responses = self.simulate(&self.theta(z)).ok()?;
+        let mut out = vec![0.0; self.n_data()];
+        if self.residuals_into(&responses, 0.0, &mut out) {
+            None
+        } else {
+            Some(out)
+        }
+    }
+
+    /// Forward-difference Jacobian `∂r/∂z` of the data residuals at `z` for the columns
+    /// `cols` (indices into the freed parameters), given the residuals `r0` at `z`.
+    /// Columns are computed in parallel (rayon). The step is `+fd_step`, or `−fd_step` where
+    /// that would leave the box; if the simulation fails, the other direction is tried; if
+    /// both fail, the column is zero (reported as no sensitivity) and counted.
+    pub fn jacobian(&self, z: &[f64], cols: &[usize], r0: &[f64], fd_step: f64) -> DMatrix<f64> {
+        let m = r0.len();
+        let column = |&j: &usize| -> Vec<f64> {
+            let (_, hi) = self.params[j].z_range();
+            let first = if z[j] + fd_step <= hi {
+                fd_step
+            } else {
+                -fd_step
+            };
+            for step in [first, -first] {
+                let mut zp = z.to_vec();
+                zp[j] += step;
+                if let Some(r) = self.residuals_at(&zp) {
+                    return r.iter().zip(r0).map(|(a, b)| (a - b) / step).collect();
+                }
+            }
+            vec![0.0; m]
+        };
+        let columns: Vec<Vec<f64>> = if self.parallel {
+            cols.par_iter().map(column).collect()
+        } else {
+            cols.iter().map(column).collect()
+        };
+        DMatrix::from_fn(m, cols.len(), |i, j| columns[j][i])
+    }
+
+    pub fn simulations(&self) -> usize {
+        self.simulations.load(Ordering::Relaxed)
+    }
+
+    pub fn failures(&self) -> usize {
+        self.failures.load(Ordering::Relaxed)
+    }
+}
+
+fn run_data<'a>(
+    run: &'a Run,
+    problem: &GreyboxProblem<'a>,
+    w: super::problem::OutputWeights,
+) -> Result<RunData<'a>, EstimateError> {
+    let invalid = |reason: String| EstimateError::InvalidRun {
+        run: run.name.clone(),
+        reason,
+    };
+    let outputs = run
+        .outputs
+        .as_ref()
+        .ok_or_else(|| invalid("it has no measured height and pressure".to_owned()))?;
+    let n = run.len();
+    if n < 2 {
+        return Err(invalid(format!(
+            "it has {n} samples; at least 2 are needed"
+        )));
+    }
+    if outputs.sensor_height_m.len() != n || outputs.bellow_gauge_pa.len() != n {
+        return Err(invalid(
+            "its output columns differ in length from its time axis".to_owned(),
+        ));
+    }
+    for (name, signal) in [
+        ("height", &outputs.sensor_height_m),
+        ("pressure", &outputs.bellow_gauge_pa),
+    ] {
+        if let Some(k) = signal.iter().position(|v| !v.is_finite()) {
+            return Err(invalid(format!(
+                "measured {name} at sample {k} is not finite"
+            )));
+        }
+    }
+    let inputs = InputSeries::from_run(run).map_err(|e| invalid(e.to_string()))?;
+    let ic = match problem.initial {
+        InitialChoice::SensorHeight => InitialCondition::SensorHeight {
+            height_m: outputs.sensor_height_m[0],
+        },
+        InitialChoice::BellowPressure => InitialCondition::BellowPressure {
+            gauge_pa: outputs.bellow_gauge_pa[0],
+        },
+    };
+    let sigma_h = std_dev(&outputs.sensor_height_m).max(HEIGHT_RESOLUTION_M);
+    let sigma_p = std_dev(&outputs.bellow_gauge_pa).max(PRESSURE_RESOLUTION_PA);
+    Ok(RunData {
+        name: run.name.clone(),
+        inputs,
+        initial: InitialState::Equilibrium(ic),
+        height: &outputs.sensor_height_m,
+        pressure: &outputs.bellow_gauge_pa,
+        height_factor: w.height / sigma_h,
+        pressure_factor: w.pressure / sigma_p,
+    })
+}
+
+/// A model-free estimate of the white measurement-noise variance of each (run, output) block
+/// in normalised units, for the identifiability check *before* the fit (when the residuals
+/// still carry the start's model error): the robust second-difference estimator
+/// `σ ≈ median|Δ²y| / (0.6745 √6)` (for white noise `Var Δ²y = 6σ²`; the median ignores the
+/// few samples at load steps), floored at the sensor resolution's quantisation noise
+/// `q/√12`.
+pub(crate) fn noise_variance_from_data(ev: &Evaluator<'_>) -> Vec<f64> {
+    let mut out = Vec::with_capacity(2 * ev.runs.len());
+    for run in &ev.runs {
+        for (signal, factor, q) in [
+            (run.height, run.height_factor, HEIGHT_RESOLUTION_M),
+            (run.pressure, run.pressure_factor, PRESSURE_RESOLUTION_PA),
+        ] {
+            let mut d2: Vec<f64> = signal
+                .windows(3)
+                .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
+                .collect();
+            let sigma = if d2.is_empty() {
+                0.0
+            } else {
+                let mid = d2.len() / 2;
+                let (_, median, _) = d2.select_nth_unstable_by(mid, f64::total_cmp);
+                *median / (0.6745 * 6f64.sqrt())
+            };
+            let sigma = sigma.max(q / 12f64.sqrt());
+            // A zero weight leaves the block out: its "noise" is irrelevant, keep it finite.
+            let s = (sigma * factor).max(f64::MIN_POSITIVE);
+            out.push(s * s);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use airsus_data::{RunInputs, RunOutputs, TruckParameters, ValveState};
+
+    fn run() -> Run {
+        let n = 50;
+        Run {
+            name: "flat".to_owned(),
+            time_s: (0..n).map(|k| k as f64 * 0.1).collect(),
+            sample_time_s: 0.1,
+            inputs: RunInputs {
+                wheel_load_kg: vec![3350.0; n],
+                valve: vec![ValveState::Closed; n],
+                supply_gauge_pa: vec![850e3; n],
+                road_height_m: vec![0.0; n],
+            },
+            outputs: Some(RunOutputs {
+                sensor_height_m: (0..n).map(|k| 0.24 + 1e-4 * k as f64).collect(),
+                bellow_gauge_pa: (0..n).map(|k| 350e3 + 100.0 * k as f64).collect(),
+            }),
+        }
+    }
+
+    #[test]
+    fn a_failed_simulation_is_a_large_residual_and_is_counted() {
+        let truck = TruckParameters::reference();
+        let model = airsus_model::build_model("m2", &truck).unwrap();
+        let r = run();
+        let problem = GreyboxProblem::new(&*model, &[&r], &["p0"]);
+        let ev = Evaluator::new(&problem).unwrap();
+        // p0 = −0.5 makes the effective area negative: no equilibrium, the run fails.
+        let z = [(-0.5 - ev.params[0].nominal) / ev.params[0].scale];
+        let responses = ev.simulate(&ev.theta(&z)).unwrap();
+        let mut out = vec![0.0; ev.n_data()];
+        assert!(ev.residuals_into(&responses, 123.0, &mut out));
+        assert!(out.iter().all(|&x| x == 123.0));
+        assert_eq!((ev.simulations(), ev.failures()), (1, 1));
+        assert!(ev.residuals_at(&z).is_none());
+        // The nominal point simulates.
+        assert!(ev.residuals_at(&[0.0]).is_some());
+        assert_eq!((ev.simulations(), ev.failures()), (3, 2));
+    }
+
+    #[test]
+    fn projection_keeps_values_inside_the_bounds() {
+        let p = Resolved {
+            name: "m2".to_owned(),
+            unit: "kg".to_owned(),
+            nominal: 500.0,
+            lower: 400.0,
+            upper: 700.0,
+            scale: 500.0,
+        };
+        assert_eq!(p.z_range(), (-0.2, 0.4));
+        assert_eq!(p.value(0.1), 550.0);
+        assert_eq!(p.value(-1.0), 400.0);
+        assert_eq!(p.value(3.0), 700.0);
+    }
+}

@@ -1,0 +1,351 @@
+//! Identifiability from the Jacobian of the normalised residuals (local, linearised).
+//!
+//! With `J = ∂r/∂z` (scaled coordinates, see `evaluate`) over the data rows and noise
+//! variances `λ_b` per (run, output) block, the estimator's covariance is the sandwich
+//!
+//! ```text
+//! C_z = (JᵀJ)⁻¹ (Σ_b λ_b J_bᵀ J_b) (JᵀJ)⁻¹
+//! ```
+//!
+//! which is `σ² (JᵀJ)⁻¹` when every block has the same noise level `σ²` in normalised units,
+//! and stays right when height and pressure noise differ (the loss weights them by their
+//! spread, not by their noise). `C_z` is in units of each parameter's scale, so
+//! `√C_z,ii` is a *relative* standard deviation.
+//!
+//! A freed parameter is reported as not identifiable from the given runs when
+//! 1. **no sensitivity**: its Jacobian column is zero (the outputs do not depend on it at
+//!    all in these runs — `rflow1` in a run where the valve never fills);
+//! 2. **structural collinearity**: the column-normalised Jacobian `J D⁻¹` (`D` = column
+//!    norms) has a singular value below `rcond · s_max`; only a combination of the
+//!    parameters in the corresponding right singular vector is determined. The parameters
+//!    that carry that direction (component ≥ half the largest, in scaled units) form the
+//!    group;
+//! 3. **statistically undetermined**: the largest relative standard deviation exceeds
+//!    `max_relative_std`. If that parameter is correlated above `correlation_warning` with
+//!    others whose uncertainty is also large (≥ half of it), they form a group and only a
+//!    combination is determined (reported as collinear: `a0` and `a1` on a closed-valve
+//!    run, where only `a1/a0` shows, SPEC §4 — finite-difference and solver noise keep the
+//!    exact null direction from being exactly singular); otherwise it is undetermined alone.
+//!
+//! From a group, the parameter listed *first in the model's parameter order* (`p0..p4, a0,
+//! a1, m2, ig, kf, kw, kscl, rflow1, rflow2, …`) is fixed — deterministic, and it fixes the
+//! gas volume's scale `a0` rather than its shape `a1` or the flow resistances. One parameter
+//! is fixed at a time and the analysis repeated, since fixing one member of a group usually
+//! determines the others.
+//!
+//! Correlations above `correlation_warning` are reported, not acted on alone: two parameters
+//! can be 0.995-correlated and both well determined from 30 000 samples.
+
+use std::ops::Range;
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+/// Why a freed parameter cannot be determined by the runs.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum Unidentifiable {
+    /// The outputs do not depend on it in these runs (zero Jacobian column).
+    NoSensitivity,
+    /// Only a combination with these parameters is determined: a (numerical) null direction
+    /// of the Jacobian, or correlations near ±1 with an uncertainty above the limit.
+    Collinear { with: Vec<String> },
+    /// Its standard deviation is larger than the limit (a fraction of its scale).
+    Undetermined { relative_std: f64, limit: f64 },
+}
+
+/// When a parameter was found not identifiable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stage {
+    /// From the Jacobian at the nominal point, with the data's own noise level.
+    BeforeFit,
+    /// From the Jacobian at the estimate, with the residuals' noise level.
+    AfterFit,
+}
+
+/// A freed parameter the runs cannot determine, and what was done.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NotIdentifiable {
+    pub name: String,
+    pub reason: Unidentifiable,
+    pub stage: Stage,
+    /// Parameters it is strongly correlated with at that stage (name, correlation).
+    pub correlated_with: Vec<(String, f64)>,
+}
+
+/// A strongly correlated pair of estimated parameters.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CorrelatedPair {
+    pub a: String,
+    pub b: String,
+    pub correlation: f64,
+}
+
+/// The Jacobian seen as an identifiability question.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct JacobianAnalysis {
+    /// The parameters (columns) analysed.
+    pub parameters: Vec<String>,
+    /// `‖∂r/∂z_i‖`: change of the normalised residual vector per unit of scaled parameter.
+    pub sensitivities: Vec<f64>,
+    /// Singular values of the column-normalised Jacobian, descending.
+    pub singular_values: Vec<f64>,
+    /// `s_max / s_min` of the column-normalised Jacobian (∞ if rank-deficient).
+    pub condition_number: f64,
+    /// `√C_z,ii`: standard deviation relative to each parameter's scale (∞ where undetermined).
+    pub relative_std: Vec<f64>,
+    /// Pairs with |correlation| above the warning level.
+    pub high_correlations: Vec<CorrelatedPair>,
+}
+
+/// Covariance and SVD facts of a Jacobian, in scaled coordinates.
+pub(crate) struct Linearised {
+    pub norms: Vec<f64>,
+    pub singular_values: Vec<f64>,
+    /// Right singular vectors (columns), in column-normalised coordinates.
+    pub v: DMatrix<f64>,
+    /// `C_z` if the normalised Jacobian has full numerical rank.
+    pub covariance: Option<DMatrix<f64>>,
+}
+
+/// SVD of `J D⁻¹` and the sandwich covariance (module docs). Zero columns must be removed
+/// before (they have no normalisation).
+pub(crate) fn linearise(
+    j: &DMatrix<f64>,
+    blocks: &[Range<usize>],
+    lambda: &[f64],
+    rcond: f64,
+) -> Linearised {
+    let n = j.ncols();
+    if n == 0 || j.nrows() == 0 {
+        return Linearised {
+            norms: Vec::new(),
+            singular_values: Vec::new(),
+            v: DMatrix::zeros(0, 0),
+            covariance: None,
+        };
+    }
+    let norms: Vec<f64> = (0..n).map(|c| j.column(c).norm()).collect();
+    let mut jn = j.clone();
+    for (c, &d) in norms.iter().enumerate() {
+        if d > 0.0 {
+            jn.column_mut(c).scale_mut(1.0 / d);
+        }
+    }
+    // SVD of the small n×n Gram matrix would square the condition number; the m×n SVD keeps it.
+    let svd = jn.clone().svd(false, true);
+    let s: Vec<f64> = svd.singular_values.iter().copied().collect();
+    let v = svd
+        .v_t
+        .map(|vt| vt.transpose())
+        .unwrap_or_else(|| DMatrix::identity(n, n));
+    let s_max = s.first().copied().unwrap_or(0.0);
+    let full_rank = n > 0 && s.iter().all(|&x| x > rcond * s_max && x > 0.0);
+    let covariance = full_rank.then(|| {
+        // (JnᵀJn)⁻¹ = V S⁻² Vᵀ
+        let s_inv2 = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+            n,
+            s.iter().map(|x| 1.0 / (x * x)),
+        ));
+        let a_inv = &v * s_inv2 * v.transpose();
+        let mut b = DMatrix::zeros(n, n);
+        for (range, &l) in blocks.iter().zip(lambda) {
+            let jb = jn.rows(range.start, range.len());
+            b += l * jb.transpose() * jb;
+        }
+        let cw = &a_inv * b * &a_inv;
+        // back to z: C_z = D⁻¹ C_w D⁻¹
+        DMatrix::from_fn(n, n, |r, c| cw[(r, c)] / (norms[r] * norms[c]))
+    });
+    Linearised {
+        norms,
+        singular_values: s,
+        v,
+        covariance,
+    }
+}
+
+pub(crate) fn correlation(cov: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = cov.nrows();
+    DMatrix::from_fn(n, n, |r, c| {
+        let d = (cov[(r, r)] * cov[(c, c)]).sqrt();
+        if d > 0.0 { cov[(r, c)] / d } else { 0.0 }
+    })
+}
+
+/// The report for the columns `cols` of `j` (named `names[cols[i]]`).
+pub(crate) fn analyse(
+    j: &DMatrix<f64>,
+    cols: &[usize],
+    names: &[String],
+    blocks: &[Range<usize>],
+    lambda: &[f64],
+    rcond: f64,
+    correlation_warning: f64,
+) -> JacobianAnalysis {
+    let sub = j.select_columns(cols);
+    let parameters: Vec<String> = cols.iter().map(|&c| names[c].clone()).collect();
+    let sensitivities: Vec<f64> = (0..sub.ncols()).map(|c| sub.column(c).norm()).collect();
+    // Columns with no sensitivity make the normalised matrix meaningless: analyse the rest.
+    let live: Vec<usize> = (0..sub.ncols())
+        .filter(|&c| sensitivities[c] > 0.0)
+        .collect();
+    if live.is_empty() {
+        return JacobianAnalysis {
+            relative_std: vec![f64::INFINITY; parameters.len()],
+            singular_values: vec![0.0; parameters.len()],
+            condition_number: f64::INFINITY,
+            parameters,
+            sensitivities,
+            high_correlations: Vec::new(),
+        };
+    }
+    let lin = linearise(&sub.select_columns(&live), blocks, lambda, rcond);
+    let mut singular_values = lin.singular_values.clone();
+    singular_values.extend(std::iter::repeat_n(0.0, sub.ncols() - live.len()));
+    let s_max = singular_values.first().copied().unwrap_or(0.0);
+    let s_min = singular_values.last().copied().unwrap_or(0.0);
+    let condition_number = if s_min > 0.0 {
+        s_max / s_min
+    } else {
+        f64::INFINITY
+    };
+    let mut relative_std = vec![f64::INFINITY; sub.ncols()];
+    let mut high_correlations = Vec::new();
+    if let Some(cov) = &lin.covariance {
+        for (i, &c) in live.iter().enumerate() {
+            relative_std[c] = cov[(i, i)].sqrt();
+        }
+        let corr = correlation(cov);
+        for a in 0..live.len() {
+            for b in a + 1..live.len() {
+                if corr[(a, b)].abs() > correlation_warning {
+                    high_correlations.push(CorrelatedPair {
+                        a: parameters[live[a]].clone(),
+                        b: parameters[live[b]].clone(),
+                        correlation: corr[(a, b)],
+                    });
+                }
+            }
+        }
+    }
+    JacobianAnalysis {
+        parameters,
+        sensitivities,
+        singular_values,
+        condition_number,
+        relative_std,
+        high_correlations,
+    }
+}
+
+/// Settings of [`select_identifiable`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Screen {
+    pub rcond: f64,
+    pub max_relative_std: f64,
+    pub correlation_warning: f64,
+    pub stage: Stage,
+}
+
+/// Splits `cols` into the identifiable ones and the rest (module docs, rules 1–3), greedily:
+/// one parameter at a time, recomputing after each removal.
+///
+/// `priority[c]` is column `c`'s position in the model's parameter order (the tie-break).
+pub(crate) fn select_identifiable(
+    j: &DMatrix<f64>,
+    cols: &[usize],
+    names: &[String],
+    priority: &[usize],
+    blocks: &[Range<usize>],
+    lambda: &[f64],
+    screen: Screen,
+) -> (Vec<usize>, Vec<NotIdentifiable>) {
+    let mut keep: Vec<usize> = cols.to_vec();
+    let mut removed = Vec::new();
+    let max_norm = keep.iter().map(|&c| j.column(c).norm()).fold(0.0, f64::max);
+    // Rule 1: zero columns (bitwise zero when the outputs do not depend on the parameter;
+    // the relative floor catches round-off in a column that should be zero).
+    keep.retain(|&c| {
+        let norm = j.column(c).norm();
+        let zero = !(norm > 1e-10 * max_norm) || !norm.is_finite();
+        if zero {
+            removed.push(NotIdentifiable {
+                name: names[c].clone(),
+                reason: Unidentifiable::NoSensitivity,
+                stage: screen.stage,
+                correlated_with: Vec::new(),
+            });
+        }
+        !zero
+    });
+    while !keep.is_empty() {
+        let sub = j.select_columns(&keep);
+        let lin = linearise(&sub, blocks, lambda, screen.rcond);
+        let n = keep.len();
+        let s_max = lin.singular_values.first().copied().unwrap_or(0.0);
+        let s_min = lin.singular_values.last().copied().unwrap_or(0.0);
+        // The group of parameters sharing an undetermined direction, and the reason.
+        let (group, undetermined, correlated_with): (Vec<usize>, Option<f64>, Vec<(String, f64)>) =
+            if !(s_min > screen.rcond * s_max) {
+                // Rule 2: the null direction, in scaled units (D⁻¹ v).
+                let v = lin.v.column(n - 1);
+                let u: Vec<f64> = (0..n).map(|i| v[i] / lin.norms[i]).collect();
+                let u_max = u.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+                let group = (0..n).filter(|&i| u[i].abs() >= 0.5 * u_max).collect();
+                (group, None, Vec::new())
+            } else {
+                let Some(cov) = lin.covariance else { break };
+                let rel: Vec<f64> = (0..n).map(|i| cov[(i, i)].sqrt()).collect();
+                let Some((worst, &worst_std)) =
+                    rel.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))
+                else {
+                    break;
+                };
+                if !(worst_std > screen.max_relative_std) {
+                    break;
+                }
+                let corr = correlation(&cov);
+                let correlated: Vec<usize> = (0..n)
+                    .filter(|&i| i != worst && corr[(worst, i)].abs() > screen.correlation_warning)
+                    .collect();
+                let mut group: Vec<usize> = correlated
+                    .iter()
+                    .copied()
+                    .filter(|&i| rel[i] >= 0.5 * worst_std)
+                    .collect();
+                group.push(worst);
+                let correlated_with = correlated
+                    .iter()
+                    .map(|&i| (names[keep[i]].clone(), corr[(worst, i)]))
+                    .collect();
+                (group, Some(worst_std), correlated_with)
+            };
+        let pick = group
+            .iter()
+            .copied()
+            .min_by_key(|&i| priority[keep[i]])
+            .unwrap_or(n - 1);
+        let with: Vec<String> = group
+            .iter()
+            .filter(|&&i| i != pick)
+            .map(|&i| names[keep[i]].clone())
+            .collect();
+        let reason = match undetermined {
+            Some(relative_std) if with.is_empty() => Unidentifiable::Undetermined {
+                relative_std,
+                limit: screen.max_relative_std,
+            },
+            _ => Unidentifiable::Collinear { with },
+        };
+        removed.push(NotIdentifiable {
+            name: names[keep[pick]].clone(),
+            reason,
+            stage: screen.stage,
+            correlated_with,
+        });
+        keep.remove(pick);
+    }
+    (keep, removed)
+}

@@ -1,0 +1,396 @@
+//! Grey-box estimation of any model's physical parameters (thesis 3.2.3, 5.2.6; SPEC §4),
+//! the counterpart of MATLAB's `nlgreyest` with simulation focus.
+//!
+//! * [`GreyboxProblem`] — what is minimised: a model (its current values are the nominal
+//!   point), estimation runs, freed parameters with bounds, output weights. The loss and its
+//!   normalisation are documented there.
+//! * [`GreyboxOptions`] — how: iterations, tolerances, finite-difference step,
+//!   identifiability policy.
+//! * [`estimate`] — the executor: nominal simulation → Jacobian and identifiability check →
+//!   Levenberg–Marquardt on the identifiable parameters → Jacobian at the estimate →
+//!   (if more parameters turn out undetermined: fix them and refit) → uncertainty and report.
+//!   Progress goes to an [`Observer`](crate::progress::Observer).
+//!
+//! Parameters are scaled to O(1) relative to their nominal values, and bounds are handled by
+//! projection with an exterior penalty (see the `evaluate` module). The Jacobian is a forward
+//! difference, one simulation of every run per freed parameter, computed in parallel with
+//! rayon. Each run starts from its own static equilibrium at its first measured sample.
+//!
+//! Assumptions behind the reported standard deviations: the model structure is right and the
+//! residuals are white within each (run, output) block; model error (the real truck is richer
+//! than any of the models) makes residuals coloured, and the standard deviations are then
+//! optimistic — read them as a lower bound and compare fits across runs.
+
+mod evaluate;
+pub mod identifiability;
+mod problem;
+mod result;
+mod solver;
+
+use std::time::Instant;
+
+pub use evaluate::{HEIGHT_RESOLUTION_M, PRESSURE_RESOLUTION_PA};
+pub use identifiability::{
+    CorrelatedPair, JacobianAnalysis, NotIdentifiable, Stage, Unidentifiable,
+};
+pub use problem::{
+    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
+    OutputWeights,
+};
+pub use result::{
+    Correlation, EstimatedParameter, GreyboxEstimate, IdentifiabilityReport, ParameterStatus,
+    RunFit, StopReason,
+};
+
+use airsus_validate::nrmse_percent;
+
+use crate::error::EstimateError;
+use crate::progress::Observer;
+use evaluate::{Evaluator, Responses, noise_variance_from_data};
+use identifiability::{Screen, analyse, correlation, linearise, select_identifiable};
+use solver::{FitSettings, fit};
+
+/// After a fit, parameters found undetermined are fixed and the rest refitted, at most this
+/// many rounds in all.
+const MAX_ROUNDS: usize = 3;
+
+fn check_options(o: &GreyboxOptions) -> Result<(), EstimateError> {
+    let bad = |s: String| Err(EstimateError::InvalidOption(s));
+    if o.max_iterations == 0 {
+        return bad("max_iterations must be at least 1".to_owned());
+    }
+    if !(o.tolerance.is_finite() && o.tolerance > 0.0) {
+        return bad(format!("tolerance must be positive, got {}", o.tolerance));
+    }
+    if !(o.fd_step.is_finite() && o.fd_step > 0.0 && o.fd_step < 0.5) {
+        return bad(format!("fd_step must be in (0, 0.5), got {}", o.fd_step));
+    }
+    if !(o.max_relative_std.is_finite() && o.max_relative_std > 0.0) {
+        return bad(format!(
+            "max_relative_std must be positive, got {}",
+            o.max_relative_std
+        ));
+    }
+    if !(o.rcond.is_finite() && o.rcond > 0.0 && o.rcond < 1.0) {
+        return bad(format!("rcond must be in (0, 1), got {}", o.rcond));
+    }
+    if !(o.correlation_warning > 0.0 && o.correlation_warning <= 1.0) {
+        return bad(format!(
+            "correlation_warning must be in (0, 1], got {}",
+            o.correlation_warning
+        ));
+    }
+    Ok(())
+}
+
+fn run_fits(ev: &Evaluator<'_>, nominal: &Responses, estimated: &Responses) -> Vec<RunFit> {
+    let fit = |measured: &[f64], r: &Responses, k: usize, height: bool| {
+        r[k].as_ref().ok().and_then(|sim| {
+            let s = if height {
+                &sim.sensor_height_m
+            } else {
+                &sim.bellow_gauge_pa
+            };
+            nrmse_percent(measured, s).ok()
+        })
+    };
+    ev.runs
+        .iter()
+        .enumerate()
+        .map(|(k, run)| RunFit {
+            run: run.name.clone(),
+            samples: run.height.len(),
+            height_nominal_percent: fit(run.height, nominal, k, true),
+            height_estimated_percent: fit(run.height, estimated, k, true),
+            pressure_nominal_percent: fit(run.pressure, nominal, k, false),
+            pressure_estimated_percent: fit(run.pressure, estimated, k, false),
+        })
+        .collect()
+}
+
+/// Per-block noise variances from residuals, with the `p` degrees of freedom spent on the
+/// parameters shared out in proportion to block length.
+fn noise_variance_from_residuals(
+    r: &[f64],
+    blocks: &[std::ops::Range<usize>],
+    n_params: usize,
+) -> Vec<f64> {
+    let n: usize = blocks.iter().map(|b| b.len()).sum();
+    blocks
+        .iter()
+        .map(|b| {
+            let rss: f64 = r[b.clone()].iter().map(|x| x * x).sum();
+            let dof = b.len() as f64 * (1.0 - n_params as f64 / n as f64);
+            rss / dof.max(1.0)
+        })
+        .collect()
+}
+
+/// The Jacobian with all freed parameters as columns, computed for `cols` only (the others
+/// are held fixed: zero columns), so column indices stay parameter indices.
+fn jacobian_full(
+    ev: &Evaluator<'_>,
+    z: &[f64],
+    cols: &[usize],
+    r: &[f64],
+    fd_step: f64,
+) -> nalgebra::DMatrix<f64> {
+    let part = ev.jacobian(z, cols, r, fd_step);
+    let mut j = nalgebra::DMatrix::zeros(r.len(), z.len());
+    for (k, &c) in cols.iter().enumerate() {
+        j.set_column(c, &part.column(k));
+    }
+    j
+}
+
+/// Estimates the freed parameters of `problem` (module docs). Fails only on malformed
+/// problems and on a start that does not simulate; a fit that does not converge returns its
+/// best point with a [`StopReason`] saying so.
+pub fn estimate(
+    problem: &GreyboxProblem<'_>,
+    options: &GreyboxOptions,
+    observer: &mut dyn Observer,
+) -> Result<GreyboxEstimate, EstimateError> {
+    check_options(options)?;
+    let started = Instant::now();
+    let mut ev = Evaluator::new(problem)?;
+    ev.parallel = options.parallel;
+    let names: Vec<String> = ev.params.iter().map(|p| p.name.clone()).collect();
+    // Tie-break of the identifiability screen: position in the model's parameter order.
+    let priority: Vec<usize> = names
+        .iter()
+        .map(|n| {
+            problem
+                .model
+                .parameter_info()
+                .iter()
+                .position(|i| i.name == n.as_str())
+                .unwrap_or(usize::MAX)
+        })
+        .collect();
+    let n = names.len();
+    let blocks = ev.blocks();
+    let n_data = ev.n_data();
+
+    observer.stage("simulating the nominal parameters");
+    let z0 = vec![0.0; n];
+    let nominal = ev.simulate(&ev.theta(&z0))?;
+    for (run, response) in ev.runs.iter().zip(&nominal) {
+        if let Err(e) = response {
+            return Err(EstimateError::StartDoesNotSimulate {
+                run: run.name.clone(),
+                source: Box::new(e.clone()),
+            });
+        }
+    }
+    let mut r0 = vec![0.0; n_data];
+    ev.residuals_into(&nominal, 0.0, &mut r0);
+    let loss0: f64 = r0.iter().map(|r| r * r).sum();
+    let rms0 = (loss0 / n_data as f64).sqrt();
+    // A failed run's residuals: far above anything a simulating model reaches from here.
+    let fail_value = 10.0 * rms0.max(1.0);
+    let kappa = 100.0 * (n_data as f64).sqrt() * rms0.max(1.0);
+
+    let all: Vec<usize> = (0..n).collect();
+    observer.stage("Jacobian at the nominal point");
+    let j0 = ev.jacobian(&z0, &all, &r0, options.fd_step);
+    let lambda_data = noise_variance_from_data(&ev);
+    let before = analyse(
+        &j0,
+        &all,
+        &names,
+        &blocks,
+        &lambda_data,
+        options.rcond,
+        options.correlation_warning,
+    );
+    let screen = |stage| Screen {
+        rcond: options.rcond,
+        max_relative_std: options.max_relative_std,
+        correlation_warning: options.correlation_warning,
+        stage,
+    };
+    let (identifiable, mut not_identifiable) = select_identifiable(
+        &j0,
+        &all,
+        &names,
+        &priority,
+        &blocks,
+        &lambda_data,
+        screen(Stage::BeforeFit),
+    );
+    let fix = options.policy == IdentifiabilityPolicy::FixAtNominal;
+    let mut active = if fix { identifiable } else { all.clone() };
+
+    let mut z = z0.clone();
+    let mut residuals = r0.clone();
+    let mut stop = StopReason::NothingToEstimate;
+    let mut iterations = 0;
+    let mut rounds = 0;
+    let mut final_j = None;
+    let mut lambda_post = lambda_data.clone();
+    while !active.is_empty() && rounds < MAX_ROUNDS {
+        rounds += 1;
+        observer.stage(&format!("fit round {rounds}"));
+        let settings = FitSettings {
+            fd_step: options.fd_step,
+            tolerance: options.tolerance,
+            max_iterations: options.max_iterations,
+            fail_value,
+            kappa,
+            round: rounds,
+        };
+        let outcome = fit(&ev, &active, z, residuals, &settings, observer);
+        z = outcome.z;
+        residuals = outcome.residuals;
+        stop = outcome.stop;
+        iterations += outcome.iterations;
+
+        observer.stage("Jacobian at the estimate");
+        let j = jacobian_full(&ev, &z, &active, &residuals, options.fd_step);
+        lambda_post = noise_variance_from_residuals(&residuals, &blocks, active.len());
+        // Screened even when the fit did not converge: wandering along a flat direction is a
+        // common reason not to converge, and fixing that parameter lets the refit converge.
+        let (keep, newly) = select_identifiable(
+            &j,
+            &active,
+            &names,
+            &priority,
+            &blocks,
+            &lambda_post,
+            screen(Stage::AfterFit),
+        );
+        let refit = fix && !newly.is_empty() && rounds < MAX_ROUNDS;
+        for n in &newly {
+            if !not_identifiable.iter().any(|m| m.name == n.name) {
+                not_identifiable.push(n.clone());
+            }
+        }
+        final_j = Some(j);
+        if !refit {
+            if fix && !newly.is_empty() {
+                // Out of rounds: still never return values the data do not determine.
+                for n in &newly {
+                    if let Some(i) = names.iter().position(|m| *m == n.name) {
+                        z[i] = 0.0;
+                    }
+                }
+                active = keep;
+            }
+            break;
+        }
+        for n in &newly {
+            if let Some(i) = names.iter().position(|m| *m == n.name) {
+                z[i] = 0.0;
+            }
+        }
+        active = keep;
+        if let Some(r) = ev.residuals_at(&z) {
+            residuals = r;
+        }
+    }
+
+    // Uncertainty of the estimated parameters at the final point.
+    observer.stage("uncertainty and report");
+    let (after, cov) = match (&final_j, active.is_empty()) {
+        (Some(j), false) => {
+            let live: Vec<usize> = active
+                .iter()
+                .copied()
+                .filter(|&c| j.column(c).norm() > 0.0)
+                .collect();
+            let after = analyse(
+                j,
+                &active,
+                &names,
+                &blocks,
+                &lambda_post,
+                options.rcond,
+                options.correlation_warning,
+            );
+            let lin = linearise(
+                &j.select_columns(&live),
+                &blocks,
+                &lambda_post,
+                options.rcond,
+            );
+            (Some(after), lin.covariance.map(|c| (live, c)))
+        }
+        _ => (None, None),
+    };
+    let theta = ev.theta(&z);
+    let mut parameters = Vec::with_capacity(n);
+    for (i, p) in ev.params.iter().enumerate() {
+        let flagged = not_identifiable.iter().any(|m| m.name == p.name);
+        let (lo, hi) = p.z_range();
+        let at_bound = z[i] <= lo + 1e-9 || z[i] >= hi - 1e-9;
+        let std = cov.as_ref().and_then(|(live, c)| {
+            live.iter()
+                .position(|&l| l == i)
+                .map(|k| p.scale * c[(k, k)].sqrt())
+        });
+        let status = if flagged && fix {
+            ParameterStatus::FixedNotIdentifiable
+        } else if flagged {
+            ParameterStatus::NotIdentifiable
+        } else if at_bound {
+            ParameterStatus::AtBound
+        } else {
+            ParameterStatus::Estimated
+        };
+        parameters.push(EstimatedParameter {
+            name: p.name.clone(),
+            unit: p.unit.clone(),
+            nominal: p.nominal,
+            estimate: theta[i],
+            std: match status {
+                ParameterStatus::Estimated | ParameterStatus::NotIdentifiable => std,
+                _ => None,
+            },
+            lower: p.lower,
+            upper: p.upper,
+            status,
+        });
+    }
+    let correlation_matrix = match &cov {
+        Some((live, c)) => {
+            let corr = correlation(c);
+            Correlation {
+                parameters: live.iter().map(|&i| names[i].clone()).collect(),
+                values: (0..live.len())
+                    .map(|r| (0..live.len()).map(|c| corr[(r, c)]).collect())
+                    .collect(),
+            }
+        }
+        None => Correlation {
+            parameters: Vec::new(),
+            values: Vec::new(),
+        },
+    };
+    let estimated_model = ev.model_at(&theta)?;
+    let estimated = ev.simulate(&theta)?;
+    let mut r_final = vec![0.0; n_data];
+    ev.residuals_into(&estimated, fail_value, &mut r_final);
+    let fits = run_fits(&ev, &nominal, &estimated);
+    observer.finish();
+    Ok(GreyboxEstimate {
+        model: ev.base.name().to_owned(),
+        parameters,
+        fits,
+        identifiability: IdentifiabilityReport {
+            before,
+            after,
+            not_identifiable,
+        },
+        correlation: correlation_matrix,
+        stop,
+        iterations,
+        rounds,
+        simulations: ev.simulations(),
+        failed_simulations: ev.failures(),
+        loss_nominal: loss0 / n_data as f64,
+        loss_estimated: r_final.iter().map(|r| r * r).sum::<f64>() / n_data as f64,
+        elapsed_s: started.elapsed().as_secs_f64(),
+        estimated_model,
+    })
+}

@@ -1,0 +1,196 @@
+//! The grey-box *problem* (what is minimised) and the *options* of the solver (how), kept
+//! apart as in argmin; [`super::estimate`] is the executor that runs them.
+
+use airsus_data::Run;
+use airsus_model::SuspensionModel;
+use airsus_sim::SolverOptions;
+
+/// One freed parameter: a short name of the model (SPEC §5, `parameter_info`) and optional
+/// bounds that narrow the model's admissible range (its [`airsus_model::ParameterInfo`]
+/// bounds are the default).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FreeParameter {
+    pub name: String,
+    pub lower: Option<f64>,
+    pub upper: Option<f64>,
+}
+
+impl FreeParameter {
+    pub fn new(name: impl Into<String>) -> Self {
+        Self {
+            name: name.into(),
+            lower: None,
+            upper: None,
+        }
+    }
+
+    pub fn with_bounds(mut self, lower: f64, upper: f64) -> Self {
+        self.lower = Some(lower);
+        self.upper = Some(upper);
+        self
+    }
+}
+
+/// What fixes each run's initial static equilibrium (the runs start at rest).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InitialChoice {
+    /// The first measured sensor height (default). The reference truck works near the flat
+    /// top of the effective area, where a pressure pins the height down poorly (see
+    /// `airsus_model` corner docs); the height also makes the initial pressure a *prediction*
+    /// of the parameters (force balance), which is information for `p0..p4` and `m2`.
+    #[default]
+    SensorHeight,
+    /// The first measured bellow pressure.
+    BellowPressure,
+}
+
+/// Relative weights of the two outputs in the loss (after normalisation, see
+/// [`GreyboxProblem`]); `0` leaves an output out.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct OutputWeights {
+    pub height: f64,
+    pub pressure: f64,
+}
+
+impl Default for OutputWeights {
+    fn default() -> Self {
+        Self {
+            height: 1.0,
+            pressure: 1.0,
+        }
+    }
+}
+
+/// A grey-box estimation problem (thesis 3.2.3/5.2.6, SPEC §4): a model whose current
+/// parameter values are the nominal (start) point, the estimation runs, and the freed
+/// parameters.
+///
+/// The loss is the simulation error (thesis eq 3.29 with `ŷ` the *simulated* output, as
+/// MATLAB `greyest`/`nlgreyest` with simulation focus), summed over all runs, each run
+/// starting from its own static equilibrium:
+///
+/// ```text
+/// V(θ) = Σ_runs Σ_k  w_h² (h_k − ĥ_k(θ))² / σ_h,r²  +  w_p² (p_k − p̂_k(θ))² / σ_p,r²
+/// ```
+///
+/// with `σ_h,r`, `σ_p,r` the standard deviations of the measured height and pressure of run
+/// `r` (floored at the sensor resolutions 0.1 mm and 0.1 kPa, SPEC §1). Normalising by the
+/// spread makes both outputs dimensionless and comparable: a run's term is
+/// `N_r ((1 − NRMSE_h/100)² + (1 − NRMSE_p/100)²)` (eq 3.33), so neither output dominates
+/// by its units (metres against pascals differ by 10⁷), and a long run counts in proportion
+/// to its length.
+#[derive(Debug, Clone)]
+pub struct GreyboxProblem<'a> {
+    pub model: &'a dyn SuspensionModel,
+    pub runs: Vec<&'a Run>,
+    pub free: Vec<FreeParameter>,
+    pub weights: OutputWeights,
+    pub initial: InitialChoice,
+    /// ODE solver options of every simulation (default: BDF, rtol 1e-6, as `airsus-sim`).
+    pub solver: SolverOptions,
+}
+
+impl<'a> GreyboxProblem<'a> {
+    /// A problem freeing `free` (short names, default bounds) on `runs`.
+    pub fn new(model: &'a dyn SuspensionModel, runs: &[&'a Run], free: &[&str]) -> Self {
+        Self {
+            model,
+            runs: runs.to_vec(),
+            free: free.iter().map(|n| FreeParameter::new(*n)).collect(),
+            weights: OutputWeights::default(),
+            initial: InitialChoice::default(),
+            solver: SolverOptions::default(),
+        }
+    }
+
+    /// Narrows the bounds of a freed parameter (no effect if `name` is not freed; the
+    /// estimator validates them).
+    pub fn with_bounds(mut self, name: &str, lower: f64, upper: f64) -> Self {
+        for p in &mut self.free {
+            if p.name == name {
+                p.lower = Some(lower);
+                p.upper = Some(upper);
+            }
+        }
+        self
+    }
+
+    pub fn with_weights(mut self, weights: OutputWeights) -> Self {
+        self.weights = weights;
+        self
+    }
+
+    pub fn with_initial(mut self, initial: InitialChoice) -> Self {
+        self.initial = initial;
+        self
+    }
+
+    pub fn with_solver(mut self, solver: SolverOptions) -> Self {
+        self.solver = solver;
+        self
+    }
+}
+
+/// What to do with freed parameters the runs cannot determine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IdentifiabilityPolicy {
+    /// Keep them at their nominal values and estimate the rest (default).
+    #[default]
+    FixAtNominal,
+    /// Estimate them anyway; only report (their values are then arbitrary along the
+    /// undetermined direction).
+    ReportOnly,
+}
+
+/// How the solver works and when it stops.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GreyboxOptions {
+    /// Levenberg–Marquardt iterations (Jacobian evaluations) per fit, at least 1.
+    pub max_iterations: usize,
+    /// Relative tolerance on the loss decrease and on the scaled parameter step (MINPACK
+    /// `ftol`, `xtol`).
+    pub tolerance: f64,
+    /// Forward-difference step in scaled coordinates (a fraction of each parameter's scale,
+    /// usually its nominal magnitude).
+    pub fd_step: f64,
+    pub policy: IdentifiabilityPolicy,
+    /// A parameter (or a direction of parameters) whose standard deviation exceeds this
+    /// fraction of its scale is "not determined by these runs".
+    pub max_relative_std: f64,
+    /// Singular values of the column-normalised Jacobian below `rcond · s_max` count as a
+    /// structural rank deficiency.
+    pub rcond: f64,
+    /// Correlations above this (in magnitude) are reported.
+    pub correlation_warning: f64,
+    /// Parallelise the finite-difference Jacobian (and runs) with rayon.
+    pub parallel: bool,
+}
+
+impl Default for GreyboxOptions {
+    fn default() -> Self {
+        Self {
+            max_iterations: 100,
+            tolerance: 1e-8,
+            fd_step: 1e-4,
+            policy: IdentifiabilityPolicy::default(),
+            max_relative_std: 0.5,
+            rcond: 1e-7,
+            correlation_warning: 0.99,
+            parallel: true,
+        }
+    }
+}
+
+impl GreyboxOptions {
+    pub fn with_max_iterations(mut self, n: usize) -> Self {
+        self.max_iterations = n;
+        self
+    }
+
+    pub fn with_policy(mut self, policy: IdentifiabilityPolicy) -> Self {
+        self.policy = policy;
+        self
+    }
+}

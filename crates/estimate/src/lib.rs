@@ -1,0 +1,37 @@
+//! # airsus-estimate: grey-box estimation and submodel fits (thesis 5.2)
+//!
+//! * [`greybox`] — any model, any named subset of its parameters, free or fixed, with
+//!   bounds, fitted by minimising the normalised simulation error of height and pressure over
+//!   one or more runs at once (thesis 3.2.3, 5.2.6, Tables 5.10–5.12; ≙ MATLAB `nlgreyest`).
+//!   Problem, options and executor are separate (argmin); the stop reason is a value, not an
+//!   error; identifiability is checked before and after the fit and undetermined parameters
+//!   are kept at their nominal values.
+//! * [`submodel`] — the thesis' submodel fits as plain functions from data: gas-volume
+//!   cross-section (eq 5.1–5.3), effective area (eq 3.16/5.4), valve flow resistances
+//!   (eq 3.19/5.5/5.6) and the slow-dynamics OE block (5.2.4).
+//! * [`progress`] — observers of a running estimation (an `indicatif` display on a
+//!   terminal).
+//!
+//! ```text
+//! let model = build_model("m2", &truck)?;
+//! let problem = GreyboxProblem::new(&*model, &[&ds1, &ds3], &["p0", "p1", "m2", "rflow1"]);
+//! let result = estimate(&problem, &GreyboxOptions::default(), &mut TerminalProgress::new())?;
+//! println!("{result}");                       // NRMSE table, estimates ± std, notes
+//! result.estimated_model.write_parameters(&mut truck);
+//! ```
+
+// `!(x > limit)` is deliberate throughout: it is true for NaN, so a NaN fails every check
+// instead of slipping through as `x <= limit` would let it.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod error;
+pub mod greybox;
+pub mod progress;
+pub mod submodel;
+
+pub use error::EstimateError;
+pub use greybox::{
+    FreeParameter, GreyboxEstimate, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
+    InitialChoice, OutputWeights, StopReason, estimate,
+};
+pub use progress::{IterationInfo, NoProgress, Observer, TerminalProgress};

@@ -1,0 +1,337 @@
+//! Gas-volume cross-section `A(h) = A0 + A1 h` from a closed-valve run (thesis 5.2.1,
+//! eq 5.1–5.3, Table 5.1).
+//!
+//! With the valve closed the amount of air `n` is constant (eq 3.18), so the ideal gas law
+//! (eq 3.17) with `V = h A(h)` gives, sample by sample,
+//!
+//! ```text
+//! p_abs,k = n R T / (h_k (A0 + A1 h_k)) = C / (h_k (1 + c h_k)),   c = A1/A0,  C = n R T / A0
+//! ```
+//!
+//! with `h_k` the bellow height from the measured sensor height (SPEC §1 map inverted:
+//! `h_b = h0 + k_l (s + k_scl m_tot g − h0)`) and `p_abs` the measured gauge pressure plus
+//! ambient.
+//!
+//! **What a closed-valve run can and cannot determine (SPEC §4).** `A0`, `A1` and `n` enter
+//! only through `C` and `c`: scaling `A0`, `A1` by any factor and `n` by the same factor
+//! leaves every pressure unchanged. So the run fixes the *shape* `c = A1/A0` (and the
+//! nuisance constant `C`), never the scale `A0`. We fit `(C, c)` by Gauss–Newton (separable
+//! least squares, `C` in closed form for the start) and resolve the scale by
+//! [`CrossSectionScale`]: keep `A0` from the nominal truck (default) and set `A1 = c A0`, or
+//! take it from a known circuit volume at one height. The scale matters only when air
+//! flows (it converts moles to pascals); [`crate::greybox`] can fit it from valve runs.
+//!
+//! NRMSE of the pressure model (Table 5.1): on the estimation run with its fitted `C`; on a
+//! validation run with `c` fixed and that run's own `C` (its own amount of air) fitted by
+//! least squares in closed form.
+
+use airsus_data::{Run, TruckParameters, ValveState};
+use airsus_model::submodels::{bellow_height_from_axle_m, cross_section_m2};
+use airsus_validate::nrmse_percent;
+use serde::Serialize;
+
+use crate::error::EstimateError;
+
+const FIT: &str = "cross-section fit";
+
+/// How the scale `A0`, which a closed-valve run cannot determine, is fixed.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum CrossSectionScale {
+    /// `A0` from the nominal truck, `A1 = c A0` (default).
+    #[default]
+    KeepA0,
+    /// The circuit's gas volume is known at one bellow height: `V = h A0 (1 + c h)`.
+    KnownVolume {
+        bellow_height_m: f64,
+        volume_m3: f64,
+    },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct CrossSectionOptions {
+    pub scale: CrossSectionScale,
+    /// Gauss–Newton iterations (each cheap: two parameters).
+    pub max_iterations: usize,
+}
+
+impl Default for CrossSectionOptions {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl CrossSectionOptions {
+    pub fn new() -> Self {
+        Self {
+            scale: CrossSectionScale::KeepA0,
+            max_iterations: 50,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CrossSectionFit {
+    /// `c = A1/A0`, 1/m: the shape, what the run determines.
+    pub ratio_per_m: f64,
+    pub ratio_std_per_m: f64,
+    pub a0_m2: f64,
+    pub a1_m: f64,
+    /// Standard deviation of `A1` given `A0` (`A0 · std(c)`).
+    pub a1_std_m: f64,
+    pub scale: CrossSectionScale,
+    /// `C = n R T / A0`, Pa·m: the run's amount of air (nuisance).
+    pub constant_pa_m: f64,
+    pub samples: usize,
+    /// Bellow heights covered, m.
+    pub bellow_height_range_m: (f64, f64),
+    /// NRMSE of the pressure model on the estimation run, percent.
+    pub nrmse_estimation_percent: f64,
+    /// Per validation run: name and NRMSE, percent.
+    pub nrmse_validation_percent: Vec<(String, f64)>,
+    pub converged: bool,
+}
+
+impl CrossSectionFit {
+    /// Writes `A0`, `A1` into a truck.
+    pub fn write_to(&self, truck: &mut TruckParameters) {
+        truck.bellow.cross_section_m2 = [self.a0_m2, self.a1_m];
+    }
+}
+
+/// Bellow heights (m) and absolute pressures (Pa) of a closed-valve run.
+fn heights_and_pressures(
+    run: &Run,
+    truck: &TruckParameters,
+) -> Result<(Vec<f64>, Vec<f64>), EstimateError> {
+    let bad = |reason: String| EstimateError::InsufficientData {
+        fit: FIT,
+        reason: format!("run `{}`: {reason}", run.name),
+    };
+    let out = run
+        .outputs
+        .as_ref()
+        .ok_or_else(|| bad("it has no measured height and pressure".to_owned()))?;
+    if let Some(k) = run
+        .inputs
+        .valve
+        .iter()
+        .position(|v| *v != ValveState::Closed)
+    {
+        return Err(bad(format!(
+            "the valve is open at t = {} s; eq 5.2 needs a constant amount of air (valve closed throughout)",
+            run.time_s[k]
+        )));
+    }
+    let g = &truck.geometry;
+    let kl = g.lever_gain();
+    let grav = truck.environment.gravity_m_s2;
+    let amb = truck.environment.ambient_pressure_pa;
+    let mut h = Vec::with_capacity(run.len());
+    let mut p = Vec::with_capacity(run.len());
+    for k in 0..run.len() {
+        let axle = out.sensor_height_m[k]
+            + g.lever_compliance_m_per_n * run.inputs.wheel_load_kg[k] * grav;
+        let hb = bellow_height_from_axle_m(g.h0_m, kl, axle);
+        let pa = out.bellow_gauge_pa[k] + amb;
+        if !(hb.is_finite() && hb > 0.0 && pa.is_finite() && pa > 0.0) {
+            return Err(bad(format!(
+                "sample {k}: bellow height {hb} m and absolute pressure {pa} Pa are not physical"
+            )));
+        }
+        h.push(hb);
+        p.push(pa);
+    }
+    if h.len() < 3 {
+        return Err(bad(format!("{} samples; at least 3 are needed", h.len())));
+    }
+    Ok((h, p))
+}
+
+/// `g_k = 1/(h (1 + c h))`.
+fn basis(h: &[f64], c: f64) -> Option<Vec<f64>> {
+    h.iter()
+        .map(|&x| {
+            let d = x * (1.0 + c * x);
+            (d > 0.0).then(|| 1.0 / d)
+        })
+        .collect()
+}
+
+/// Closed-form `C` for a fixed shape, and the residual sum of squares.
+fn best_constant(h: &[f64], p: &[f64], c: f64) -> Option<(f64, f64)> {
+    let g = basis(h, c)?;
+    let gg: f64 = g.iter().map(|x| x * x).sum();
+    let gp: f64 = g.iter().zip(p).map(|(a, b)| a * b).sum();
+    let big_c = gp / gg;
+    let rss = g
+        .iter()
+        .zip(p)
+        .map(|(gi, pi)| (pi - big_c * gi).powi(2))
+        .sum();
+    Some((big_c, rss))
+}
+
+/// Fits the shape of the volume law to a closed-valve run (module docs); `validation` runs
+/// (also closed-valve) are scored with the fitted shape.
+pub fn fit_cross_section(
+    run: &Run,
+    validation: &[&Run],
+    truck: &TruckParameters,
+    options: &CrossSectionOptions,
+) -> Result<CrossSectionFit, EstimateError> {
+    let (h, p) = heights_and_pressures(run, truck)?;
+    let h_min = h.iter().copied().fold(f64::INFINITY, f64::min);
+    let h_max = h.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if !(h_max - h_min > 1e-4) {
+        return Err(EstimateError::InsufficientData {
+            fit: FIT,
+            reason: format!(
+                "the bellow height hardly changes ({:.3} mm): the run needs load steps that move it",
+                (h_max - h_min) * 1e3
+            ),
+        });
+    }
+    let nominal = truck.bellow.cross_section_m2;
+    let mut c = nominal[1] / nominal[0];
+    let Some((mut big_c, mut rss)) = best_constant(&h, &p, c) else {
+        return Err(EstimateError::InsufficientData {
+            fit: FIT,
+            reason: "the nominal cross-section gives a non-positive volume over the run".to_owned(),
+        });
+    };
+    // Gauss–Newton on (C, c) with step halving: ∂p̂/∂C = g, ∂p̂/∂c = −C h² g².
+    let mut converged = false;
+    let max_iterations = options.max_iterations.max(1);
+    for _ in 0..max_iterations {
+        let Some(g) = basis(&h, c) else { break };
+        let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for k in 0..h.len() {
+            let j1 = g[k];
+            let j2 = -big_c * h[k] * h[k] * g[k] * g[k];
+            let r = p[k] - big_c * g[k];
+            a11 += j1 * j1;
+            a12 += j1 * j2;
+            a22 += j2 * j2;
+            b1 += j1 * r;
+            b2 += j2 * r;
+        }
+        let det = a11 * a22 - a12 * a12;
+        if !(det > 0.0) {
+            break;
+        }
+        let d_big_c = (a22 * b1 - a12 * b2) / det;
+        let dc = (a11 * b2 - a12 * b1) / det;
+        let mut step = 1.0;
+        let mut improved = false;
+        while step > 1e-6 {
+            let (nc, nbc) = (c + step * dc, big_c + step * d_big_c);
+            if let Some(gn) = basis(&h, nc) {
+                let nrss: f64 = gn
+                    .iter()
+                    .zip(&p)
+                    .map(|(gi, pi)| (pi - nbc * gi).powi(2))
+                    .sum();
+                if nrss <= rss {
+                    let rel = (rss - nrss) / rss.max(f64::MIN_POSITIVE);
+                    c = nc;
+                    big_c = nbc;
+                    rss = nrss;
+                    improved = true;
+                    if rel < 1e-14 || (dc * step).abs() < 1e-12 * (1.0 + c.abs()) {
+                        converged = true;
+                    }
+                    break;
+                }
+            }
+            step *= 0.5;
+        }
+        if !improved {
+            converged = true; // no descent direction left: a minimum to rounding
+            break;
+        }
+        if converged {
+            break;
+        }
+    }
+    // Standard deviations: σ² (JᵀJ)⁻¹ at the optimum.
+    let g = basis(&h, c).unwrap_or_default();
+    let (mut a11, mut a12, mut a22) = (0.0, 0.0, 0.0);
+    for k in 0..g.len() {
+        let j1 = g[k];
+        let j2 = -big_c * h[k] * h[k] * g[k] * g[k];
+        a11 += j1 * j1;
+        a12 += j1 * j2;
+        a22 += j2 * j2;
+    }
+    let det = a11 * a22 - a12 * a12;
+    let sigma2 = rss / (h.len() as f64 - 2.0);
+    let ratio_std = if det > 0.0 {
+        (sigma2 * a11 / det).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    let fitted: Vec<f64> = g.iter().map(|gi| big_c * gi).collect();
+    let nrmse_estimation_percent =
+        nrmse_percent(&p, &fitted).map_err(|e| EstimateError::InsufficientData {
+            fit: FIT,
+            reason: format!("NRMSE: {e}"),
+        })?;
+
+    let a0 = match options.scale {
+        CrossSectionScale::KeepA0 => nominal[0],
+        CrossSectionScale::KnownVolume {
+            bellow_height_m,
+            volume_m3,
+        } => {
+            let denom = bellow_height_m * (1.0 + c * bellow_height_m);
+            if !(denom > 0.0 && volume_m3 > 0.0 && volume_m3.is_finite()) {
+                return Err(EstimateError::InvalidOption(format!(
+                    "known volume {volume_m3} m³ at {bellow_height_m} m does not give a positive A0 with c = {c}"
+                )));
+            }
+            volume_m3 / denom
+        }
+    };
+    let mut nrmse_validation_percent = Vec::new();
+    for v in validation {
+        let (hv, pv) = heights_and_pressures(v, truck)?;
+        let nrmse = best_constant(&hv, &pv, c)
+            .and_then(|(cv, _)| {
+                let g = basis(&hv, c)?;
+                let fit: Vec<f64> = g.iter().map(|gi| cv * gi).collect();
+                nrmse_percent(&pv, &fit).ok()
+            })
+            .ok_or_else(|| EstimateError::InsufficientData {
+                fit: FIT,
+                reason: format!(
+                    "validation run `{}`: the fitted shape gives no usable pressure model",
+                    v.name
+                ),
+            })?;
+        nrmse_validation_percent.push((v.name.clone(), nrmse));
+    }
+    // Sanity: the fitted law must give a positive cross-section over the run.
+    if !(cross_section_m2(&[a0, c * a0], h_min) > 0.0
+        && cross_section_m2(&[a0, c * a0], h_max) > 0.0)
+    {
+        return Err(EstimateError::InsufficientData {
+            fit: FIT,
+            reason: format!("the fitted shape c = {c} 1/m gives a non-positive cross-section"),
+        });
+    }
+    Ok(CrossSectionFit {
+        ratio_per_m: c,
+        ratio_std_per_m: ratio_std,
+        a0_m2: a0,
+        a1_m: c * a0,
+        a1_std_m: ratio_std * a0,
+        scale: options.scale,
+        constant_pa_m: big_c,
+        samples: h.len(),
+        bellow_height_range_m: (h_min, h_max),
+        nrmse_estimation_percent,
+        nrmse_validation_percent,
+        converged,
+    })
+}

@@ -1,0 +1,319 @@
+//! Submodel fits recover known parameters from synthetic data (thesis 5.2).
+
+mod common;
+
+use airsus_data::{
+    Channel, ForceMap, Role, RunOutputs, TankDischarge, TruckParameters, ValveState,
+};
+use airsus_estimate::EstimateError;
+use airsus_estimate::submodel::{
+    CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions,
+    SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area, fit_slow_dynamics,
+    fit_valve,
+};
+use airsus_model::build_model;
+use common::{load_step_run, measure, rng, valve_pulse_run};
+use rand_distr::{Distribution, StandardNormal};
+
+#[test]
+fn cross_section_shape_from_a_closed_valve_run() {
+    let truck = TruckParameters::reference();
+    let truth = build_model("m2", &truck).unwrap();
+    let est = measure(
+        &*truth,
+        load_step_run("ds1", 900.0, 3350.0, 300.0, 120.0),
+        0.24,
+        1,
+    );
+    let val = measure(
+        &*truth,
+        load_step_run("ds2", 600.0, 3200.0, 350.0, 90.0),
+        0.25,
+        2,
+    );
+    // Start from a wrong shape: the fit must find a1/a0 = −0.031/0.250 again.
+    let mut start = truck.clone();
+    start.bellow.cross_section_m2 = [0.250, -0.06];
+    let fit = fit_cross_section(&est, &[&val], &start, &CrossSectionOptions::default()).unwrap();
+    let ratio = -0.031 / 0.250;
+    assert!(fit.converged);
+    assert!(
+        (fit.ratio_per_m - ratio).abs() <= 3.0 * fit.ratio_std_per_m,
+        "{} ± {} vs {ratio}",
+        fit.ratio_per_m,
+        fit.ratio_std_per_m
+    );
+    assert!(fit.ratio_std_per_m < 0.2 * ratio.abs());
+    assert_eq!(fit.a0_m2, 0.250, "scale kept from the truck");
+    assert!((fit.a1_m + 0.031).abs() <= 3.0 * fit.a1_std_m);
+    assert!(fit.nrmse_estimation_percent > 90.0, "{fit:?}");
+    assert_eq!(fit.nrmse_validation_percent.len(), 1);
+    assert!(fit.nrmse_validation_percent[0].1 > 90.0, "{fit:?}");
+    // A known volume fixes the scale instead.
+    let v = 0.3 * (0.25 - 0.031 * 0.3);
+    let options = CrossSectionOptions {
+        scale: CrossSectionScale::KnownVolume {
+            bellow_height_m: 0.3,
+            volume_m3: v,
+        },
+        ..CrossSectionOptions::default()
+    };
+    let fit = fit_cross_section(&est, &[], &start, &options).unwrap();
+    assert!((fit.a0_m2 - 0.25).abs() < 0.01, "{}", fit.a0_m2);
+    let mut t = truck.clone();
+    fit.write_to(&mut t);
+    assert_eq!(t.bellow.cross_section_m2, [fit.a0_m2, fit.a1_m]);
+}
+
+#[test]
+fn cross_section_refuses_a_run_with_valve_action() {
+    let truck = TruckParameters::reference();
+    let truth = build_model("m2", &truck).unwrap();
+    let run = measure(
+        &*truth,
+        valve_pulse_run("ds3", 120.0, 3350.0, 60.0, 2.0, 2.0),
+        0.24,
+        3,
+    );
+    let err = fit_cross_section(&run, &[], &truck, &CrossSectionOptions::default()).unwrap_err();
+    assert!(
+        matches!(&err, EstimateError::InsufficientData { reason, .. } if reason.contains("valve is open")),
+        "{err}"
+    );
+    let mut flat = run.clone();
+    flat.inputs.valve = vec![ValveState::Closed; flat.len()];
+    let n = flat.len();
+    flat.outputs = Some(RunOutputs {
+        sensor_height_m: vec![0.24; n],
+        bellow_gauge_pa: vec![350e3; n],
+    });
+    assert!(fit_cross_section(&flat, &[], &truck, &CrossSectionOptions::default()).is_err());
+}
+
+#[test]
+fn effective_area_polynomial_from_a_force_map() {
+    let poly = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941];
+    let area = |h: f64| poly.iter().rev().fold(0.0, |acc, p| acc * h + p);
+    let mut r = rng(7);
+    let mut map = ForceMap::default();
+    for i in 1..=7 {
+        let p = 1e5 * f64::from(i);
+        for k in 0..10 {
+            let h = 0.22 + 0.02 * f64::from(k);
+            for _ in 0..2 {
+                let z: f64 = StandardNormal.sample(&mut r);
+                map.bellow_height_m.push(h);
+                map.bellow_gauge_pa.push(p);
+                map.force_n.push(p * area(h) + 20.0 * z);
+            }
+        }
+    }
+    let fit = fit_effective_area(&map, &EffectiveAreaOptions::default()).unwrap();
+    assert_eq!(fit.per_height.len(), 10);
+    assert_eq!(fit.points, 140);
+    for (i, (est, truth)) in fit.poly.iter().zip(poly).enumerate() {
+        let std = fit.poly_std[i];
+        assert!(
+            (est - truth).abs() <= 3.0 * std,
+            "p{i}: {est} ± {std} vs {truth}"
+        );
+    }
+    for h in [0.25, 0.3, 0.35] {
+        assert!((fit.area_m2(h) - area(h)).abs() < 2e-4, "{h}");
+    }
+    assert!(
+        fit.force_nrmse_percent > 99.0,
+        "{}",
+        fit.force_nrmse_percent
+    );
+    assert!(fit.area_nrmse_percent > 95.0, "{}", fit.area_nrmse_percent);
+    let mut t = TruckParameters::reference();
+    fit.write_to(&mut t).unwrap();
+    assert_eq!(t.bellow.effective_area_poly_m2.to_vec(), fit.poly);
+    // Too few heights for a quartic.
+    let few = ForceMap {
+        bellow_height_m: vec![0.2, 0.25, 0.3, 0.35],
+        bellow_gauge_pa: vec![1e5; 4],
+        force_n: vec![5000.0; 4],
+    };
+    assert!(matches!(
+        fit_effective_area(&few, &EffectiveAreaOptions::default()),
+        Err(EstimateError::InsufficientData { .. })
+    ));
+}
+
+/// A tank emptied through a linear resistance R: `dn/dt = −p_gauge/R`, `p_gauge = n R T/V −
+/// p_amb`, so `p_gauge(t) = p0 e^{−t/τ}` with `τ = R V/(R_gas T)` — exact.
+fn discharge(r_flow: f64, start_pa: f64, noise_pa: f64, seed: u64) -> TankDischarge {
+    let (v, t_k, r_gas, ts) = (0.020, 293.15, 8.314462618, 0.05);
+    let tau = r_flow * v / (r_gas * t_k);
+    let mut r = rng(seed);
+    let n = (90.0 / ts) as usize + 1;
+    TankDischarge {
+        time_s: (0..n).map(|k| k as f64 * ts).collect(),
+        sample_time_s: ts,
+        tank_gauge_pa: (0..n)
+            .map(|k| {
+                let z: f64 = StandardNormal.sample(&mut r);
+                start_pa * (-(k as f64 * ts) / tau).exp() + noise_pa * z
+            })
+            .collect(),
+    }
+}
+
+#[test]
+fn flow_resistances_from_exact_exponential_discharges() {
+    let truck = TruckParameters::reference();
+    let (r1, r2) = (2.5e6, 1.5e6);
+    let d = [
+        discharge(r1, 800e3, 0.0, 1),
+        discharge(r1, 750e3, 0.0, 2),
+        discharge(r2, 800e3, 0.0, 3),
+        discharge(r2, 750e3, 0.0, 4),
+    ];
+    let data = |i: usize, channel, role| DischargeData {
+        name: format!("d{i}"),
+        discharge: &d[i],
+        channel,
+        tank_volume_m3: 0.020,
+        temperature_k: 293.15,
+        role,
+    };
+    let all = [
+        data(0, Channel::Fill, Role::Estimation),
+        data(1, Channel::Fill, Role::Validation),
+        data(2, Channel::Exhaust, Role::Estimation),
+        data(3, Channel::Exhaust, Role::Validation),
+    ];
+    let fit = fit_valve(&all, &ValveFitOptions::for_truck(&truck)).unwrap();
+    let fill = fit.fill.as_ref().unwrap();
+    let exhaust = fit.exhaust.as_ref().unwrap();
+    // Noise-free: only the Savitzky–Golay truncation error, ~3 (Ts/τ)² ≈ 1e-5.
+    assert!(
+        (fill.resistance_pa_s_per_mol / r1 - 1.0).abs() < 1e-4,
+        "{fill:?}"
+    );
+    assert!(
+        (exhaust.resistance_pa_s_per_mol / r2 - 1.0).abs() < 1e-4,
+        "{exhaust:?}"
+    );
+    for f in fill.discharges.iter().chain(&exhaust.discharges) {
+        assert!(f.nrmse_percent.unwrap() > 99.0, "{f:?}");
+    }
+    let mut t = truck.clone();
+    t.valve.fill_resistance_pa_s_per_mol = 1.0e6;
+    fit.write_to(&mut t);
+    assert_eq!(
+        t.valve.fill_resistance_pa_s_per_mol,
+        fill.resistance_pa_s_per_mol
+    );
+}
+
+#[test]
+fn flow_resistances_from_noisy_discharges() {
+    let truck = TruckParameters::reference();
+    let r1 = 2.5e6;
+    // The rig's 0.1 kPa sensor noise.
+    let d = [
+        discharge(r1, 800e3, 100.0, 11),
+        discharge(r1, 750e3, 100.0, 12),
+    ];
+    let all: Vec<DischargeData<'_>> = d
+        .iter()
+        .enumerate()
+        .map(|(i, x)| DischargeData {
+            name: format!("fill {i}"),
+            discharge: x,
+            channel: Channel::Fill,
+            tank_volume_m3: 0.020,
+            temperature_k: 293.15,
+            role: if i == 0 {
+                Role::Estimation
+            } else {
+                Role::Validation
+            },
+        })
+        .collect();
+    let fit = fit_valve(&all, &ValveFitOptions::for_truck(&truck)).unwrap();
+    assert!(fit.exhaust.is_none(), "no exhaust discharges");
+    let fill = fit.fill.unwrap();
+    assert!(
+        (fill.resistance_pa_s_per_mol - r1).abs() <= 3.0 * fill.resistance_std,
+        "{} ± {}",
+        fill.resistance_pa_s_per_mol,
+        fill.resistance_std
+    );
+    assert!((fill.resistance_pa_s_per_mol / r1 - 1.0).abs() < 0.02);
+    let validation = &fill.discharges[1];
+    assert_eq!(validation.role, Role::Validation);
+    assert!(validation.nrmse_percent.unwrap() > 60.0, "{validation:?}");
+    // Only validation discharges: nothing to fit.
+    let only_validation: Vec<DischargeData<'_>> = all
+        .into_iter()
+        .map(|mut x| {
+            x.role = Role::Validation;
+            x
+        })
+        .collect();
+    assert!(fit_valve(&only_validation, &ValveFitOptions::for_truck(&truck)).is_err());
+}
+
+#[test]
+fn slow_dynamics_oe_from_an_isolated_load_step() {
+    // Height: a fast static drop plus the thesis' slow creep, an OE nb=1 nf=1 nk=2 model
+    // (Table 5.5: b1 = −8.672e-8 m/kg, f1 = −0.997) driven by the load change, plus noise.
+    let (b1, f1) = (-8.672e-8, -0.997);
+    let ts = 0.1;
+    let n = 3000;
+    let k_step = 200;
+    let step = 300.0;
+    let mut r = rng(21);
+    let load: Vec<f64> = (0..n)
+        .map(|k| 3350.0 + if k >= k_step { step } else { 0.0 })
+        .collect();
+    let mut creep = vec![0.0; n];
+    for k in 1..n {
+        let u = if k >= 2 { load[k - 2] - load[0] } else { 0.0 };
+        creep[k] = -f1 * creep[k - 1] + b1 * u;
+    }
+    let height: Vec<f64> = (0..n)
+        .map(|k| {
+            let fast = if k >= k_step { -0.016 } else { 0.0 };
+            let z: f64 = StandardNormal.sample(&mut r);
+            0.24 + fast + creep[k] + 5e-5 * z
+        })
+        .collect();
+    let mut run = load_step_run("step", (n - 1) as f64 * ts, 3350.0, 0.0, 1e9);
+    run.inputs.wheel_load_kg = load;
+    run.outputs = Some(RunOutputs {
+        sensor_height_m: height,
+        bellow_gauge_pa: vec![350e3; n],
+    });
+    let fit = fit_slow_dynamics(&run, &SlowDynamicsOptions::default()).unwrap();
+    assert_eq!(fit.step_kg, step);
+    assert!((fit.step_time_s - 20.0).abs() < 1e-9);
+    assert_eq!(fit.nk, 2);
+    let f_std = fit.estimate.parameters[1].std;
+    assert!(
+        (fit.f[0] - f1).abs() <= 3.0 * f_std + 1e-5,
+        "f1 {} ± {f_std}",
+        fit.f[0]
+    );
+    // The corrected numerator gives the whole creep from the step: within 2 %.
+    assert!(
+        (fit.b[0] / b1 - 1.0).abs() < 0.02,
+        "b1 {} vs {b1}",
+        fit.b[0]
+    );
+    let tau = -ts / (-f1).ln();
+    assert!((fit.time_constant_s.unwrap() / tau - 1.0).abs() < 0.02);
+    assert!(fit.nrmse_percent > 90.0, "{}", fit.nrmse_percent);
+    let mut t = TruckParameters::reference();
+    fit.write_to(&mut t);
+    assert_eq!(t.slow_dynamics.oe_b, fit.b);
+    assert_eq!(t.slow_dynamics.oe_f, fit.f);
+    // A run without a load change has no step.
+    let mut flat = run.clone();
+    flat.inputs.wheel_load_kg = vec![3350.0; n];
+    assert!(fit_slow_dynamics(&flat, &SlowDynamicsOptions::default()).is_err());
+}
