@@ -48,6 +48,12 @@ enum Command {
     Greybox(commands::greybox::GreyboxArgs),
     /// Submodel fits from lab and run data (thesis 5.2): cross-section, effective area, valve, slow dynamics.
     Fit(commands::fit::FitArgs),
+    /// Estimate the wheel load over time from bellow pressure and height (static or EKF).
+    Weigh(commands::weigh::WeighArgs),
+    /// Level controllers for the 3-state valve, compared in closed loop.
+    Control(commands::control::ControlArgs),
+    /// Drive a model over a bump or an ISO 8608 random road.
+    Road(commands::road::RoadArgs),
     /// Generate the reference experiments (data-sets 1-4, lab data, study) with the virtual truck.
     Generate(commands::generate::GenerateArgs),
 }
@@ -62,6 +68,9 @@ fn main() -> std::process::ExitCode {
         Command::Generate(args) => commands::generate::run(args),
         Command::Greybox(args) => commands::greybox::run(args),
         Command::Fit(args) => commands::fit::run(args),
+        Command::Weigh(args) => commands::weigh::run(args),
+        Command::Control(args) => commands::control::run(args),
+        Command::Road(args) => commands::road::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

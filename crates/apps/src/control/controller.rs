@@ -1,0 +1,433 @@
+//! Level controllers for the 3-state valve.
+//!
+//! The valve must not be pulsed at high frequency (thesis 2.2.1: it is not built for it), so
+//! every controller here shares one [`ValveGuard`] that enforces
+//! - a **minimum on-time**: once opened, the valve stays open at least `min_on_s`;
+//! - a **minimum rest**: after closing, it stays closed at least `min_rest_s` (the body and the
+//!   gas settle before the next decision);
+//! - a **reversal lock-out** (anti-hunting): fill may not follow exhaust, nor exhaust fill,
+//!   within `reversal_lockout_s` of the end of the last opening;
+//!
+//! and one measurement path: the height reading (quantised, noisy, every 100 ms) is low-pass
+//! filtered (`τ_f`), and the controller acts only when the filtered error has been outside the
+//! tolerance band for `debounce_s` (a bump or a noise spike does not open the valve).
+//!
+//! Two laws decide *how long* to open:
+//! - [`DeadbandController`]: bang-bang with hysteresis — open when the error leaves the band
+//!   `±tolerance`, close when the height predicted `lead_s` ahead (filtered height plus its
+//!   rate times `lead_s`, which compensates the filter lag and the body still moving) comes
+//!   within `stop_margin` of the target;
+//! - [`PredictiveController`]: model-based pulse length; once a correction has started it
+//!   follows up with further computed pulses until the error is inside a narrow inner band. From the filtered readings and the
+//!   static law it computes the load, the amount of air in the circuit now (`n = p V(h_b) / RT`)
+//!   and at the target height (`p* = (m_tot - m2) g / (k_l A_eff(h_b*))`,
+//!   `n* = p*_abs V(h_b*) / RT`), and opens for
+//!   `τ = γ (n* - n) / ṅ`, with the model's valve flow `ṅ = (p_supply - p̄)/R_flow1` (fill) or
+//!   `(p̄ - p_amb)/R_flow2` (exhaust) at the mean `p̄` of the current and target pressures;
+//!   `γ ≤ 1` under-corrects on purpose (the flow law and the gas temperature are uncertain: an
+//!   overshoot costs a reversal, an undershoot only a second pulse in the same direction).
+
+use airsus_data::{TruckParameters, ValveState};
+use airsus_model::submodels::bellow_volume_m3;
+
+use crate::weigh::StaticLaw;
+
+/// What the controller sees every sample (quantised, noisy sensor readings).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    pub sensor_height_m: f64,
+    pub bellow_gauge_pa: f64,
+    /// Supply-tank gauge pressure as its sensor reads it, Pa.
+    pub supply_gauge_pa: f64,
+}
+
+/// A level controller, called once per sample.
+pub trait LevelController: Send {
+    fn name(&self) -> &'static str;
+
+    /// The valve command for the next sample interval, from the reading at `t_s` and the
+    /// target sensor height.
+    fn update(&mut self, t_s: f64, target_m: f64, reading: &Reading) -> ValveState;
+}
+
+/// Timing limits shared by the controllers (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GuardSettings {
+    pub min_on_s: f64,
+    pub min_rest_s: f64,
+    pub reversal_lockout_s: f64,
+    /// Tolerance band half-width around the target, m.
+    pub tolerance_m: f64,
+    /// Time the filtered error must stay outside the band before the valve opens, s.
+    pub debounce_s: f64,
+    /// Time constant of the height filter, s.
+    pub filter_time_constant_s: f64,
+}
+
+impl Default for GuardSettings {
+    /// Typical of truck ECUs: ±5 mm band, 0.3 s minimum opening, 2 s rest, 10 s reversal
+    /// lock-out, 1 s debounce, 0.5 s filter.
+    fn default() -> Self {
+        Self {
+            min_on_s: 0.3,
+            min_rest_s: 2.0,
+            reversal_lockout_s: 10.0,
+            tolerance_m: 5e-3,
+            debounce_s: 1.0,
+            filter_time_constant_s: 0.5,
+        }
+    }
+}
+
+/// Enforces minimum on-time, minimum rest and the reversal lock-out on requested commands.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValveGuard {
+    settings: GuardSettings,
+    state: ValveState,
+    since_s: f64,
+    /// Direction and end time of the last opening.
+    last_open: Option<(ValveState, f64)>,
+}
+
+impl ValveGuard {
+    pub fn new(settings: GuardSettings) -> Self {
+        Self {
+            settings,
+            state: ValveState::Closed,
+            since_s: f64::NEG_INFINITY,
+            last_open: None,
+        }
+    }
+
+    pub fn state(&self) -> ValveState {
+        self.state
+    }
+
+    /// Time the valve has been in its current state at `t_s`, s.
+    pub fn age_s(&self, t_s: f64) -> f64 {
+        t_s - self.since_s
+    }
+
+    /// Whether an opening in `direction` would be allowed at `t_s`.
+    pub fn may_open(&self, t_s: f64, direction: ValveState) -> bool {
+        if self.state != ValveState::Closed {
+            return self.state == direction;
+        }
+        match self.last_open {
+            None => true,
+            Some((last, end)) => {
+                let gap = t_s - end;
+                gap >= self.settings.min_rest_s
+                    && (last == direction || gap >= self.settings.reversal_lockout_s)
+            }
+        }
+    }
+
+    /// The command actually applied when `requested` is asked for at `t_s`.
+    pub fn apply(&mut self, t_s: f64, requested: ValveState) -> ValveState {
+        // Small tolerance: sample times are multiples of 0.1 s in floating point.
+        let eps = 1e-9;
+        let next = match (self.state, requested) {
+            (current, req) if current == req => current,
+            (ValveState::Closed, req) => {
+                if self.may_open(t_s + eps, req) {
+                    req
+                } else {
+                    ValveState::Closed
+                }
+            }
+            (current, _) if self.age_s(t_s) + eps < self.settings.min_on_s => current,
+            // Open and asked to change: close (never switch fill <-> exhaust directly).
+            (_, _) => ValveState::Closed,
+        };
+        if next != self.state {
+            if self.state != ValveState::Closed {
+                self.last_open = Some((self.state, t_s));
+            }
+            self.state = next;
+            self.since_s = t_s;
+        }
+        next
+    }
+}
+
+/// The filtered height and its rate, and the debounce timer.
+#[derive(Debug, Clone, PartialEq)]
+struct HeightFilter {
+    tau_s: f64,
+    value_m: Option<f64>,
+    rate_m_s: f64,
+    last_t_s: f64,
+    outside_since_s: Option<f64>,
+}
+
+impl HeightFilter {
+    fn new(tau_s: f64) -> Self {
+        Self {
+            tau_s: tau_s.max(0.0),
+            value_m: None,
+            rate_m_s: 0.0,
+            last_t_s: 0.0,
+            outside_since_s: None,
+        }
+    }
+
+    /// First-order low-pass of the height; its rate low-passed with the same time constant.
+    fn update(&mut self, t_s: f64, h_m: f64) -> f64 {
+        match self.value_m {
+            None => {
+                self.value_m = Some(h_m);
+                self.last_t_s = t_s;
+                h_m
+            }
+            Some(v) => {
+                let dt = (t_s - self.last_t_s).max(0.0);
+                let a = if self.tau_s > 0.0 {
+                    1.0 - (-dt / self.tau_s).exp()
+                } else {
+                    1.0
+                };
+                let next = v + a * (h_m - v);
+                if dt > 0.0 {
+                    self.rate_m_s += a * ((next - v) / dt - self.rate_m_s);
+                }
+                self.value_m = Some(next);
+                self.last_t_s = t_s;
+                next
+            }
+        }
+    }
+
+    /// Whether the error has been outside `±tol` for at least `debounce_s`.
+    fn outside_for(&mut self, t_s: f64, error_m: f64, tol_m: f64, debounce_s: f64) -> bool {
+        if error_m.abs() > tol_m {
+            let since = *self.outside_since_s.get_or_insert(t_s);
+            t_s - since + 1e-9 >= debounce_s
+        } else {
+            self.outside_since_s = None;
+            false
+        }
+    }
+}
+
+/// Bang-bang with hysteresis and a lead (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeadbandController {
+    pub settings: GuardSettings,
+    /// Close when the predicted height is within this of the target, m.
+    pub stop_margin_m: f64,
+    /// Prediction horizon of the stop decision, s.
+    pub lead_s: f64,
+    guard: ValveGuard,
+    filter: HeightFilter,
+}
+
+impl DeadbandController {
+    pub fn new(settings: GuardSettings) -> Self {
+        Self {
+            stop_margin_m: 1e-3,
+            lead_s: 0.8,
+            guard: ValveGuard::new(settings.clone()),
+            filter: HeightFilter::new(settings.filter_time_constant_s),
+            settings,
+        }
+    }
+}
+
+impl LevelController for DeadbandController {
+    fn name(&self) -> &'static str {
+        "deadband"
+    }
+
+    fn update(&mut self, t_s: f64, target_m: f64, reading: &Reading) -> ValveState {
+        let h = self.filter.update(t_s, reading.sensor_height_m);
+        let error = target_m - h;
+        let s = &self.settings;
+        let outside = self
+            .filter
+            .outside_for(t_s, error, s.tolerance_m, s.debounce_s);
+        let requested = match self.guard.state() {
+            ValveState::Closed if outside => {
+                if error > 0.0 {
+                    ValveState::Fill
+                } else {
+                    ValveState::Exhaust
+                }
+            }
+            ValveState::Closed => ValveState::Closed,
+            open => {
+                let predicted = h + self.filter.rate_m_s * self.lead_s;
+                let remaining = target_m - predicted;
+                let done = match open {
+                    ValveState::Fill => remaining <= self.stop_margin_m,
+                    _ => remaining >= -self.stop_margin_m,
+                };
+                if done { ValveState::Closed } else { open }
+            }
+        };
+        self.guard.apply(t_s, requested)
+    }
+}
+
+/// What the predictive controller knows of the truck: the static law, the gas volume law and
+/// the valve resistances (nominal or identified parameters).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValveModel {
+    pub law: StaticLaw,
+    pub cross_section_m2: [f64; 2],
+    pub rt_j_mol: f64,
+    pub ambient_pa: f64,
+    pub fill_resistance_pa_s_per_mol: f64,
+    pub exhaust_resistance_pa_s_per_mol: f64,
+}
+
+impl ValveModel {
+    pub fn from_truck(truck: &TruckParameters) -> Self {
+        Self {
+            law: StaticLaw::from_truck(truck),
+            cross_section_m2: truck.bellow.cross_section_m2,
+            rt_j_mol: truck.environment.gas_constant_j_mol_k * truck.environment.temperature_k,
+            ambient_pa: truck.environment.ambient_pressure_pa,
+            fill_resistance_pa_s_per_mol: truck.valve.fill_resistance_pa_s_per_mol,
+            exhaust_resistance_pa_s_per_mol: truck.valve.exhaust_resistance_pa_s_per_mol,
+        }
+    }
+
+    /// The valve opening that moves the sensor height from `reading` to `target_m` at the
+    /// current load: direction and duration, s (module docs, without the gain `γ`). `None`
+    /// when the readings admit no static solution or the supply cannot fill.
+    pub fn pulse(&self, reading: &Reading, target_m: f64) -> Option<(ValveState, f64)> {
+        let law = &self.law;
+        let load = law
+            .wheel_load_kg(reading.sensor_height_m, reading.bellow_gauge_pa)
+            .ok()?;
+        let h_now = law.bellow_height_m(reading.sensor_height_m, load);
+        let h_target = law.bellow_height_m(target_m, load);
+        let area_target = law.effective_area_m2(h_target, reading.bellow_gauge_pa);
+        if area_target <= 0.0 {
+            return None;
+        }
+        let p_target = (load - law.unsprung_kg) * law.gravity_m_s2 / (law.lever_gain * area_target);
+        let amount = |gauge: f64, h: f64| {
+            (gauge + self.ambient_pa) * bellow_volume_m3(&self.cross_section_m2, h) / self.rt_j_mol
+        };
+        let dn = amount(p_target, h_target) - amount(reading.bellow_gauge_pa, h_now);
+        let p_mean_abs = 0.5 * (p_target + reading.bellow_gauge_pa) + self.ambient_pa;
+        let (direction, flow) = if dn > 0.0 {
+            let supply_abs = reading.supply_gauge_pa + self.ambient_pa;
+            (
+                ValveState::Fill,
+                (supply_abs - p_mean_abs) / self.fill_resistance_pa_s_per_mol,
+            )
+        } else {
+            (
+                ValveState::Exhaust,
+                -(p_mean_abs - self.ambient_pa) / self.exhaust_resistance_pa_s_per_mol,
+            )
+        };
+        if !(flow.is_finite() && flow != 0.0 && flow.signum() == dn.signum()) {
+            return None;
+        }
+        let duration = dn / flow;
+        duration.is_finite().then_some((direction, duration))
+    }
+}
+
+/// Model-based pulse length (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictiveController {
+    pub settings: GuardSettings,
+    pub model: ValveModel,
+    /// `γ`: fraction of the computed pulse that is applied.
+    pub gain: f64,
+    /// Longest single pulse, s.
+    pub max_pulse_s: f64,
+    /// Once a correction has started, further pulses follow (after `follow_up_wait_s`) until the
+    /// error is within this inner band, m: the under-correcting gain converges in two or three
+    /// pulses instead of leaving the height anywhere in the tolerance band.
+    pub inner_band_m: f64,
+    /// Wait after a pulse before the next follow-up decision, s (the body and gas settle).
+    pub follow_up_wait_s: f64,
+    active: bool,
+    last_pulse_end_s: f64,
+    guard: ValveGuard,
+    filter: HeightFilter,
+    pressure_filter: HeightFilter,
+    /// End time of the pulse in progress.
+    pulse_end_s: Option<f64>,
+}
+
+impl PredictiveController {
+    pub fn new(settings: GuardSettings, model: ValveModel) -> Self {
+        Self {
+            gain: 0.85,
+            max_pulse_s: 30.0,
+            inner_band_m: 1.5e-3,
+            follow_up_wait_s: 3.0,
+            active: false,
+            last_pulse_end_s: f64::NEG_INFINITY,
+            guard: ValveGuard::new(settings.clone()),
+            filter: HeightFilter::new(settings.filter_time_constant_s),
+            pressure_filter: HeightFilter::new(settings.filter_time_constant_s),
+            pulse_end_s: None,
+            settings,
+            model,
+        }
+    }
+}
+
+impl LevelController for PredictiveController {
+    fn name(&self) -> &'static str {
+        "predictive"
+    }
+
+    fn update(&mut self, t_s: f64, target_m: f64, reading: &Reading) -> ValveState {
+        let h = self.filter.update(t_s, reading.sensor_height_m);
+        let p = self.pressure_filter.update(t_s, reading.bellow_gauge_pa);
+        let error = target_m - h;
+        let s = self.settings.clone();
+        let outside = self
+            .filter
+            .outside_for(t_s, error, s.tolerance_m, s.debounce_s);
+        if error.abs() <= self.inner_band_m {
+            self.active = false;
+        }
+        let follow_up = self.active
+            && error.abs() > self.inner_band_m
+            && t_s - self.last_pulse_end_s + 1e-9 >= self.follow_up_wait_s;
+        let requested = match (self.guard.state(), self.pulse_end_s) {
+            (ValveState::Closed, _) if outside || follow_up => {
+                let filtered = Reading {
+                    sensor_height_m: h,
+                    bellow_gauge_pa: p,
+                    ..*reading
+                };
+                let (direction, duration) = self.model.pulse(&filtered, target_m).unwrap_or((
+                    // No model answer: fall back to a minimum pulse in the right direction.
+                    if error > 0.0 {
+                        ValveState::Fill
+                    } else {
+                        ValveState::Exhaust
+                    },
+                    s.min_on_s,
+                ));
+                if self.guard.may_open(t_s + 1e-9, direction) {
+                    let length = (self.gain * duration).clamp(s.min_on_s, self.max_pulse_s);
+                    self.pulse_end_s = Some(t_s + length);
+                    self.active = true;
+                    direction
+                } else {
+                    ValveState::Closed
+                }
+            }
+            (ValveState::Closed, _) => ValveState::Closed,
+            (open, Some(end)) if t_s + 1e-9 < end => open,
+            _ => {
+                self.pulse_end_s = None;
+                self.last_pulse_end_s = t_s;
+                ValveState::Closed
+            }
+        };
+        self.guard.apply(t_s, requested)
+    }
+}

@@ -1,0 +1,147 @@
+//! Linearisation of a model about a static equilibrium, numerically.
+//!
+//! About the equilibrium `(x0, u0)` with `f(x0, u0) = 0`:
+//! ```text
+//! δẋ = A δx + B δz_r,      δy = C δx + D δz_r,
+//! A = ∂f/∂x,  B = ∂f/∂z_r,  C = ∂g/∂x,  D = ∂g/∂z_r       (central differences)
+//! ```
+//! with `y` the sensor height and the tire force. Discretised exactly for a held input
+//! (zero-order hold): `[Φ Γ; 0 I] = exp([A B; 0 0] Δt)`.
+//!
+//! Model 2's damper is a piecewise-affine table with different slopes in compression and
+//! rebound: it has no derivative at zero velocity, and the central difference takes the mean
+//! of the two slopes. Even a tiny input then gives an asymmetric response the linear model
+//! cannot follow; compare with a symmetric damper table to see the smooth nonlinearities alone.
+
+use airsus_model::{InputSample, SuspensionModel};
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{AppError, invalid};
+use crate::road::AxleGeometry;
+
+/// `(A, B, C, D)` about `x0`, outputs `[sensor height, tire force]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearModel {
+    pub x0: Vec<f64>,
+    pub y0: [f64; 2],
+    pub a: DMatrix<f64>,
+    pub b: DVector<f64>,
+    pub c: DMatrix<f64>,
+    pub d: DVector<f64>,
+}
+
+fn outputs(
+    model: &dyn SuspensionModel,
+    axle: &AxleGeometry,
+    k_w: f64,
+    x: &[f64],
+    u: &InputSample,
+) -> [f64; 2] {
+    let o = model.output(x, u);
+    [
+        o.sensor_height_m,
+        airsus_model::submodels::tire_force_n(k_w, u.road_height_m - axle.axle_height_m(x)),
+    ]
+}
+
+/// Central-difference linearisation of `model` about `x0` under `u0` (module docs).
+pub fn linearize(
+    model: &dyn SuspensionModel,
+    axle: &AxleGeometry,
+    tire_stiffness_n_per_m: f64,
+    x0: &[f64],
+    u0: &InputSample,
+) -> Result<LinearModel, AppError> {
+    let n = model.n_states();
+    if x0.len() != n {
+        return Err(invalid(
+            "linearisation point",
+            format!("{} values for {n} states", x0.len()),
+        ));
+    }
+    let mut a = DMatrix::zeros(n, n);
+    let mut c = DMatrix::zeros(2, n);
+    let (mut fp, mut fm) = (vec![0.0; n], vec![0.0; n]);
+    for j in 0..n {
+        let d = 1e-6 * x0[j].abs().max(1e-3);
+        let (mut xp, mut xm) = (x0.to_vec(), x0.to_vec());
+        xp[j] += d;
+        xm[j] -= d;
+        model.rhs(0.0, &xp, u0, &mut fp);
+        model.rhs(0.0, &xm, u0, &mut fm);
+        let (yp, ym) = (
+            outputs(model, axle, tire_stiffness_n_per_m, &xp, u0),
+            outputs(model, axle, tire_stiffness_n_per_m, &xm, u0),
+        );
+        for i in 0..n {
+            a[(i, j)] = (fp[i] - fm[i]) / (2.0 * d);
+        }
+        for i in 0..2 {
+            c[(i, j)] = (yp[i] - ym[i]) / (2.0 * d);
+        }
+    }
+    let dz = 1e-6;
+    let (up, um) = (
+        InputSample {
+            road_height_m: u0.road_height_m + dz,
+            ..*u0
+        },
+        InputSample {
+            road_height_m: u0.road_height_m - dz,
+            ..*u0
+        },
+    );
+    model.rhs(0.0, x0, &up, &mut fp);
+    model.rhs(0.0, x0, &um, &mut fm);
+    let b = DVector::from_iterator(n, (0..n).map(|i| (fp[i] - fm[i]) / (2.0 * dz)));
+    let (yp, ym) = (
+        outputs(model, axle, tire_stiffness_n_per_m, x0, &up),
+        outputs(model, axle, tire_stiffness_n_per_m, x0, &um),
+    );
+    let d = DVector::from_vec(vec![
+        (yp[0] - ym[0]) / (2.0 * dz),
+        (yp[1] - ym[1]) / (2.0 * dz),
+    ]);
+    if a.iter().chain(b.iter()).any(|v| !v.is_finite()) {
+        return Err(invalid("linearisation", "the Jacobian is not finite"));
+    }
+    Ok(LinearModel {
+        x0: x0.to_vec(),
+        y0: outputs(model, axle, tire_stiffness_n_per_m, x0, u0),
+        a,
+        b,
+        c,
+        d,
+    })
+}
+
+/// Outputs `[sensor height, tire force]` of the linear model over a road held between the
+/// uniformly spaced samples `time_s` (exact ZOH discretisation), absolute (`y0 + δy`).
+pub fn simulate_linear(
+    lin: &LinearModel,
+    time_s: &[f64],
+    road_m: &[f64],
+) -> Result<Vec<[f64; 2]>, AppError> {
+    let n = lin.a.nrows();
+    if time_s.len() != road_m.len() || time_s.len() < 2 {
+        return Err(invalid(
+            "linear simulation",
+            "time and road differ in length",
+        ));
+    }
+    let dt = time_s[1] - time_s[0];
+    let mut m = DMatrix::zeros(n + 1, n + 1);
+    m.view_mut((0, 0), (n, n)).copy_from(&(&lin.a * dt));
+    m.view_mut((0, n), (n, 1)).copy_from(&(&lin.b * dt));
+    let e = m.exp();
+    let phi = e.view((0, 0), (n, n)).into_owned();
+    let gamma = e.view((0, n), (n, 1)).into_owned();
+    let mut dx = DVector::zeros(n);
+    let mut out = Vec::with_capacity(time_s.len());
+    for &z in road_m {
+        let dy = &lin.c * &dx + &lin.d * z;
+        out.push([lin.y0[0] + dy[0], lin.y0[1] + dy[1]]);
+        dx = &phi * dx + &gamma * z;
+    }
+    Ok(out)
+}

@@ -1,0 +1,376 @@
+//! Online axle-load estimation: an extended Kalman filter on a suspension model whose state is
+//! augmented by the wheel load.
+//!
+//! # Model
+//! Augmented state `z = [x; m_tot]`, with `x` the model's own state (Model 2: chassis height,
+//! lever angle, their rates, the amount of air `n`) and the wheel load a random walk:
+//! ```text
+//! ẋ = f(x, u(m_tot)),   ṁ_tot = w_m,   E[w_m²] = q_m   (kg²/s)
+//! y = [h_sensor, p_gauge] = g(x, m_tot) + v,   R = diag(σ_h², σ_p²)
+//! ```
+//! where `u(m_tot)` is the measured input sample (valve, supply, road) with the wheel load
+//! taken from the state. Nothing else is reduced: the filter runs the full model, so the load
+//! shows both in the static balance (`p A_eff = (m_tot - m2) g / k_l`) and in the dynamics
+//! (a load step accelerates the chassis).
+//!
+//! # Why an EKF (and not a UKF)
+//! Over one 100 ms sample the model is close to linear at standstill and during valve action
+//! (gas law and lever geometry are smooth; the piecewise-affine damper and the tire's contact
+//! loss are the only non-smooth parts, and neither matters while weighing). The EKF needs
+//! `n + 2` propagations per sample (one plus one per state for the Jacobian), a UKF `2n + 3`
+//! for the same accuracy here; and the EKF's Jacobian of the *discrete* map (finite
+//! differences through the integrator) is exact for what the filter propagates.
+//!
+//! # Discretisation
+//! `x_{k+1} = Φ(x_k, u_k)`: classical Runge–Kutta with `substeps` equal steps over the sample
+//! (default 20 × 5 ms; Model 2's fastest pole — the axle on the tire and damper, about
+//! 80 1/s — needs `h < 2.8/80 s` for RK4 stability). `F = ∂Φ/∂z` by forward differences.
+//!
+//! # Process noise (diagonal, per sample of length `T`)
+//! - load: `q_m T`;
+//! - air amount: `(ε_n n)² T + (ε_f ṅ)² T`: a slow drift (the gas temperature the isothermal
+//!   model lacks, leaks) plus a relative error `ε_f` of the valve flow while it is open;
+//! - the rates (`xdot`, `alphadot` and the like): `σ_v² T`, unmodelled forces (wall friction,
+//!   creep); every other extra state a small relative drift.
+//!
+//! The defaults were tuned on the reference experiments (module tests give the numbers).
+
+use airsus_model::{InitialCondition, InputSample, SuspensionModel};
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{AppError, invalid};
+use crate::weigh::WeighSeries;
+use crate::weigh::static_law::{StaticLaw, StaticWeigher};
+
+/// Noise intensities and discretisation of the load filter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EkfTuning {
+    /// `√q_m`: random-walk intensity of the wheel load, kg/√s.
+    pub load_random_walk_kg_per_sqrt_s: f64,
+    /// Standard deviation of the initial load (from the static balance), kg.
+    pub initial_load_std_kg: f64,
+    /// `ε_n`: relative drift of the air amount, 1/√s.
+    pub amount_drift_rel_per_sqrt_s: f64,
+    /// `ε_f`: relative error of the valve flow while the valve is open.
+    pub flow_relative_error: f64,
+    /// `σ_v`: random walk of every rate state (m/s or rad/s per √s).
+    pub rate_random_walk_per_sqrt_s: f64,
+    /// Standard deviation of one height reading, m (noise and quantisation).
+    pub height_std_m: f64,
+    /// Standard deviation of one pressure reading, Pa.
+    pub pressure_std_pa: f64,
+    /// Runge–Kutta steps per sample.
+    pub substeps: usize,
+}
+
+impl Default for EkfTuning {
+    fn default() -> Self {
+        Self {
+            load_random_walk_kg_per_sqrt_s: 2.0,
+            initial_load_std_kg: 300.0,
+            amount_drift_rel_per_sqrt_s: 2e-3,
+            flow_relative_error: 0.3,
+            rate_random_walk_per_sqrt_s: 1e-3,
+            // 0.15 mm noise, 0.1 mm resolution; 0.2 kPa noise, 0.1 kPa resolution.
+            height_std_m: (0.15e-3f64.powi(2) + 0.1e-3f64.powi(2) / 12.0).sqrt(),
+            pressure_std_pa: (200.0f64.powi(2) + 100.0f64.powi(2) / 12.0).sqrt(),
+            substeps: 20,
+        }
+    }
+}
+
+/// The load filter: a model, the augmented state estimate and its covariance.
+#[derive(Debug)]
+pub struct LoadEkf {
+    model: Box<dyn SuspensionModel>,
+    tuning: EkfTuning,
+    /// Index of the air-amount state (`n_mol`), if the model has one.
+    amount_index: Option<usize>,
+    /// Indices of rate states (names with `dot`, or `v1`/`v2`).
+    rate_indices: Vec<usize>,
+    z: DVector<f64>,
+    p: DMatrix<f64>,
+    time_s: f64,
+}
+
+impl LoadEkf {
+    /// Starts the filter from the first reading: the static balance `law` gives the initial
+    /// load, the model's static equilibrium at that load and the measured pressure the rest.
+    pub fn new(
+        model: Box<dyn SuspensionModel>,
+        law: &StaticLaw,
+        tuning: EkfTuning,
+        time_s: f64,
+        first_input: &InputSample,
+        sensor_height_m: f64,
+        gauge_pa: f64,
+    ) -> Result<Self, AppError> {
+        if tuning.substeps == 0 {
+            return Err(invalid("filter tuning", "substeps must be at least 1"));
+        }
+        for (name, v) in [
+            ("load random walk", tuning.load_random_walk_kg_per_sqrt_s),
+            ("initial load std", tuning.initial_load_std_kg),
+            ("height std", tuning.height_std_m),
+            ("pressure std", tuning.pressure_std_pa),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(invalid(
+                    "filter tuning",
+                    format!("{name} must be positive, got {v}"),
+                ));
+            }
+        }
+        let load = law.wheel_load_kg(sensor_height_m, gauge_pa)?;
+        let u = InputSample {
+            wheel_load_kg: load,
+            ..*first_input
+        };
+        let x0 = model.initial_state(&u, &InitialCondition::BellowPressure { gauge_pa })?;
+        let n = x0.len();
+        let names = model.state_names();
+        let amount_index = names.iter().position(|s| *s == "n_mol");
+        let rate_indices = names
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.contains("dot") || s.starts_with('v'))
+            .map(|(i, _)| i)
+            .collect();
+        let mut z = DVector::zeros(n + 1);
+        for (i, v) in x0.iter().enumerate() {
+            z[i] = *v;
+        }
+        z[n] = load;
+        let mut p = DMatrix::zeros(n + 1, n + 1);
+        for i in 0..n {
+            p[(i, i)] = (1e-3 * x0[i].abs().max(1e-3)).powi(2);
+        }
+        if let Some(i) = amount_index {
+            p[(i, i)] = (0.01 * x0[i]).powi(2);
+        }
+        p[(n, n)] = tuning.initial_load_std_kg.powi(2);
+        Ok(Self {
+            model,
+            tuning,
+            amount_index,
+            rate_indices,
+            z,
+            p,
+            time_s,
+        })
+    }
+
+    fn n_model(&self) -> usize {
+        self.z.len() - 1
+    }
+
+    /// The current load estimate and its standard deviation, kg.
+    pub fn load(&self) -> (f64, f64) {
+        let n = self.n_model();
+        (self.z[n], self.p[(n, n)].max(0.0).sqrt())
+    }
+
+    /// The model part of the state estimate.
+    pub fn state(&self) -> &[f64] {
+        &self.z.as_slice()[..self.n_model()]
+    }
+
+    fn input_with_load(&self, u: &InputSample, z: &[f64]) -> InputSample {
+        InputSample {
+            wheel_load_kg: z[z.len() - 1],
+            ..*u
+        }
+    }
+
+    /// `Φ(z)`: RK4 over `dt` with the input held; the load is constant.
+    fn propagate(&self, z: &[f64], u: &InputSample, dt: f64) -> Vec<f64> {
+        let n = z.len() - 1;
+        let u = self.input_with_load(u, z);
+        let h = dt / self.tuning.substeps as f64;
+        let mut x = z[..n].to_vec();
+        let (mut k1, mut k2, mut k3, mut k4) =
+            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let mut tmp = vec![0.0; n];
+        let mut t = self.time_s;
+        for _ in 0..self.tuning.substeps {
+            self.model.rhs(t, &x, &u, &mut k1);
+            for i in 0..n {
+                tmp[i] = x[i] + 0.5 * h * k1[i];
+            }
+            self.model.rhs(t + 0.5 * h, &tmp, &u, &mut k2);
+            for i in 0..n {
+                tmp[i] = x[i] + 0.5 * h * k2[i];
+            }
+            self.model.rhs(t + 0.5 * h, &tmp, &u, &mut k3);
+            for i in 0..n {
+                tmp[i] = x[i] + h * k3[i];
+            }
+            self.model.rhs(t + h, &tmp, &u, &mut k4);
+            for i in 0..n {
+                x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+            t += h;
+        }
+        x.push(z[n]);
+        x
+    }
+
+    fn measure(&self, z: &[f64], u: &InputSample) -> [f64; 2] {
+        let n = z.len() - 1;
+        let o = self.model.output(&z[..n], &self.input_with_load(u, z));
+        [o.sensor_height_m, o.bellow_gauge_pa]
+    }
+
+    fn perturbation(v: f64) -> f64 {
+        1e-7 * v.abs().max(1e-2)
+    }
+
+    /// One filter cycle: predict over `dt` under the input `u` (held over the interval, as the
+    /// logger recorded it), then correct with the reading taken at the end of it.
+    pub fn step(
+        &mut self,
+        dt: f64,
+        u: &InputSample,
+        sensor_height_m: f64,
+        gauge_pa: f64,
+    ) -> Result<(f64, f64), AppError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(invalid("filter step", format!("dt = {dt} s")));
+        }
+        if !(sensor_height_m.is_finite() && gauge_pa.is_finite()) {
+            return Err(invalid(
+                "filter reading",
+                format!("non-finite reading at t = {} s", self.time_s + dt),
+            ));
+        }
+        let m = self.z.len();
+        let n = m - 1;
+        let z0: Vec<f64> = self.z.iter().copied().collect();
+        // Predict.
+        let z_pred = self.propagate(&z0, u, dt);
+        let mut f = DMatrix::zeros(m, m);
+        for j in 0..m {
+            let d = Self::perturbation(z0[j]);
+            let mut zj = z0.clone();
+            zj[j] += d;
+            let pj = self.propagate(&zj, u, dt);
+            for i in 0..m {
+                f[(i, j)] = (pj[i] - z_pred[i]) / d;
+            }
+        }
+        let mut q = DMatrix::zeros(m, m);
+        let t = &self.tuning;
+        q[(n, n)] = t.load_random_walk_kg_per_sqrt_s.powi(2) * dt;
+        for i in 0..n {
+            q[(i, i)] = (1e-6 * z0[i].abs().max(1e-3)).powi(2) * dt;
+        }
+        for &i in &self.rate_indices {
+            q[(i, i)] = t.rate_random_walk_per_sqrt_s.powi(2) * dt;
+        }
+        if let Some(i) = self.amount_index {
+            let flow = (z_pred[i] - z0[i]) / dt;
+            q[(i, i)] = ((t.amount_drift_rel_per_sqrt_s * z0[i]).powi(2)
+                + (t.flow_relative_error * flow).powi(2))
+                * dt;
+        }
+        let p_pred = &f * &self.p * f.transpose() + q;
+
+        // Correct.
+        let y_pred = self.measure(&z_pred, u);
+        let mut h = DMatrix::zeros(2, m);
+        for j in 0..m {
+            let d = Self::perturbation(z_pred[j]);
+            let mut zj = z_pred.clone();
+            zj[j] += d;
+            let yj = self.measure(&zj, u);
+            for i in 0..2 {
+                h[(i, j)] = (yj[i] - y_pred[i]) / d;
+            }
+        }
+        let r = DMatrix::from_diagonal(&DVector::from_vec(vec![
+            t.height_std_m.powi(2),
+            t.pressure_std_pa.powi(2),
+        ]));
+        let innovation = DVector::from_vec(vec![sensor_height_m - y_pred[0], gauge_pa - y_pred[1]]);
+        let s = &h * &p_pred * h.transpose() + &r;
+        let time_s = self.time_s + dt;
+        let s_inv = s.try_inverse().ok_or_else(|| AppError::FilterDiverged {
+            time_s,
+            reason: "the innovation covariance is singular".to_owned(),
+        })?;
+        let k = &p_pred * h.transpose() * s_inv;
+        let z_new = DVector::from_vec(z_pred) + &k * innovation;
+        let i_kh = DMatrix::identity(m, m) - &k * &h;
+        // Joseph form keeps P symmetric positive semi-definite.
+        let p_new = &i_kh * &p_pred * i_kh.transpose() + &k * r * k.transpose();
+        let p_new = (&p_new + p_new.transpose()) * 0.5;
+        if z_new.iter().any(|v| !v.is_finite()) || p_new.iter().any(|v| !v.is_finite()) {
+            return Err(AppError::FilterDiverged {
+                time_s,
+                reason: "a state or covariance turned non-finite".to_owned(),
+            });
+        }
+        self.z = z_new;
+        self.p = p_new;
+        self.time_s = time_s;
+        Ok(self.load())
+    }
+}
+
+/// Runs the load filter over a run's readings. The run's logged load is not used.
+///
+/// The filter's own covariance only knows the noise it was told about; the model's parameters
+/// are taken as exact. The reported standard deviation therefore adds, in quadrature, the
+/// parameter part of `weigher`'s static uncertainty at the filter's current load (the same
+/// parameters fix the static balance the filter converges to). `weigher.law` gives the
+/// initial load.
+pub fn weigh_ekf(
+    run: &airsus_data::Run,
+    model: Box<dyn SuspensionModel>,
+    weigher: &StaticWeigher,
+    tuning: &EkfTuning,
+) -> Result<WeighSeries, AppError> {
+    let law = &weigher.law;
+    let outputs = run.measured()?;
+    if run.is_empty() {
+        return Err(invalid("run", "it has no samples"));
+    }
+    let input = |k: usize| InputSample {
+        wheel_load_kg: 0.0,
+        valve: run.inputs.valve[k],
+        supply_gauge_pa: run.inputs.supply_gauge_pa[k],
+        road_height_m: run.inputs.road_height_m[k],
+    };
+    let mut ekf = LoadEkf::new(
+        model,
+        law,
+        tuning.clone(),
+        run.time_s[0],
+        &input(0),
+        outputs.sensor_height_m[0],
+        outputs.bellow_gauge_pa[0],
+    )?;
+    let mut series = WeighSeries::default();
+    let parameter_std = |k: usize| {
+        weigher
+            .estimate(outputs.sensor_height_m[k], outputs.bellow_gauge_pa[k])
+            .map_or(0.0, |e| e.parameter_std_kg)
+    };
+    let (m0, s0) = ekf.load();
+    series.time_s.push(run.time_s[0]);
+    series.wheel_load_kg.push(m0);
+    series.std_kg.push(s0.hypot(parameter_std(0)));
+    for k in 1..run.len() {
+        // The valve state logged at sample k-1 acted over (t_{k-1}, t_k].
+        let (m, s) = ekf.step(
+            run.time_s[k] - run.time_s[k - 1],
+            &input(k - 1),
+            outputs.sensor_height_m[k],
+            outputs.bellow_gauge_pa[k],
+        )?;
+        series.time_s.push(run.time_s[k]);
+        series.wheel_load_kg.push(m);
+        series.std_kg.push(s.hypot(parameter_std(k)));
+    }
+    Ok(series)
+}

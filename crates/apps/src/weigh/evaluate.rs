@@ -1,0 +1,182 @@
+//! Scoring a load estimate against the true load (the virtual truck's `truth/` runs).
+//!
+//! A sample counts as **standstill** when, over the `settle_s` before it, the true load did not
+//! change (by more than `steady_tolerance_kg`) and the valve stayed closed: what a truck's
+//! on-board scale is read at. A standstill sample is **after valve activity** when the valve
+//! was open at some time in the `after_valve_window_s` before that settling period, and
+//! **quiet** otherwise.
+
+use airsus_data::ValveState;
+
+use crate::error::{AppError, invalid};
+
+/// When a sample counts as standstill (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StandstillRule {
+    pub settle_s: f64,
+    pub after_valve_window_s: f64,
+    pub steady_tolerance_kg: f64,
+}
+
+impl Default for StandstillRule {
+    /// 30 s of rest (a driver reads the scale after the loading has stopped); valve activity
+    /// within the 120 s before that counts as "after valve activity".
+    fn default() -> Self {
+        Self {
+            settle_s: 30.0,
+            after_valve_window_s: 120.0,
+            steady_tolerance_kg: 0.5,
+        }
+    }
+}
+
+/// Error statistics of `estimate - truth` over a set of samples.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ErrorStats {
+    pub samples: usize,
+    pub mean_error_kg: f64,
+    pub rms_error_kg: f64,
+    pub max_abs_error_kg: f64,
+    /// Mean of `100 (est - true) / true`.
+    pub mean_error_percent: f64,
+    pub max_abs_error_percent: f64,
+    /// Fraction of samples within ±1 % of the true load.
+    pub within_1_percent: f64,
+    /// Mean of the estimator's own standard deviation, kg.
+    pub mean_std_kg: f64,
+}
+
+/// Accuracy over one run.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct AccuracySummary {
+    pub all: ErrorStats,
+    pub standstill: ErrorStats,
+    pub quiet_standstill: ErrorStats,
+    pub after_valve: ErrorStats,
+    /// Mean standstill error per true load level (rounded to 10 kg): `(load_kg, stats)`.
+    pub by_load_level: Vec<(f64, ErrorStats)>,
+}
+
+fn stats(idx: &[usize], est: &[f64], truth: &[f64], std: &[f64]) -> ErrorStats {
+    if idx.is_empty() {
+        return ErrorStats::default();
+    }
+    let n = idx.len() as f64;
+    let mut s = ErrorStats {
+        samples: idx.len(),
+        ..ErrorStats::default()
+    };
+    let mut within = 0usize;
+    for &k in idx {
+        let e = est[k] - truth[k];
+        let pct = 100.0 * e / truth[k];
+        s.mean_error_kg += e / n;
+        s.rms_error_kg += e * e / n;
+        s.max_abs_error_kg = s.max_abs_error_kg.max(e.abs());
+        s.mean_error_percent += pct / n;
+        s.max_abs_error_percent = s.max_abs_error_percent.max(pct.abs());
+        s.mean_std_kg += std[k] / n;
+        if pct.abs() <= 1.0 {
+            within += 1;
+        }
+    }
+    s.rms_error_kg = s.rms_error_kg.sqrt();
+    s.within_1_percent = within as f64 / n;
+    s
+}
+
+/// Scores `estimate_kg` (with its standard deviation `std_kg`) against `true_kg`.
+pub fn evaluate_weighing(
+    time_s: &[f64],
+    estimate_kg: &[f64],
+    std_kg: &[f64],
+    true_kg: &[f64],
+    valve: &[ValveState],
+    rule: &StandstillRule,
+) -> Result<AccuracySummary, AppError> {
+    let n = time_s.len();
+    if [estimate_kg.len(), std_kg.len(), true_kg.len(), valve.len()]
+        .iter()
+        .any(|&l| l != n)
+    {
+        return Err(invalid(
+            "evaluation signals",
+            "time, estimate, std, true load and valve must have the same length",
+        ));
+    }
+    if let Some(k) = true_kg.iter().position(|m| !(m.is_finite() && *m > 0.0)) {
+        return Err(invalid(
+            "true load",
+            format!("sample {k} is {} kg; it must be positive", true_kg[k]),
+        ));
+    }
+    let (standstill, quiet, after) = classify(time_s, true_kg, valve, rule);
+    let all: Vec<usize> = (0..n).collect();
+    let mut levels: Vec<(f64, Vec<usize>)> = Vec::new();
+    for &k in &standstill {
+        let level = (true_kg[k] / 10.0).round() * 10.0;
+        match levels.iter_mut().find(|(l, _)| *l == level) {
+            Some((_, v)) => v.push(k),
+            None => levels.push((level, vec![k])),
+        }
+    }
+    levels.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(AccuracySummary {
+        all: stats(&all, estimate_kg, true_kg, std_kg),
+        standstill: stats(&standstill, estimate_kg, true_kg, std_kg),
+        quiet_standstill: stats(&quiet, estimate_kg, true_kg, std_kg),
+        after_valve: stats(&after, estimate_kg, true_kg, std_kg),
+        by_load_level: levels
+            .into_iter()
+            .map(|(l, idx)| (l, stats(&idx, estimate_kg, true_kg, std_kg)))
+            .collect(),
+    })
+}
+
+/// Indices of the standstill samples (module docs).
+pub fn standstill_indices(
+    time_s: &[f64],
+    load_kg: &[f64],
+    valve: &[ValveState],
+    rule: &StandstillRule,
+) -> Vec<usize> {
+    classify(time_s, load_kg, valve, rule).0
+}
+
+/// `(standstill, quiet, after valve)` sample indices.
+fn classify(
+    time_s: &[f64],
+    true_kg: &[f64],
+    valve: &[ValveState],
+    rule: &StandstillRule,
+) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+    let n = time_s.len().min(true_kg.len()).min(valve.len());
+    let mut standstill = Vec::new();
+    let mut quiet = Vec::new();
+    let mut after = Vec::new();
+    // Last time the load changed or the valve was open, scanning forward.
+    let mut last_change_s = f64::NEG_INFINITY;
+    let mut last_valve_s = f64::NEG_INFINITY;
+    let mut reference_load = true_kg.first().copied().unwrap_or(0.0);
+    for k in 0..n {
+        let t = time_s[k];
+        if (true_kg[k] - reference_load).abs() > rule.steady_tolerance_kg {
+            last_change_s = t;
+            reference_load = true_kg[k];
+        }
+        if valve[k] != ValveState::Closed {
+            last_valve_s = t;
+        }
+        let since_start = t - time_s[0];
+        let rested = t - last_change_s.max(last_valve_s);
+        if since_start >= rule.settle_s && rested >= rule.settle_s {
+            standstill.push(k);
+            if t - last_valve_s <= rule.settle_s + rule.after_valve_window_s {
+                after.push(k);
+            } else {
+                quiet.push(k);
+            }
+        }
+    }
+    (standstill, quiet, after)
+}

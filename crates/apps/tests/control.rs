@@ -1,0 +1,160 @@
+//! Level control in closed loop: the band is held through a load sequence without hunting.
+
+use airsus_apps::control::*;
+use airsus_data::{TruckParameters, ValveState};
+use airsus_model::build_model;
+use airsus_truck::model::{SupplyMode, TruckModel};
+use airsus_truck::truth::VirtualTruck;
+
+fn controllers(guard: &GuardSettings) -> Vec<Box<dyn LevelController>> {
+    vec![
+        Box::new(DeadbandController::new(guard.clone())),
+        Box::new(PredictiveController::new(
+            guard.clone(),
+            ValveModel::from_truck(&TruckParameters::reference()),
+        )),
+    ]
+}
+
+/// No opening shorter than the minimum on-time, and no fill-exhaust-fill (or the reverse)
+/// cycle: a reversal never starts within the lock-out of the last opening.
+fn assert_no_hunting(run: &ClosedLoopRun, guard: &GuardSettings) {
+    let mut opened: Option<(ValveState, f64)> = None;
+    let mut last: Option<(ValveState, f64)> = None;
+    for k in 0..run.valve.len() {
+        let prev = if k == 0 {
+            ValveState::Closed
+        } else {
+            run.valve[k - 1]
+        };
+        let v = run.valve[k];
+        if v == prev {
+            continue;
+        }
+        let t = run.time_s[k];
+        assert!(
+            prev == ValveState::Closed || v == ValveState::Closed,
+            "{}: direct switch {prev:?} -> {v:?} at {t} s",
+            run.controller
+        );
+        if let Some((dir, since)) = opened.take() {
+            assert!(
+                t - since >= guard.min_on_s - 1e-9,
+                "{}: {dir:?} open only {:.2} s at {t} s",
+                run.controller,
+                t - since
+            );
+            last = Some((dir, t));
+        }
+        if v != ValveState::Closed {
+            if let Some((dir, end)) = last
+                && dir != v
+            {
+                assert!(
+                    t - end >= guard.reversal_lockout_s - 1e-9,
+                    "{}: {v:?} {:.1} s after {dir:?}",
+                    run.controller,
+                    t - end
+                );
+            }
+            opened = Some((v, t));
+        }
+    }
+}
+
+#[test]
+fn both_controllers_hold_the_band_through_load_steps_on_the_virtual_truck() {
+    let plant = Plant::Truck(Box::new(TruckModel::new(
+        VirtualTruck::reference(),
+        SupplyMode::Tank,
+    )));
+    let scenario = level_scenario("load-steps", 0.240, 3390.0).unwrap();
+    let guard = GuardSettings::default();
+    for mut c in controllers(&guard) {
+        let run = simulate_closed_loop(&plant, c.as_mut(), &scenario, &ClosedLoopConfig::default())
+            .unwrap();
+        let s = score(
+            &run,
+            &scenario.events_s,
+            &guard,
+            8.314462618 * 293.15,
+            101325.0,
+        );
+        println!("{}: {s:?}", c.name());
+        assert_no_hunting(&run, &guard);
+        assert_eq!(s.short_openings, 0);
+        assert_eq!(s.quick_reversals, 0);
+        // Every event settles into the ±5 mm band within 100 s and stays there.
+        for seg in &s.segments {
+            let t = seg.settling_time_s.expect("settles");
+            assert!(t < 100.0, "{}: settling {t} s at {}", c.name(), seg.start_s);
+            assert!(seg.steady_error_m.abs() <= guard.tolerance_m);
+        }
+        // Bounded valve use: four load changes, at most five openings each.
+        assert!(s.openings <= 20, "{}: {} openings", c.name(), s.openings);
+        // Only the unloading (-600 kg) calls for exhaust after fill.
+        assert!(s.reversals <= 2);
+        // The air let in is what the load needs, not a multiple of it (hunting would burn air):
+        // 850 kg added in total needs about 2.5 mol.
+        assert!(
+            (1.5..4.0).contains(&s.air_filled_mol),
+            "{}",
+            s.air_filled_mol
+        );
+    }
+}
+
+#[test]
+fn height_changes_on_model_2() {
+    let plant = Plant::Model(build_model("m2", &TruckParameters::reference()).unwrap());
+    let scenario = level_scenario("height-change", 0.240, 3390.0).unwrap();
+    let guard = GuardSettings::default();
+    for mut c in controllers(&guard) {
+        let run = simulate_closed_loop(&plant, c.as_mut(), &scenario, &ClosedLoopConfig::default())
+            .unwrap();
+        let s = score(
+            &run,
+            &scenario.events_s,
+            &guard,
+            8.314462618 * 293.15,
+            101325.0,
+        );
+        assert_no_hunting(&run, &guard);
+        assert!(s.worst_settling_time_s.is_some_and(|t| t < 40.0), "{s:?}");
+        assert!(s.max_overshoot_m < guard.tolerance_m);
+    }
+}
+
+#[test]
+fn guard_enforces_on_time_rest_and_lockout() {
+    let guard = GuardSettings::default();
+    let mut g = ValveGuard::new(guard.clone());
+    // Requests flipping every sample never produce a pulse shorter than the minimum.
+    let mut t = 0.0;
+    let mut applied = Vec::new();
+    for k in 0..400 {
+        let req = match k % 3 {
+            0 => ValveState::Fill,
+            1 => ValveState::Exhaust,
+            _ => ValveState::Closed,
+        };
+        applied.push(g.apply(t, req));
+        t += 0.1;
+    }
+    let run = ClosedLoopRun {
+        controller: "guard".into(),
+        time_s: (0..400).map(|k| k as f64 * 0.1).collect(),
+        valve: applied,
+        ..ClosedLoopRun::default()
+    };
+    assert_no_hunting(&run, &guard);
+}
+
+#[test]
+fn unknown_scenario_is_an_error() {
+    let err = level_scenario("bumpy", 0.24, 3390.0)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("load-steps"), "{err}");
+    assert!(level_scenario("load-steps", -1.0, 3390.0).is_err());
+}

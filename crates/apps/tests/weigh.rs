@@ -1,0 +1,244 @@
+//! Axle-load estimation against known loads: Model 2 data (exact structure) and the virtual
+//! truck (richer than any model).
+
+use airsus_apps::weigh::*;
+use airsus_data::{Run, RunInputs, RunOutputs, TruckParameters, ValveState};
+use airsus_model::{InitialCondition, Model2};
+use airsus_sim::{InitialState, InputSeries, SimulationProblem, simulate};
+use airsus_truck::experiments::run_experiment;
+use airsus_truck::scenario::data_set_1;
+use airsus_truck::sensors::{NoiseSource, SensorSpec};
+use airsus_truck::truth::VirtualTruck;
+
+/// Model 2 with the virtual truck's thesis-structure parameters, valve closed, a 300 kg load
+/// step at 20 s (3 s ramp) and -150 kg at 80 s; 140 s at 100 ms.
+fn model2_run(noisy: bool) -> (Run, Vec<f64>, TruckParameters) {
+    let truck = VirtualTruck::reference().physical;
+    let model = Model2::new(&truck);
+    let n = 1401;
+    let time: Vec<f64> = (0..n).map(|k| k as f64 * 0.1).collect();
+    let ramp = |t: f64, start: f64, len: f64| ((t - start) / len).clamp(0.0, 1.0);
+    let load: Vec<f64> = time
+        .iter()
+        .map(|&t| 3390.0 + 300.0 * ramp(t, 20.0, 3.0) - 150.0 * ramp(t, 80.0, 3.0))
+        .collect();
+    let valve = vec![ValveState::Closed; n];
+    let supply = vec![850e3; n];
+    let road = vec![0.0; n];
+    let inputs = InputSeries::new(&time, &load, &valve, &supply, &road).unwrap();
+    let problem = SimulationProblem::new(
+        &model,
+        inputs,
+        InitialState::Equilibrium(InitialCondition::SensorHeight { height_m: 0.24 }),
+    );
+    let r = simulate(&problem).unwrap();
+    let (h, p) = if noisy {
+        let mut noise = NoiseSource::new(7);
+        (
+            noise.measure(&r.sensor_height_m, SensorSpec::HEIGHT_M),
+            noise.measure(&r.bellow_gauge_pa, SensorSpec::BELLOW_PRESSURE_PA),
+        )
+    } else {
+        (r.sensor_height_m.clone(), r.bellow_gauge_pa.clone())
+    };
+    let run = Run {
+        name: "m2-steps".into(),
+        time_s: time,
+        sample_time_s: 0.1,
+        inputs: RunInputs {
+            wheel_load_kg: load.clone(),
+            valve,
+            supply_gauge_pa: supply,
+            road_height_m: road,
+        },
+        outputs: Some(RunOutputs {
+            sensor_height_m: h,
+            bellow_gauge_pa: p,
+        }),
+    };
+    (run, load, truck)
+}
+
+fn score(run: &Run, truth: &[f64], s: &WeighSeries) -> AccuracySummary {
+    evaluate_weighing(
+        &run.time_s,
+        &s.wheel_load_kg,
+        &s.std_kg,
+        truth,
+        &run.inputs.valve,
+        &StandstillRule::default(),
+    )
+    .unwrap()
+}
+
+#[test]
+fn static_weighing_with_true_parameters_on_noise_free_model_data_is_exact() {
+    let (run, truth, truck) = model2_run(false);
+    let w = StaticWeigher::new(
+        StaticLaw::from_truck(&truck),
+        WeighingUncertainty::default(),
+    );
+    let acc = score(&run, &truth, &weigh_static(&run, &w, 1).unwrap());
+    // Same structure, same parameters: only the solver tolerance and the residual motion 30 s
+    // after a step remain.
+    assert!(acc.standstill.samples > 500);
+    assert!(
+        acc.standstill.max_abs_error_percent < 0.05,
+        "{:?}",
+        acc.standstill
+    );
+}
+
+#[test]
+fn static_weighing_on_the_virtual_truck_true_vs_nominal() {
+    let vt = VirtualTruck::reference();
+    let generated =
+        run_experiment(&vt, &data_set_1(vt.physical.mass.unsprung_kg, 1), -120.0, 1).unwrap();
+    let truth = &generated.truth.inputs.wheel_load_kg;
+    let full = StaticWeigher::new(
+        StaticLaw::from_virtual_truck(&vt),
+        WeighingUncertainty::default(),
+    );
+    // Noise-free truth: within 1 % at standstill with the complete true static law (wall
+    // friction and the creep still relaxing 30 s after a step are what is left).
+    let clean = score(
+        &generated.truth,
+        truth,
+        &weigh_static(&generated.truth, &full, 1).unwrap(),
+    );
+    println!(
+        "virtual truck, true law, noise-free: {:?}",
+        clean.standstill
+    );
+    assert!(clean.standstill.max_abs_error_percent < 1.0);
+    assert!(clean.standstill.mean_error_percent.abs() < 0.3);
+    // Logged (noisy, quantised) data, 2 s average: the same within a few tenths of a percent.
+    let noisy = score(
+        &generated.logged,
+        truth,
+        &weigh_static(&generated.logged, &full, 20).unwrap(),
+    );
+    println!("virtual truck, true law, logged: {:?}", noisy.standstill);
+    assert!(noisy.standstill.max_abs_error_percent < 1.1);
+    assert!(noisy.standstill.mean_error_percent.abs() < 0.3);
+    // The thesis structure with the true values lacks the wall stretch: about -1.2 %.
+    let thesis = StaticWeigher::new(
+        StaticLaw::from_truck(&vt.physical),
+        WeighingUncertainty::default(),
+    );
+    let t = score(
+        &generated.logged,
+        truth,
+        &weigh_static(&generated.logged, &thesis, 20).unwrap(),
+    );
+    assert!(
+        (-1.6..-0.8).contains(&t.standstill.mean_error_percent),
+        "{:?}",
+        t.standstill
+    );
+    // Nominal parameters: about -5 %; the gap grey-box estimation has to close.
+    let nominal = StaticWeigher::new(
+        StaticLaw::from_truck(&TruckParameters::reference()),
+        WeighingUncertainty::default(),
+    );
+    let n = score(
+        &generated.logged,
+        truth,
+        &weigh_static(&generated.logged, &nominal, 20).unwrap(),
+    );
+    assert!(n.standstill.mean_error_percent < -3.0, "{:?}", n.standstill);
+    // A two-point calibration against the logged loads takes most of that bias out.
+    let est = weigh_static(&generated.logged, &nominal, 20).unwrap();
+    let cal = LinearCalibration::fit(
+        &generated.logged.time_s,
+        &est.wheel_load_kg,
+        &generated.logged.inputs.wheel_load_kg,
+        &generated.logged.inputs.valve,
+        &StandstillRule::default(),
+    )
+    .unwrap();
+    let c = score(&generated.logged, truth, &cal.apply(&est));
+    assert!(
+        c.standstill.mean_error_percent.abs() < 0.3,
+        "{:?}",
+        c.standstill
+    );
+}
+
+#[test]
+fn uncertainty_propagation_matches_hand_numbers() {
+    let truck = TruckParameters::reference();
+    let w = StaticWeigher::new(
+        StaticLaw::from_truck(&truck),
+        WeighingUncertainty::default(),
+    );
+    let e = w.estimate(0.240, 330e3).unwrap();
+    // dm/dp ≈ k_l A / g = 1.4516 * 0.0553 / 9.81 = 8.2e-3 kg/Pa; σ_p = √(200² + 100²/12)
+    // = 202 Pa → 1.66 kg per sample (the height adds little: the area is flat).
+    assert!(
+        (1.4..2.0).contains(&e.measurement_std_kg),
+        "{}",
+        e.measurement_std_kg
+    );
+    // Parameters: 1 % of the sprung load (~27 kg), 20 kg unsprung, friction 100 N → 8.6 kg.
+    assert!(
+        (30.0..45.0).contains(&e.parameter_std_kg),
+        "{}",
+        e.parameter_std_kg
+    );
+    let sensors = StaticWeigher::new(
+        StaticLaw::from_truck(&truck),
+        WeighingUncertainty::default().sensors_only(),
+    );
+    assert!(sensors.estimate(0.240, 330e3).unwrap().parameter_std_kg < 1e-9);
+}
+
+#[test]
+fn bad_readings_are_errors_not_panics() {
+    let law = StaticLaw::from_truck(&TruckParameters::reference());
+    assert!(law.wheel_load_kg(0.24, -5.0).is_err());
+    assert!(law.wheel_load_kg(f64::NAN, 330e3).is_err());
+    assert!(law.wheel_load_kg(5.0, 330e3).is_err());
+}
+
+#[test]
+fn ekf_converges_on_a_load_step() {
+    let (run, truth, truck) = model2_run(true);
+    let w = StaticWeigher::new(
+        StaticLaw::from_truck(&truck),
+        WeighingUncertainty::default(),
+    );
+    let s = weigh_ekf(
+        &run,
+        Box::new(Model2::new(&truck)),
+        &w,
+        &EkfTuning::default(),
+    )
+    .unwrap();
+    // Step ramps from 20 s to 23 s (+300 kg). Within 1 % of the true load 2 s after the ramp
+    // ends, and within 0.2 % from 10 s after it to the next step.
+    let at = |t: f64| (t / 0.1).round() as usize;
+    for (k, (&est, &m)) in s.wheel_load_kg.iter().zip(&truth).enumerate() {
+        if !(at(25.0)..at(80.0)).contains(&k) {
+            continue;
+        }
+        let err = (est - m).abs() / m;
+        assert!(
+            err < 0.01,
+            "t = {:.1}: error {:.3} %",
+            run.time_s[k],
+            100.0 * err
+        );
+        if k >= at(33.0) {
+            assert!(
+                err < 0.002,
+                "t = {:.1}: error {:.3} %",
+                run.time_s[k],
+                100.0 * err
+            );
+        }
+    }
+    let acc = score(&run, &truth, &s);
+    println!("EKF on noisy Model 2 data: {:?}", acc.standstill);
+    assert!(acc.standstill.max_abs_error_percent < 0.2);
+}

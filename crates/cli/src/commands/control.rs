@@ -1,0 +1,163 @@
+//! `airsus control`: level controllers for the 3-state valve in closed loop.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use airsus_apps::control::{
+    ClosedLoopConfig, DeadbandController, GuardSettings, LevelController, Plant,
+    PredictiveController, SCENARIO_NAMES, ValveModel, level_scenario, score, simulate_closed_loop,
+};
+use airsus_apps::plot::plot_closed_loop;
+use airsus_data::read_truck;
+use airsus_truck::model::{SupplyMode, TruckModel};
+use airsus_truck::truth::VirtualTruck;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ControllerChoice {
+    Deadband,
+    Predictive,
+    Both,
+}
+
+/// Simulate ride-height controllers in closed loop (the controller reads quantised, noisy
+/// sensors every 100 ms) and report settling, overshoot, steady error, valve switches and air.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ControlArgs {
+    /// Truck parameter file: the plant's parameters for m1..m3, and what the predictive
+    /// controller believes in every case.
+    #[arg(long, value_name = "T.toml")]
+    pub truck: PathBuf,
+    /// Target sensor height, mm.
+    #[arg(long, default_value_t = 240.0)]
+    pub target_mm: f64,
+    /// load-steps or height-change.
+    #[arg(long, default_value = "load-steps")]
+    pub scenario: String,
+    /// Plant: m1, m2, m2x, m2xh, m3 (with the truck file's parameters) or truck (the built-in
+    /// virtual truck with its true parameters, simulated supply tank and compressor).
+    #[arg(long, default_value = "truck")]
+    pub model: String,
+    #[arg(long, value_enum, default_value_t = ControllerChoice::Both)]
+    pub controller: ControllerChoice,
+    /// Wheel load at the start, kg.
+    #[arg(long, default_value_t = 3390.0)]
+    pub load_kg: f64,
+    /// Seed of the sensor noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Plot file (.svg, otherwise PNG).
+    #[arg(long, value_name = "out.svg")]
+    pub plot: Option<PathBuf>,
+}
+
+pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
+    let truck = read_truck(&args.truck)
+        .with_context(|| format!("reading truck file {}", args.truck.display()))?
+        .parameters;
+    let plant = if args.model == "truck" {
+        Plant::Truck(Box::new(TruckModel::new(
+            VirtualTruck::reference(),
+            SupplyMode::Tank,
+        )))
+    } else {
+        Plant::Model(airsus_truck::models::build_any_model(&args.model, &truck)?)
+    };
+    let scenario = level_scenario(&args.scenario, args.target_mm * 1e-3, args.load_kg)
+        .with_context(|| format!("scenarios: {}", SCENARIO_NAMES.join(", ")))?;
+    let guard = GuardSettings::default();
+    let mut controllers: Vec<Box<dyn LevelController>> = Vec::new();
+    if matches!(
+        args.controller,
+        ControllerChoice::Deadband | ControllerChoice::Both
+    ) {
+        controllers.push(Box::new(DeadbandController::new(guard.clone())));
+    }
+    if matches!(
+        args.controller,
+        ControllerChoice::Predictive | ControllerChoice::Both
+    ) {
+        controllers.push(Box::new(PredictiveController::new(
+            guard.clone(),
+            ValveModel::from_truck(&truck),
+        )));
+    }
+    let config = ClosedLoopConfig {
+        seed: args.seed,
+        ..ClosedLoopConfig::default()
+    };
+    let rt = truck.environment.gas_constant_j_mol_k * truck.environment.temperature_k;
+    let ambient = truck.environment.ambient_pressure_pa;
+    println!(
+        "scenario {} on {} ({} s), target {:.1} mm, band ±{:.1} mm, min on-time {:.1} s, rest {:.1} s, reversal lock-out {:.0} s",
+        scenario.name,
+        plant.model().name(),
+        scenario.time_s.last().copied().unwrap_or(0.0),
+        args.target_mm,
+        guard.tolerance_m * 1e3,
+        guard.min_on_s,
+        guard.min_rest_s,
+        guard.reversal_lockout_s
+    );
+    println!(
+        "{:<11} {:>10} {:>10} {:>10} {:>9} {:>9} {:>6} {:>10} {:>10} {:>10}",
+        "controller",
+        "settle s",
+        "oversh mm",
+        "steady mm",
+        "switches",
+        "openings",
+        "rev",
+        "fill mol",
+        "fill l",
+        "exh mol"
+    );
+    let mut runs = Vec::new();
+    for c in controllers.iter_mut() {
+        let run = simulate_closed_loop(&plant, c.as_mut(), &scenario, &config)
+            .with_context(|| format!("closed loop with the {} controller", c.name()))?;
+        let s = score(&run, &scenario.events_s, &guard, rt, ambient);
+        println!(
+            "{:<11} {:>10} {:>10.1} {:>10.2} {:>9} {:>9} {:>6} {:>10.3} {:>10.1} {:>10.3}",
+            c.name(),
+            s.worst_settling_time_s
+                .map_or("never".to_owned(), |t| format!("{t:.1}")),
+            s.max_overshoot_m * 1e3,
+            s.max_steady_error_m * 1e3,
+            s.switches,
+            s.openings,
+            s.reversals,
+            s.air_filled_mol,
+            s.air_filled_free_l,
+            s.air_exhausted_mol
+        );
+        for seg in &s.segments {
+            println!(
+                "    event at {:>5.0} s: max deviation {:>5.1} mm, settled after {:>6}, overshoot {:>4.1} mm, steady error {:+.2} mm",
+                seg.start_s,
+                seg.max_deviation_m * 1e3,
+                seg.settling_time_s
+                    .map_or("never".to_owned(), |t| format!("{t:.1} s")),
+                seg.overshoot_m * 1e3,
+                seg.steady_error_m * 1e3
+            );
+        }
+        if s.short_openings > 0 || s.quick_reversals > 0 {
+            println!(
+                "    warning: {} openings shorter than the minimum on-time, {} reversals within the lock-out",
+                s.short_openings, s.quick_reversals
+            );
+        }
+        runs.push(run);
+    }
+    if let Some(path) = &args.plot {
+        plot_closed_loop(
+            path,
+            &runs,
+            guard.tolerance_m,
+            &format!("{} on {}", scenario.name, plant.model().name()),
+        )?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,181 @@
+//! `airsus weigh`: axle-load estimation from a run's bellow pressure and height.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use airsus_apps::weigh::{
+    EkfTuning, LinearCalibration, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty,
+    evaluate_weighing, weigh_ekf, weigh_static, write_weigh_csv,
+};
+use airsus_data::{read_run, read_truck};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// Static force balance inverted, averaged over --window-s.
+    Static,
+    /// Extended Kalman filter on a model with the load as a random-walk state.
+    Ekf,
+}
+
+/// Estimate the wheel load over time from the measured bellow pressure and height (the logged
+/// load column is not used), with its standard deviation.
+#[derive(Debug, Clone, clap::Args)]
+pub struct WeighArgs {
+    /// Truck parameter file (nominal, or identified parameters).
+    #[arg(long, value_name = "T.toml")]
+    pub truck: PathBuf,
+    /// Run file with height_mm and pressure_kpa.
+    #[arg(long, value_name = "R.csv")]
+    pub run: PathBuf,
+    #[arg(long, value_enum, default_value_t = Method::Static)]
+    pub method: Method,
+    /// Model the EKF runs (m1, m2, m2x, m2xh, truck).
+    #[arg(long, default_value = "m2")]
+    pub model: String,
+    /// Averaging window of the static method, s.
+    #[arg(long, default_value_t = 2.0)]
+    pub window_s: f64,
+    /// A run whose logged load is trusted at standstill (e.g. weighbridge loads): fit a
+    /// gain and offset on it and apply them.
+    #[arg(long, value_name = "C.csv")]
+    pub calibration_run: Option<PathBuf>,
+    /// A run carrying the true load (the virtual truck's truth/ file): score the estimate.
+    #[arg(long, value_name = "TRUTH.csv")]
+    pub truth: Option<PathBuf>,
+    /// Output CSV: time_s, wheel_load_kg, wheel_load_std_kg (written atomically).
+    #[arg(long, value_name = "W.csv")]
+    pub out: Option<PathBuf>,
+}
+
+pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
+    let loaded = read_truck(&args.truck)
+        .with_context(|| format!("reading truck file {}", args.truck.display()))?;
+    for d in &loaded.defaulted {
+        eprintln!("note: {} not in the truck file, using {}", d.key, d.value);
+    }
+    let truck = loaded.parameters;
+    let run = read_run(&args.run).with_context(|| format!("reading run {}", args.run.display()))?;
+    let weigher = StaticWeigher::new(
+        StaticLaw::from_truck(&truck),
+        WeighingUncertainty::default(),
+    );
+    if !(args.window_s.is_finite() && args.window_s >= 0.0) {
+        anyhow::bail!("--window-s must be a non-negative number of seconds");
+    }
+    let window = ((args.window_s / run.sample_time_s).round() as usize).max(1);
+    let estimate = |run: &airsus_data::Run| -> anyhow::Result<_> {
+        Ok(match args.method {
+            Method::Static => weigh_static(run, &weigher, window)?,
+            Method::Ekf => {
+                let model = airsus_truck::models::build_any_model(&args.model, &truck)?;
+                weigh_ekf(run, model, &weigher, &EkfTuning::default())?
+            }
+        })
+    };
+    let mut series = estimate(&run).with_context(|| format!("weighing {}", args.run.display()))?;
+    let rule = StandstillRule::default();
+    if let Some(path) = &args.calibration_run {
+        let cal_run = read_run(path).with_context(|| format!("reading {}", path.display()))?;
+        let cal_est = estimate(&cal_run)?;
+        let cal = LinearCalibration::fit(
+            &cal_run.time_s,
+            &cal_est.wheel_load_kg,
+            &cal_run.inputs.wheel_load_kg,
+            &cal_run.inputs.valve,
+            &rule,
+        )
+        .with_context(|| format!("calibrating on {}", path.display()))?;
+        println!(
+            "calibration on {}: load = {:.5} x estimate {:+.1} kg ({} standstill samples, residual rms {:.1} kg)",
+            path.display(),
+            cal.gain,
+            cal.offset_kg,
+            cal.samples,
+            cal.residual_rms_kg
+        );
+        series = cal.apply(&series);
+    }
+    let method = match args.method {
+        Method::Static => format!("static force balance, {:.1} s average", args.window_s),
+        Method::Ekf => format!("EKF on model {}", args.model),
+    };
+    println!(
+        "{}: {} samples, {method}, parameters from {}",
+        args.run.display(),
+        series.len(),
+        args.truck.display()
+    );
+    let n = series.len();
+    if n > 0 {
+        let (lo, hi) = series
+            .wheel_load_kg
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &m| {
+                (a.min(m), b.max(m))
+            });
+        println!(
+            "  final wheel load {:.1} kg ± {:.1} kg (1σ); range over the run {:.1} to {:.1} kg",
+            series.wheel_load_kg[n - 1],
+            series.std_kg[n - 1],
+            lo,
+            hi
+        );
+    }
+    if let Some(path) = &args.truth {
+        let truth = read_run(path).with_context(|| format!("reading {}", path.display()))?;
+        if truth.len() != run.len() {
+            anyhow::bail!(
+                "{} has {} samples, the run {}",
+                path.display(),
+                truth.len(),
+                run.len()
+            );
+        }
+        let acc = evaluate_weighing(
+            &series.time_s,
+            &series.wheel_load_kg,
+            &series.std_kg,
+            &truth.inputs.wheel_load_kg,
+            &run.inputs.valve,
+            &rule,
+        )?;
+        println!(
+            "  error against the true load ({}; standstill = load steady and valve closed for {:.0} s):",
+            path.display(),
+            rule.settle_s
+        );
+        println!(
+            "    {:<24} {:>8} {:>10} {:>10} {:>10} {:>9} {:>9}",
+            "samples", "n", "mean %", "max |%|", "rms kg", "in ±1 %", "mean σ kg"
+        );
+        for (name, s) in [
+            ("all", acc.all),
+            ("standstill", acc.standstill),
+            ("  quiet", acc.quiet_standstill),
+            ("  after valve activity", acc.after_valve),
+        ] {
+            println!(
+                "    {:<24} {:>8} {:>+10.3} {:>10.3} {:>10.1} {:>8.1}% {:>9.1}",
+                name,
+                s.samples,
+                s.mean_error_percent,
+                s.max_abs_error_percent,
+                s.rms_error_kg,
+                100.0 * s.within_1_percent,
+                s.mean_std_kg
+            );
+        }
+        for (level, s) in &acc.by_load_level {
+            println!(
+                "    standstill at {:>6.0} kg: mean {:+.3} %, max |{:.3}| % ({} samples)",
+                level, s.mean_error_percent, s.max_abs_error_percent, s.samples
+            );
+        }
+    }
+    if let Some(out) = &args.out {
+        write_weigh_csv(out, &series).with_context(|| format!("writing {}", out.display()))?;
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(())
+}
