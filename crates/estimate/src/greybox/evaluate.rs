@@ -165,6 +165,17 @@ impl<'a> Evaluator<'a> {
         for run in &problem.runs {
             runs.push(run_data(run, problem, w)?);
         }
+        // One scale per output, pooled over the runs (see GreyboxProblem): a per-run scale
+        // would give a run in which an output hardly moves (the pressure at constant load
+        // during valve pulses) an enormous weight on that output.
+        let heights: Vec<&[f64]> = runs.iter().map(|r| r.height).collect();
+        let pressures: Vec<&[f64]> = runs.iter().map(|r| r.pressure).collect();
+        let sigma_h = pooled_spread(&heights, HEIGHT_RESOLUTION_M);
+        let sigma_p = pooled_spread(&pressures, PRESSURE_RESOLUTION_PA);
+        for r in &mut runs {
+            r.height_factor /= sigma_h;
+            r.pressure_factor /= sigma_p;
+        }
         Ok(Self {
             base: model.box_clone(),
             params,
@@ -355,17 +366,28 @@ fn run_data<'a>(
             gauge_pa: outputs.bellow_gauge_pa[0],
         },
     };
-    let sigma_h = std_dev(&outputs.sensor_height_m).max(HEIGHT_RESOLUTION_M);
-    let sigma_p = std_dev(&outputs.bellow_gauge_pa).max(PRESSURE_RESOLUTION_PA);
+    // The spread normalisation is pooled over all runs afterwards (Evaluator::new).
     Ok(RunData {
         name: run.name.clone(),
         inputs,
         initial: InitialState::Equilibrium(ic),
         height: &outputs.sensor_height_m,
         pressure: &outputs.bellow_gauge_pa,
-        height_factor: w.height / sigma_h,
-        pressure_factor: w.pressure / sigma_p,
+        height_factor: w.height,
+        pressure_factor: w.pressure,
     })
+}
+
+/// The within-run spread of one output pooled over all runs,
+/// `σ = √(Σ_r Σ_k (y_rk − ȳ_r)² / Σ_r N_r)`, floored at the sensor resolution.
+fn pooled_spread(signals: &[&[f64]], floor: f64) -> f64 {
+    let (mut squares, mut count) = (0.0, 0usize);
+    for y in signals {
+        let s = std_dev(y);
+        squares += s * s * y.len() as f64;
+        count += y.len();
+    }
+    (squares / count.max(1) as f64).sqrt().max(floor)
 }
 
 /// A model-free estimate of the white measurement-noise variance of each (run, output) block

@@ -229,7 +229,13 @@ pub fn estimate(
     let mut rounds = 0;
     let mut final_j = None;
     let mut lambda_post = lambda_data.clone();
-    while !active.is_empty() && rounds < MAX_ROUNDS {
+    // Each round fits the active parameters, then screens them. Flagged parameters go back
+    // to nominal and the rest are refitted, so the point returned is always one the optimiser
+    // reached with exactly the parameters it reports as estimated: never a fitted set mixed
+    // with reset values (such a mix need not even simulate). After MAX_ROUNDS screenings a
+    // last refit runs without screening.
+    let mut screening = true;
+    while !active.is_empty() {
         rounds += 1;
         observer.stage(&format!("fit round {rounds}"));
         let settings = FitSettings {
@@ -249,10 +255,14 @@ pub fn estimate(
         observer.stage("Jacobian at the estimate");
         let j = jacobian_full(&ev, &z, &active, &residuals, options.fd_step);
         lambda_post = noise_variance_from_residuals(&residuals, &blocks, active.len());
+        final_j = Some(j);
+        if !screening {
+            break;
+        }
         // Screened even when the fit did not converge: wandering along a flat direction is a
         // common reason not to converge, and fixing that parameter lets the refit converge.
         let (keep, newly) = select_identifiable(
-            &j,
+            final_j.as_ref().unwrap_or(&j0),
             &active,
             &names,
             &priority,
@@ -260,34 +270,39 @@ pub fn estimate(
             &lambda_post,
             screen(Stage::AfterFit),
         );
-        let refit = fix && !newly.is_empty() && rounds < MAX_ROUNDS;
         for n in &newly {
             if !not_identifiable.iter().any(|m| m.name == n.name) {
                 not_identifiable.push(n.clone());
             }
         }
-        final_j = Some(j);
-        if !refit {
-            if fix && !newly.is_empty() {
-                // Out of rounds: still never return values the data do not determine.
-                for n in &newly {
-                    if let Some(i) = names.iter().position(|m| *m == n.name) {
-                        z[i] = 0.0;
-                    }
-                }
-                active = keep;
-            }
+        if !fix || newly.is_empty() {
             break;
         }
+        screening = rounds < MAX_ROUNDS;
         for n in &newly {
             if let Some(i) = names.iter().position(|m| *m == n.name) {
                 z[i] = 0.0;
             }
         }
         active = keep;
-        if let Some(r) = ev.residuals_at(&z) {
-            residuals = r;
+        // Restart from the fitted values of the kept parameters if that point simulates and
+        // is no worse than the nominal one; otherwise from the nominal point.
+        match ev.residuals_at(&z) {
+            Some(r) if r.iter().map(|v| v * v).sum::<f64>() <= loss0 => residuals = r,
+            _ => {
+                z = z0.clone();
+                residuals = r0.clone();
+            }
         }
+    }
+    if ev.residuals_at(&z).is_none() {
+        // The optimiser's best point always simulated; this guards the contract anyway.
+        stop = StopReason::NotConverging {
+            reason: "the final point does not simulate every run; the nominal values are returned"
+                .to_owned(),
+        };
+        z = z0.clone();
+        final_j = None;
     }
 
     // Uncertainty of the estimated parameters at the final point.

@@ -71,15 +71,17 @@ impl Default for OutputWeights {
 /// starting from its own static equilibrium:
 ///
 /// ```text
-/// V(θ) = Σ_runs Σ_k  w_h² (h_k − ĥ_k(θ))² / σ_h,r²  +  w_p² (p_k − p̂_k(θ))² / σ_p,r²
+/// V(θ) = Σ_runs Σ_k  w_h² (h_k − ĥ_k(θ))² / σ_h²  +  w_p² (p_k − p̂_k(θ))² / σ_p²
 /// ```
 ///
-/// with `σ_h,r`, `σ_p,r` the standard deviations of the measured height and pressure of run
-/// `r` (floored at the sensor resolutions 0.1 mm and 0.1 kPa, SPEC §1). Normalising by the
-/// spread makes both outputs dimensionless and comparable: a run's term is
-/// `N_r ((1 − NRMSE_h/100)² + (1 − NRMSE_p/100)²)` (eq 3.33), so neither output dominates
-/// by its units (metres against pascals differ by 10⁷), and a long run counts in proportion
-/// to its length.
+/// with `σ_h`, `σ_p` the within-run spreads of the measured height and pressure pooled over
+/// all estimation runs (floored at the sensor resolutions 0.1 mm and 0.1 kPa, SPEC §1).
+/// Normalising by the spread makes both outputs dimensionless and comparable, so neither
+/// dominates by its units (metres against pascals differ by 10⁷); with a single run a run's
+/// term is `N ((1 − NRMSE_h/100)² + (1 − NRMSE_p/100)²)` (eq 3.33). The spread is pooled,
+/// not per run, because an output that hardly moves in one run (the pressure at constant
+/// load while the valve pulses) would otherwise weigh that run's small offsets enormously;
+/// a long run counts in proportion to its length.
 #[derive(Debug, Clone)]
 pub struct GreyboxProblem<'a> {
     pub model: &'a dyn SuspensionModel,
