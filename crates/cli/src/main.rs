@@ -9,6 +9,8 @@ mod commands;
 
 const AFTER_HELP: &str = "\
 Typical workflow:
+  airsus study --builtin --out out/          the whole pipeline on the built-in virtual truck
+  airsus study study.toml --out out/         the same on your own files
   airsus params --builtin > truck.toml       start from the reference truck
   airsus check study.toml                    validate a study and every file it names
   airsus generate --out ref/                  the virtual truck's reference experiments
@@ -48,6 +50,8 @@ enum Command {
     Greybox(commands::greybox::GreyboxArgs),
     /// Submodel fits from lab and run data (thesis 5.2): cross-section, effective area, valve, slow dynamics.
     Fit(commands::fit::FitArgs),
+    /// The whole thesis pipeline: submodel fits, grey-box estimation of every model, validation, report.
+    Study(commands::study::StudyArgs),
     /// Estimate the wheel load over time from bellow pressure and height (static or EKF).
     Weigh(commands::weigh::WeighArgs),
     /// Level controllers for the 3-state valve, compared in closed loop.
@@ -68,6 +72,7 @@ fn main() -> std::process::ExitCode {
         Command::Generate(args) => commands::generate::run(args),
         Command::Greybox(args) => commands::greybox::run(args),
         Command::Fit(args) => commands::fit::run(args),
+        Command::Study(args) => commands::study::run(args),
         Command::Weigh(args) => commands::weigh::run(args),
         Command::Control(args) => commands::control::run(args),
         Command::Road(args) => commands::road::run(args),

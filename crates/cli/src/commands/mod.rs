@@ -9,4 +9,5 @@ pub mod ident;
 pub mod params;
 pub mod road;
 pub mod simulate;
+pub mod study;
 pub mod weigh;

@@ -1,0 +1,118 @@
+//! `airsus study`: the whole thesis pipeline on a study file, or on the built-in virtual truck.
+
+use std::path::PathBuf;
+use std::sync::Mutex;
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use airsus_study::{
+    Event, Protocol, STUDY_MODELS, StudyOptions, load_study, run_builtin, run_study, summary_table,
+};
+
+/// Run the thesis pipeline: submodel fits, grey-box estimation of every model (m1, m2, m2x,
+/// m2xh, m3 and the virtual-truck structure), validation with residual analysis on every run,
+/// and a report (report.html, results.json, figures, estimated truck files).
+#[derive(Debug, Clone, clap::Args)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["study", "builtin"])))]
+pub struct StudyArgs {
+    /// Study file (TOML) naming a truck file, runs, a force map and tank discharges.
+    #[arg(value_name = "STUDY.toml")]
+    pub study: Option<PathBuf>,
+    /// Generate the reference experiments with the built-in virtual truck (into DIR/data) and
+    /// run two protocols side by side: the thesis' (estimation on data-set 1) and ours (plus
+    /// the valve pulses of data-set 3).
+    #[arg(long)]
+    pub builtin: bool,
+    /// Output folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Seed of the built-in study.
+    #[arg(long, default_value_t = 1, requires = "builtin")]
+    pub seed: u64,
+    /// Models to estimate (comma-separated).
+    #[arg(long, value_delimiter = ',', default_values_t = STUDY_MODELS.iter().map(|m| (*m).to_owned()).collect::<Vec<_>>())]
+    pub models: Vec<String>,
+    /// Iteration limit of each grey-box fit.
+    #[arg(long, default_value_t = 60)]
+    pub max_iterations: usize,
+}
+
+pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
+    let started = Instant::now();
+    for m in &args.models {
+        if !STUDY_MODELS.contains(&m.as_str()) {
+            bail!(
+                "unknown model `{m}`; the study estimates {}",
+                STUDY_MODELS.join(", ")
+            );
+        }
+    }
+    if args.max_iterations == 0 {
+        bail!("--max-iterations must be at least 1");
+    }
+    let bar = ProgressBar::new(0);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    let bar = Mutex::new(bar);
+    let progress = |event: Event| {
+        let Ok(bar) = bar.lock() else { return };
+        match event {
+            Event::Stage(stage) => bar.set_message(stage.to_owned()),
+            Event::ModelDone {
+                protocol,
+                model,
+                seconds,
+                done,
+                total,
+            } => {
+                bar.set_length(total as u64);
+                bar.set_position(done as u64);
+                bar.println(format!(
+                    "  {protocol}: {model} estimated and validated in {seconds:.1} s"
+                ));
+            }
+        }
+    };
+    let outcome = match &args.study {
+        Some(path) => {
+            let input = load_study(path)?;
+            for d in &input.defaulted {
+                eprintln!("note: {} omits {}", input.truck_file.display(), d);
+            }
+            let options = StudyOptions {
+                models: args.models.clone(),
+                protocols: vec![Protocol::from_roles(&input)],
+                max_iterations: args.max_iterations,
+            };
+            run_study(&input, &options, &args.out, &progress)
+        }
+        None => run_builtin(
+            &args.out,
+            args.seed,
+            &args.models,
+            args.max_iterations,
+            &progress,
+        ),
+    }
+    .with_context(|| format!("running the study into {}", args.out.display()))?;
+    if let Ok(bar) = bar.lock() {
+        bar.finish_and_clear();
+    }
+    print!("{}", summary_table(&outcome.results));
+    for failure in &outcome.report.chart_failures {
+        eprintln!("warning: {failure}");
+    }
+    eprintln!(
+        "report: {}\nresults: {}\n{} figures; finished in {:.1} s",
+        outcome.report.html.display(),
+        outcome.report.json.display(),
+        outcome.report.figures.len(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

@@ -1,0 +1,127 @@
+//! A study's files, loaded and checked up front: nothing is estimated before every file has
+//! been read, so a typo in the last run fails in a second, not after a minute of fitting.
+
+use std::path::{Path, PathBuf};
+
+use airsus_data::{
+    Channel, ForceMap, Role, Run, Study, TankDischarge, TruckParameters, ValveState,
+    read_discharge, read_force_map, read_run, read_study, read_truck,
+};
+
+use crate::StudyError;
+
+/// One run of the study with its data.
+#[derive(Debug, Clone)]
+pub struct StudyRunData {
+    pub name: String,
+    pub file: PathBuf,
+    pub role: Role,
+    pub run: Run,
+}
+
+impl StudyRunData {
+    /// Whether the valve moves during the run (what makes flow parameters identifiable).
+    pub fn valve_action(&self) -> bool {
+        self.run
+            .inputs
+            .valve
+            .iter()
+            .any(|&v| v != ValveState::Closed)
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct DischargeData {
+    pub name: String,
+    pub channel: Channel,
+    pub tank_volume_m3: f64,
+    pub temperature_k: f64,
+    pub role: Role,
+    pub discharge: TankDischarge,
+}
+
+/// Everything a study needs, in memory.
+#[derive(Debug, Clone)]
+pub struct StudyInput {
+    /// How the study is named in the report (its path, or the built-in's description).
+    pub label: String,
+    pub truck_file: PathBuf,
+    pub truck: TruckParameters,
+    /// Estimable keys the truck file left out, with the values used.
+    pub defaulted: Vec<String>,
+    pub runs: Vec<StudyRunData>,
+    pub force_map: Option<ForceMap>,
+    pub discharges: Vec<DischargeData>,
+}
+
+impl StudyInput {
+    pub fn run(&self, name: &str) -> Option<&StudyRunData> {
+        self.runs.iter().find(|r| r.name == name)
+    }
+
+    /// Names of the runs with `role`.
+    pub fn runs_with(&self, role: Role) -> Vec<String> {
+        self.runs
+            .iter()
+            .filter(|r| r.role == role)
+            .map(|r| r.name.clone())
+            .collect()
+    }
+}
+
+/// Loads a study file and every file it names.
+pub fn load_study(path: &Path) -> Result<StudyInput, StudyError> {
+    let study = read_study(path)?;
+    load_parts(path.display().to_string(), &study)
+}
+
+/// Loads the files a parsed study names; `label` names it in the report.
+pub fn load_parts(label: String, study: &Study) -> Result<StudyInput, StudyError> {
+    let loaded = read_truck(&study.truck)?;
+    let runs = study
+        .runs
+        .iter()
+        .map(|r| {
+            let mut run = read_run(&r.file)?;
+            run.name = r.name.clone();
+            Ok(StudyRunData {
+                name: r.name.clone(),
+                file: r.file.clone(),
+                role: r.role,
+                run,
+            })
+        })
+        .collect::<Result<Vec<_>, StudyError>>()?;
+    let force_map = study.force_map.as_deref().map(read_force_map).transpose()?;
+    let discharges = study
+        .discharges
+        .iter()
+        .map(|d| {
+            Ok(DischargeData {
+                name: d
+                    .file
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+                channel: d.channel,
+                tank_volume_m3: d.tank_volume_m3,
+                temperature_k: d.temperature_k,
+                role: d.role,
+                discharge: read_discharge(&d.file)?,
+            })
+        })
+        .collect::<Result<Vec<_>, StudyError>>()?;
+    Ok(StudyInput {
+        label,
+        truck_file: study.truck.clone(),
+        truck: loaded.parameters,
+        defaulted: loaded
+            .defaulted
+            .iter()
+            .map(|d| format!("{} = {}", d.key, d.value))
+            .collect(),
+        runs,
+        force_map,
+        discharges,
+    })
+}

@@ -1,0 +1,290 @@
+//! # airsus-study: the thesis pipeline from one call
+//!
+//! 1. load the study and every file it names ([`input`]);
+//! 2. submodel fits from the lab data and the estimation runs, seeding the start values
+//!    ([`submodels`], thesis 5.2 and Table 5.9);
+//! 3. grey-box estimation of every model — the four thesis models and the virtual-truck
+//!    structure `truck` — on each protocol's estimation runs ([`models`]), the models in
+//!    parallel;
+//! 4. simulation and residual analysis of every model on every run;
+//! 5. figures and the report (`report.html`, `results.json`, estimated truck files).
+
+pub mod figures;
+pub mod input;
+pub mod models;
+pub mod protocol;
+pub mod submodels;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use airsus_report::chart::Chart;
+use airsus_report::html::{ReportError, ReportFiles, write_report};
+use airsus_report::results::{ProtocolResult, RunInfo, SCHEMA_VERSION, StudyResults};
+
+pub use input::{StudyInput, load_study};
+pub use protocol::Protocol;
+
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    #[error(transparent)]
+    Data(#[from] airsus_data::DataError),
+    #[error(transparent)]
+    Report(#[from] ReportError),
+    #[error(transparent)]
+    Generate(#[from] airsus_truck::error::TruckError),
+    #[error("protocol `{protocol}`: {reason}")]
+    Protocol { protocol: String, reason: String },
+    #[error("cannot create the output folder {path}: {source}")]
+    OutputFolder {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+/// The models a study estimates, in report order.
+pub const STUDY_MODELS: [&str; 6] = ["m1", "m2", "m2x", "m2xh", "m3", "truck"];
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct StudyOptions {
+    pub models: Vec<String>,
+    pub protocols: Vec<Protocol>,
+    pub max_iterations: usize,
+}
+
+/// What the pipeline reports while it works.
+#[derive(Debug, Clone, Copy)]
+pub enum Event<'a> {
+    Stage(&'a str),
+    ModelDone {
+        protocol: &'a str,
+        model: &'a str,
+        seconds: f64,
+        done: usize,
+        total: usize,
+    },
+}
+
+pub struct StudyOutcome {
+    pub results: StudyResults,
+    pub report: ReportFiles,
+}
+
+/// Runs the whole pipeline on `input` and writes everything into `out_dir`.
+pub fn run_study(
+    input: &StudyInput,
+    options: &StudyOptions,
+    out_dir: &Path,
+    progress: &(dyn Fn(Event) + Sync),
+) -> Result<StudyOutcome, StudyError> {
+    let started = Instant::now();
+    std::fs::create_dir_all(out_dir).map_err(|source| StudyError::OutputFolder {
+        path: out_dir.to_path_buf(),
+        source,
+    })?;
+    for p in &options.protocols {
+        if p.estimation.is_empty() {
+            return Err(StudyError::Protocol {
+                protocol: p.name.clone(),
+                reason: "no estimation run: mark at least one run `role = \"estimation\"`"
+                    .to_owned(),
+            });
+        }
+        if let Some(missing) = p.estimation.iter().find(|n| input.run(n).is_none()) {
+            return Err(StudyError::Protocol {
+                protocol: p.name.clone(),
+                reason: format!("the study has no run named `{missing}`"),
+            });
+        }
+    }
+
+    progress(Event::Stage("submodel fits"));
+    let first_estimation = options
+        .protocols
+        .first()
+        .map(|p| p.estimation.clone())
+        .unwrap_or_default();
+    let (start, submodels) = submodels::fit_submodels(input, &first_estimation);
+    let mut charts: Vec<Chart> = [
+        figures::force_map_chart(input, &start),
+        figures::discharge_chart(input, &start),
+        figures::pressure_height_chart(input, &start),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+
+    let total = options.protocols.len() * options.models.len();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let mut protocols = Vec::new();
+    for (k, protocol) in options.protocols.iter().enumerate() {
+        progress(Event::Stage(&format!(
+            "grey-box estimation, protocol {}",
+            protocol.name
+        )));
+        let outcomes: Vec<models::ModelOutcome> = options
+            .models
+            .par_iter()
+            .map(|m| {
+                let t = Instant::now();
+                let outcome = models::fit_and_validate(
+                    input,
+                    &start,
+                    protocol,
+                    m,
+                    out_dir,
+                    options.max_iterations,
+                );
+                progress(Event::ModelDone {
+                    protocol: &protocol.name,
+                    model: m,
+                    seconds: t.elapsed().as_secs_f64(),
+                    done: done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1,
+                    total,
+                });
+                outcome
+            })
+            .collect();
+        // Figures for the last protocol only: the report's other protocols are in the tables,
+        // and rendering every combination would double the report for little insight.
+        if k + 1 == options.protocols.len() {
+            let section = format!("{} protocol", protocol.name);
+            for run in &input.runs {
+                let sims: Vec<(String, &airsus_sim::SimulationResponse)> = outcomes
+                    .iter()
+                    .filter_map(|o| {
+                        o.responses
+                            .iter()
+                            .find(|(n, _)| *n == run.name)
+                            .map(|(_, r)| (o.result.model.clone(), r))
+                    })
+                    .collect();
+                charts.extend(figures::measured_vs_simulated(&section, run, &sims));
+            }
+            for o in &outcomes {
+                for run in input
+                    .runs
+                    .iter()
+                    .filter(|r| !protocol.estimation.contains(&r.name))
+                {
+                    if let Some((_, r)) = o.responses.iter().find(|(n, _)| *n == run.name) {
+                        charts.extend(figures::residual_chart(
+                            &format!("{section}: residuals of {}", o.result.model),
+                            &o.result.model,
+                            run,
+                            r,
+                        ));
+                    }
+                }
+            }
+        }
+        protocols.push(ProtocolResult {
+            name: protocol.name.clone(),
+            description: protocol.description.clone(),
+            estimation_runs: protocol.estimation.clone(),
+            models: outcomes.into_iter().map(|o| o.result).collect(),
+        });
+    }
+
+    progress(Event::Stage("report"));
+    let mut results = StudyResults {
+        schema_version: SCHEMA_VERSION,
+        airsus_version: env!("CARGO_PKG_VERSION").to_owned(),
+        study: input.label.clone(),
+        truck: input.truck_file.display().to_string(),
+        runs: input
+            .runs
+            .iter()
+            .map(|r| RunInfo {
+                name: r.name.clone(),
+                file: r.file.display().to_string(),
+                role: r.role.as_str().to_owned(),
+                samples: r.run.len(),
+                duration_s: r.run.time_s.last().copied().unwrap_or(0.0)
+                    - r.run.time_s.first().copied().unwrap_or(0.0),
+                valve_action: r.valve_action(),
+            })
+            .collect(),
+        submodels,
+        protocols,
+        elapsed_s: 0.0,
+    };
+    results.elapsed_s = started.elapsed().as_secs_f64();
+    let report = write_report(out_dir, &results, &charts)?;
+    Ok(StudyOutcome { results, report })
+}
+
+/// The virtual truck's reference study: generates it into `out_dir/data` (seed `seed`) and
+/// runs both protocols on it.
+pub fn run_builtin(
+    out_dir: &Path,
+    seed: u64,
+    models: &[String],
+    max_iterations: usize,
+    progress: &(dyn Fn(Event) + Sync),
+) -> Result<StudyOutcome, StudyError> {
+    progress(Event::Stage(
+        "generating the reference experiments with the virtual truck",
+    ));
+    let data = out_dir.join("data");
+    let generated = airsus_truck::experiments::generate(&data, seed, &mut |_| {})?;
+    let mut input = load_study(&generated.study)?;
+    input.label = format!(
+        "built-in virtual truck (seed {seed}), {}",
+        generated.study.display()
+    );
+    let options = StudyOptions {
+        models: models.to_vec(),
+        protocols: Protocol::builtin_pair(),
+        max_iterations,
+    };
+    run_study(&input, &options, out_dir, progress)
+}
+
+/// The summary table: models × runs × outputs, estimated NRMSE, one block per protocol.
+pub fn summary_table(results: &StudyResults) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    for p in &results.protocols {
+        let _ = writeln!(
+            s,
+            "\nNRMSE [%] (eq 3.33), protocol `{}`: estimation on {}",
+            p.name,
+            p.estimation_runs.join(" + ")
+        );
+        let _ = write!(s, "{:<7}", "model");
+        for r in &results.runs {
+            let mark = if p.estimation_runs.contains(&r.name) {
+                "*"
+            } else {
+                ""
+            };
+            let _ = write!(s, " {:>19}", format!("{}{mark}", r.name));
+        }
+        let _ = writeln!(s);
+        let _ = write!(s, "{:<7}", "");
+        for _ in &results.runs {
+            let _ = write!(s, " {:>9} {:>9}", "height", "pressure");
+        }
+        let _ = writeln!(s);
+        for m in &p.models {
+            let _ = write!(s, "{:<7}", m.model);
+            for r in &results.runs {
+                let fit = m.run(&r.name).and_then(|f| f.estimated);
+                let cell =
+                    |v: Option<f64>| v.map_or_else(|| "failed".to_owned(), |v| format!("{v:.1}"));
+                let _ = write!(
+                    s,
+                    " {:>9} {:>9}",
+                    cell(fit.map(|f| f.height_percent)),
+                    cell(fit.map(|f| f.pressure_percent))
+                );
+            }
+            let _ = writeln!(s);
+        }
+    }
+    let _ = writeln!(s, "(* estimation run)");
+    s
+}

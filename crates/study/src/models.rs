@@ -1,0 +1,321 @@
+//! Stages 2 and 3 for one model under one protocol: grey-box estimation on the protocol's
+//! estimation runs, then simulation and residual analysis on every run.
+
+use std::time::Instant;
+
+use airsus_data::{Run, TruckParameters, ValveState, write_truck};
+use airsus_estimate::{GreyboxOptions, GreyboxProblem, NoProgress, estimate};
+use airsus_model::{InitialCondition, SuspensionModel};
+use airsus_report::results::{ModelResult, OutputFit, ParameterEstimate, ResidualSummary, RunFit};
+use airsus_sim::{InitialState, InputSeries, SimulationProblem, SimulationResponse, simulate};
+use airsus_truck::models::build_any_model;
+use airsus_validate::{
+    DEFAULT_CONFIDENCE, input_residual_correlation, nrmse_percent, residual_autocorrelation,
+};
+
+use crate::input::StudyInput;
+use crate::protocol::Protocol;
+
+/// Lags of the residual analysis, ±: 5 s at 100 ms.
+pub const RESIDUAL_MAX_LAG: usize = 50;
+
+/// The parameters each model frees: the thesis' "Estimation 2" sets (Tables 5.10–5.12) plus
+/// the flow parameters when the estimation runs have valve action (only then can the data
+/// determine them, SPEC §4). The virtual-truck structure frees its creep element too.
+pub fn free_parameters(model: &str, valve_action: bool) -> Vec<&'static str> {
+    const AREA: [&str; 5] = ["p0", "p1", "p2", "p3", "p4"];
+    let mut free: Vec<&'static str> = match model {
+        "m1" => [&AREA[..], &["m2", "kf"]].concat(),
+        "m2" => [&AREA[..], &["m2", "ig"]].concat(),
+        "m2x" => [&AREA[..], &["m2", "ig", "ksd"]].concat(),
+        "m2xh" => [&AREA[..], &["m2", "ig", "ksd", "tsd"]].concat(),
+        "m3" => vec!["a1", "kscl"],
+        "truck" => [&AREA[..], &["m2", "ig", "kc", "tc"]].concat(),
+        _ => vec![],
+    };
+    if valve_action {
+        free.extend(if model == "truck" {
+            ["c1", "c2"]
+        } else {
+            ["rflow1", "rflow2"]
+        });
+    }
+    free
+}
+
+/// Relative bounds for the masses and inertia: without them `m2` drifts to absorb physics a
+/// structure lacks (creep, hysteresis) and ends at physically absurd values.
+fn bounds(model: &dyn SuspensionModel, name: &str) -> Option<(f64, f64)> {
+    let nominal = model.parameter(name).ok()?;
+    let info = model.parameter_info().iter().find(|i| i.name == name)?;
+    let (lo, hi) = match name {
+        "m2" => (0.6, 1.6),
+        "ig" => (0.25, 4.0),
+        _ => return None,
+    };
+    Some((
+        (lo * nominal).max(info.lower),
+        (hi * nominal).min(info.upper),
+    ))
+}
+
+/// Static equilibrium at the run's first measured sensor height, as the estimator starts.
+fn initial(run: &Run) -> InitialState {
+    let height_m = run
+        .outputs
+        .as_ref()
+        .and_then(|o| o.sensor_height_m.first())
+        .copied()
+        .unwrap_or(0.0);
+    InitialState::Equilibrium(InitialCondition::SensorHeight { height_m })
+}
+
+pub fn simulate_run(model: &dyn SuspensionModel, run: &Run) -> Result<SimulationResponse, String> {
+    let inputs = InputSeries::from_run(run).map_err(|e| e.to_string())?;
+    simulate(&SimulationProblem::new(model, inputs, initial(run))).map_err(|e| e.to_string())
+}
+
+fn output_fit(run: &Run, response: &SimulationResponse) -> Option<OutputFit> {
+    let measured = run.outputs.as_ref()?;
+    Some(OutputFit {
+        height_percent: nrmse_percent(&measured.sensor_height_m, &response.sensor_height_m).ok()?,
+        pressure_percent: nrmse_percent(&measured.bellow_gauge_pa, &response.bellow_gauge_pa)
+            .ok()?,
+    })
+}
+
+/// The valve as a signed flow direction (fill +1, exhaust −1): what the residual should not
+/// correlate with.
+pub fn valve_direction(valve: &[ValveState]) -> Vec<f64> {
+    valve
+        .iter()
+        .map(|v| match v {
+            ValveState::Closed => 0.0,
+            ValveState::Fill => 1.0,
+            ValveState::Exhaust => -1.0,
+        })
+        .collect()
+}
+
+/// Residual autocorrelation and cross-correlation with every input, both outputs.
+pub fn residual_analysis(run: &Run, response: &SimulationResponse) -> Vec<ResidualSummary> {
+    let Some(measured) = run.outputs.as_ref() else {
+        return vec![];
+    };
+    let valve = valve_direction(&run.inputs.valve);
+    let inputs: [(&str, &[f64]); 3] = [
+        ("wheel_load", &run.inputs.wheel_load_kg),
+        ("valve", &valve),
+        ("supply", &run.inputs.supply_gauge_pa),
+    ];
+    let outputs: [(&str, &[f64], &[f64]); 2] = [
+        (
+            "height",
+            &measured.sensor_height_m,
+            &response.sensor_height_m,
+        ),
+        (
+            "pressure",
+            &measured.bellow_gauge_pa,
+            &response.bellow_gauge_pa,
+        ),
+    ];
+    let mut summaries = Vec::new();
+    for (output, y, yhat) in outputs {
+        let residual: Vec<f64> = y.iter().zip(yhat).map(|(a, b)| a - b).collect();
+        let auto = residual_autocorrelation(&residual, RESIDUAL_MAX_LAG, DEFAULT_CONFIDENCE);
+        let cross = inputs.iter().map(|(name, u)| {
+            (
+                *name,
+                input_residual_correlation(&residual, u, RESIDUAL_MAX_LAG, DEFAULT_CONFIDENCE),
+            )
+        });
+        for (input, result) in std::iter::once(("self", auto)).chain(cross) {
+            summaries.push(match result {
+                Ok(c) => ResidualSummary {
+                    output: output.to_owned(),
+                    input: input.to_owned(),
+                    confidence: c.confidence,
+                    band: c.band,
+                    lags_outside: c.outside,
+                    lags_total: c.lags.len() - usize::from(input == "self"),
+                    worst_ratio: c.worst_ratio(),
+                    note: None,
+                },
+                Err(e) => ResidualSummary {
+                    output: output.to_owned(),
+                    input: input.to_owned(),
+                    confidence: DEFAULT_CONFIDENCE,
+                    band: 0.0,
+                    lags_outside: 0,
+                    lags_total: 0,
+                    worst_ratio: 0.0,
+                    note: Some(e.to_string()),
+                },
+            });
+        }
+    }
+    summaries
+}
+
+/// What one model under one protocol produced, with the estimated model for figures.
+pub struct ModelOutcome {
+    pub result: ModelResult,
+    /// Simulations of every run with the estimated (or, on failure, start) parameters.
+    pub responses: Vec<(String, SimulationResponse)>,
+}
+
+/// Estimates `model_name` on the protocol's runs from `start`, then validates it on every
+/// run; writes the estimated truck file to `out_dir/estimated/<protocol>_<model>.toml`.
+pub fn fit_and_validate(
+    input: &StudyInput,
+    start: &TruckParameters,
+    protocol: &Protocol,
+    model_name: &str,
+    out_dir: &std::path::Path,
+    max_iterations: usize,
+) -> ModelOutcome {
+    let started = Instant::now();
+    let mut result = ModelResult {
+        model: model_name.to_owned(),
+        description: String::new(),
+        free: vec![],
+        estimates: vec![],
+        stop_reason: None,
+        simulations: 0,
+        estimation_time_s: 0.0,
+        runs: vec![],
+        truck_file: None,
+        notes: vec![],
+        error: None,
+    };
+    let nominal = match build_any_model(model_name, start) {
+        Ok(m) => m,
+        Err(e) => {
+            result.error = Some(e.to_string());
+            return ModelOutcome {
+                result,
+                responses: vec![],
+            };
+        }
+    };
+    result.description = nominal.description().to_owned();
+
+    let estimation: Vec<&Run> = protocol
+        .estimation
+        .iter()
+        .filter_map(|n| input.run(n))
+        .map(|r| &r.run)
+        .collect();
+    let valve_action = protocol
+        .estimation
+        .iter()
+        .filter_map(|n| input.run(n))
+        .any(|r| r.valve_action());
+    let free = free_parameters(model_name, valve_action);
+    result.free = free.iter().map(|s| (*s).to_owned()).collect();
+    let mut problem = GreyboxProblem::new(&*nominal, &estimation, &free);
+    for name in &free {
+        if let Some((lo, hi)) = bounds(&*nominal, name) {
+            problem = problem.with_bounds(name, lo, hi);
+        }
+    }
+    let options = GreyboxOptions::default().with_max_iterations(max_iterations);
+    let estimated: Box<dyn SuspensionModel> = match estimate(&problem, &options, &mut NoProgress) {
+        Err(e) => {
+            result.error = Some(format!(
+                "grey-box estimation failed: {e}; validated with the start values"
+            ));
+            nominal.clone()
+        }
+        Ok(est) => {
+            result.stop_reason = Some(est.stop.to_string());
+            result.simulations = est.simulations;
+            if !est.stop.is_converged() {
+                result.notes.push(format!(
+                    "the fit did not converge ({}); the best point found is used",
+                    est.stop
+                ));
+            }
+            if est.failed_simulations > 0 {
+                result.notes.push(format!(
+                    "{} of {} trial simulations failed and counted as large losses",
+                    est.failed_simulations, est.simulations
+                ));
+            }
+            for n in &est.identifiability.not_identifiable {
+                let with: Vec<String> = n
+                    .correlated_with
+                    .iter()
+                    .map(|(p, c)| format!("{p} ({c:+.3})"))
+                    .collect();
+                result.notes.push(format!(
+                    "{} is not determined by {}: kept at its start value{}",
+                    n.name,
+                    protocol.estimation.join(" + "),
+                    if with.is_empty() {
+                        String::new()
+                    } else {
+                        format!("; correlated with {}", with.join(", "))
+                    }
+                ));
+            }
+            result.estimates = est
+                .parameters
+                .iter()
+                .map(|p| ParameterEstimate {
+                    name: p.name.clone(),
+                    unit: p.unit.clone(),
+                    nominal: p.nominal,
+                    estimate: p.estimate,
+                    std: p.std,
+                    identifiable: !est.is_not_identifiable(&p.name),
+                })
+                .collect();
+            est.estimated_model
+        }
+    };
+    result.estimation_time_s = started.elapsed().as_secs_f64();
+
+    let mut truck = start.clone();
+    estimated.write_parameters(&mut truck);
+    let file = format!("estimated/{}_{}.toml", protocol.name, model_name);
+    match std::fs::create_dir_all(out_dir.join("estimated"))
+        .map_err(|e| e.to_string())
+        .and_then(|()| write_truck(&out_dir.join(&file), &truck).map_err(|e| e.to_string()))
+    {
+        Ok(()) => result.truck_file = Some(file),
+        Err(e) => result
+            .notes
+            .push(format!("could not write the estimated truck file: {e}")),
+    }
+
+    let mut responses = Vec::new();
+    for run in &input.runs {
+        let mut fit = RunFit {
+            run: run.name.clone(),
+            role: if protocol.estimation.contains(&run.name) {
+                "estimation"
+            } else {
+                "validation"
+            }
+            .to_owned(),
+            nominal: simulate_run(&*nominal, &run.run)
+                .ok()
+                .and_then(|r| output_fit(&run.run, &r)),
+            estimated: None,
+            residuals: vec![],
+            error: None,
+        };
+        match simulate_run(&*estimated, &run.run) {
+            Ok(response) => {
+                fit.estimated = output_fit(&run.run, &response);
+                fit.residuals = residual_analysis(&run.run, &response);
+                responses.push((run.name.clone(), response));
+            }
+            Err(e) => fit.error = Some(e),
+        }
+        result.runs.push(fit);
+    }
+    ModelOutcome { result, responses }
+}
