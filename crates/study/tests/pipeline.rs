@@ -80,7 +80,10 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
 
     let json: StudyResults =
         serde_json::from_str(&std::fs::read_to_string(&outcome.report.json).unwrap()).unwrap();
-    assert!(json == *r, "results.json differs from the results after a round trip");
+    assert!(
+        json == *r,
+        "results.json differs from the results after a round trip"
+    );
     let html = std::fs::read_to_string(&outcome.report.html).unwrap();
     assert!(html.contains("Which model for what") && html.contains("<svg"));
     assert!(
