@@ -144,6 +144,45 @@ pub fn run_experiment_with(
     })
 }
 
+/// The virtual truck's extra effects as TOML, keyed by the `truck` model's parameter names,
+/// so an estimate of the `truck` structure can be compared with the truth.
+pub fn effects_toml(truck: &VirtualTruck) -> String {
+    let e = &truck.effect_parameters;
+    let f = &truck.effects;
+    format!(
+        "# The virtual truck's effects beyond the thesis structure (truth, not a truck file).\n\
+         [effects]\ncreep = {}\nhysteresis = {}\nheat_exchange = {}\norifice_flow = {}\nsupply_line = {}\n\n\
+         [parameters]  # names as the `truck` model's --free names\n\
+         kc = {:?}      # creep stiffness, N/m\ntc = {:?}      # creep time constant, s\n\
+         fc = {:?}      # wall friction (Dahl) sliding force, N\nkdahl = {:?}   # Dahl pre-sliding stiffness, N/m\n\
+         tth = {:?}     # thermal time constant of the bellow gas, s\n\
+         c1 = {:?}      # ISO 6358 sonic conductance, fill, m3/(s Pa)\nc2 = {:?}      # ISO 6358 sonic conductance, exhaust, m3/(s Pa)\n\
+         bcr = {:?}     # ISO 6358 critical pressure ratio\nrline = {:?}   # supply line resistance, Pa s/mol\n\
+         kap = {:?}     # effective-area growth per 100 kPa (wall stretch)\n\n\
+         [supply]\ntank_volume_m3 = {:?}\ncompressor_flow_mol_s = {:?}\ngovernor_cutout_gauge_pa = {:?}\ngovernor_band_pa = {:?}\nline_volume_m3 = {:?}\n",
+        f.creep,
+        f.hysteresis,
+        f.heat_exchange,
+        f.orifice_flow,
+        f.supply_line,
+        e.creep_stiffness_n_per_m,
+        e.creep_time_constant_s,
+        e.friction_force_n,
+        e.friction_stiffness_n_per_m,
+        e.thermal_time_constant_s,
+        e.fill_conductance_m3_s_pa,
+        e.exhaust_conductance_m3_s_pa,
+        e.critical_pressure_ratio,
+        e.line_resistance_pa_s_per_mol,
+        e.area_pressure_coefficient,
+        e.tank_volume_m3,
+        e.compressor_flow_mol_s,
+        e.governor_cutout_gauge_pa,
+        e.governor_band_pa,
+        e.line_volume_m3,
+    )
+}
+
 /// The inputs acting at sample `k` of a scenario (true load, supply at its starting value).
 fn input_at(scenario: &Scenario, k: usize) -> InputSample {
     InputSample {
@@ -220,6 +259,9 @@ pub fn generate(
     let true_truck = truth_dir.join("truck.toml");
     write_truck(&true_truck, &truck.physical)?;
     files.push(true_truck);
+    let effects = truth_dir.join("effects.toml");
+    airsus_data::atomic::write_text_atomically(&effects, &effects_toml(&truck))?;
+    files.push(effects);
 
     let mut runs = Vec::new();
     for (i, run) in reference_runs(&truck, seed, progress)?

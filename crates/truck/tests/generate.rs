@@ -73,6 +73,16 @@ fn the_study_follows_the_data_contract_and_looks_like_the_thesis_truck() {
         .map(|n| read_run(&dir.path().join("truth").join(format!("{n}.csv"))).unwrap())
         .collect();
     assert_eq!(runs[0].len(), 15_001);
+    // The truth of the extra effects, keyed by the truck model's parameter names, parses.
+    let effects = std::fs::read_to_string(dir.path().join("truth/effects.toml")).unwrap();
+    let effects: toml::Table = effects.parse().unwrap();
+    let kap = effects["parameters"]["kap"].as_float().unwrap();
+    assert_eq!(
+        kap,
+        airsus_truck::truth::VirtualTruck::reference()
+            .effect_parameters
+            .area_pressure_coefficient
+    );
 
     // Sensors: 0.1 mm and 0.1 kPa grids, noise as configured (0.15 mm and 0.2 kPa, plus the
     // quantisation's res²/12).
