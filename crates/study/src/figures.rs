@@ -7,10 +7,9 @@ use airsus_estimate::submodel::derivative::savitzky_golay_slope;
 use airsus_model::submodels::{bellow_volume_m3, effective_area_m2};
 use airsus_report::chart::{Chart, Panel, Series, SeriesStyle};
 use airsus_sim::SimulationResponse;
-use airsus_validate::{DEFAULT_CONFIDENCE, input_residual_correlation, residual_autocorrelation};
 
 use crate::input::{StudyInput, StudyRunData};
-use crate::models::{RESIDUAL_MAX_LAG, valve_direction};
+use crate::models::ResidualCorrelation;
 
 fn line(name: &str, x: &[f64], y: Vec<f64>, color: usize) -> Series {
     Series {
@@ -97,48 +96,27 @@ pub fn residual_chart(
     section: &str,
     model: &str,
     run: &StudyRunData,
-    response: &SimulationResponse,
+    correlations: &[ResidualCorrelation],
 ) -> Option<Chart> {
-    let measured = run.run.outputs.as_ref()?;
-    let valve = valve_direction(&run.run.inputs.valve);
-    let inputs: [(&str, &[f64]); 3] = [
-        ("wheel load", &run.run.inputs.wheel_load_kg),
-        ("valve", &valve),
-        ("supply pressure", &run.run.inputs.supply_gauge_pa),
-    ];
-    let outputs: [(&str, &[f64], &[f64]); 2] = [
-        (
-            "height",
-            &measured.sensor_height_m,
-            &response.sensor_height_m,
-        ),
-        (
-            "pressure",
-            &measured.bellow_gauge_pa,
-            &response.bellow_gauge_pa,
-        ),
-    ];
-    let mut panels = Vec::new();
-    for (output, y, yhat) in outputs {
-        let residual: Vec<f64> = y.iter().zip(yhat).map(|(a, b)| a - b).collect();
-        if let Ok(c) = residual_autocorrelation(&residual, RESIDUAL_MAX_LAG, DEFAULT_CONFIDENCE) {
-            panels.push(correlation_panel(
-                format!("{output} residual: autocorrelation"),
-                &c,
-            ));
+    let label = |input: &'static str| -> &'static str {
+        match input {
+            "self" => "autocorrelation",
+            "wheel_load" => "× wheel load",
+            "valve" => "× valve",
+            "supply" => "× supply pressure",
+            other => other,
         }
-        for (input, u) in inputs {
-            // Constant inputs (a closed valve throughout) have no correlation to show.
-            if let Ok(c) =
-                input_residual_correlation(&residual, u, RESIDUAL_MAX_LAG, DEFAULT_CONFIDENCE)
-            {
-                panels.push(correlation_panel(
-                    format!("{output} residual × {input}"),
-                    &c,
-                ));
-            }
-        }
-    }
+    };
+    // Constant inputs (a closed valve throughout) have no correlation to show.
+    let panels: Vec<Panel> = correlations
+        .iter()
+        .filter_map(|c| {
+            c.result
+                .as_ref()
+                .ok()
+                .map(|r| correlation_panel(format!("{} residual: {}", c.output, label(c.input)), r))
+        })
+        .collect();
     (!panels.is_empty()).then(|| Chart {
         name: format!(
             "resid_{}_{}_{}",

@@ -157,8 +157,8 @@ pub fn run_study(
                     .filter_map(|o| {
                         o.responses
                             .iter()
-                            .find(|(n, _)| *n == run.name)
-                            .map(|(_, r)| (o.result.model.clone(), r))
+                            .find(|(n, _, _)| *n == run.name)
+                            .map(|(_, r, _)| (o.result.model.clone(), r))
                     })
                     .collect();
                 charts.extend(figures::measured_vs_simulated(&section, run, &sims));
@@ -169,12 +169,14 @@ pub fn run_study(
                     .iter()
                     .filter(|r| !protocol.estimation.contains(&r.name))
                 {
-                    if let Some((_, r)) = o.responses.iter().find(|(n, _)| *n == run.name) {
+                    if let Some((_, _, correlations)) =
+                        o.responses.iter().find(|(n, _, _)| *n == run.name)
+                    {
                         charts.extend(figures::residual_chart(
                             &format!("{section}: residuals of {}", o.result.model),
                             &o.result.model,
                             run,
-                            r,
+                            correlations,
                         ));
                     }
                 }

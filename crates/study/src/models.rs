@@ -10,7 +10,8 @@ use airsus_report::results::{ModelResult, OutputFit, ParameterEstimate, Residual
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, SimulationResponse, simulate};
 use airsus_truck::models::build_any_model;
 use airsus_validate::{
-    DEFAULT_CONFIDENCE, input_residual_correlation, nrmse_percent, residual_autocorrelation,
+    Correlation, DEFAULT_CONFIDENCE, ValidateError, input_residual_correlation, nrmse_percent,
+    residual_autocorrelation,
 };
 
 use crate::input::StudyInput;
@@ -97,18 +98,27 @@ pub fn valve_direction(valve: &[ValveState]) -> Vec<f64> {
         .collect()
 }
 
-/// Residual autocorrelation and cross-correlation with every input, both outputs.
-pub fn residual_analysis(run: &Run, response: &SimulationResponse) -> Vec<ResidualSummary> {
+/// One residual correlation of a run: `output` residual against `input` (`self` for the
+/// autocorrelation), or why it could not be computed.
+pub struct ResidualCorrelation {
+    pub output: &'static str,
+    pub input: &'static str,
+    pub result: Result<Correlation, ValidateError>,
+}
+
+/// Residual autocorrelation and cross-correlation with every input, both outputs (eq
+/// 3.35/3.36). Computed once per model and run; the summaries and the figures both read it.
+pub fn residual_correlations(run: &Run, response: &SimulationResponse) -> Vec<ResidualCorrelation> {
     let Some(measured) = run.outputs.as_ref() else {
         return vec![];
     };
     let valve = valve_direction(&run.inputs.valve);
-    let inputs: [(&str, &[f64]); 3] = [
+    let inputs: [(&'static str, &[f64]); 3] = [
         ("wheel_load", &run.inputs.wheel_load_kg),
         ("valve", &valve),
         ("supply", &run.inputs.supply_gauge_pa),
     ];
-    let outputs: [(&str, &[f64], &[f64]); 2] = [
+    let outputs: [(&'static str, &[f64], &[f64]); 2] = [
         (
             "height",
             &measured.sensor_height_m,
@@ -120,49 +130,65 @@ pub fn residual_analysis(run: &Run, response: &SimulationResponse) -> Vec<Residu
             &response.bellow_gauge_pa,
         ),
     ];
-    let mut summaries = Vec::new();
+    let mut all = Vec::new();
     for (output, y, yhat) in outputs {
         let residual: Vec<f64> = y.iter().zip(yhat).map(|(a, b)| a - b).collect();
-        let auto = residual_autocorrelation(&residual, RESIDUAL_MAX_LAG, DEFAULT_CONFIDENCE);
-        let cross = inputs.iter().map(|(name, u)| {
-            (
-                *name,
-                input_residual_correlation(&residual, u, RESIDUAL_MAX_LAG, DEFAULT_CONFIDENCE),
-            )
+        all.push(ResidualCorrelation {
+            output,
+            input: "self",
+            result: residual_autocorrelation(&residual, RESIDUAL_MAX_LAG, DEFAULT_CONFIDENCE),
         });
-        for (input, result) in std::iter::once(("self", auto)).chain(cross) {
-            summaries.push(match result {
-                Ok(c) => ResidualSummary {
-                    output: output.to_owned(),
-                    input: input.to_owned(),
-                    confidence: c.confidence,
-                    band: c.band,
-                    lags_outside: c.outside,
-                    lags_total: c.lags.len() - usize::from(input == "self"),
-                    worst_ratio: c.worst_ratio(),
-                    note: None,
-                },
-                Err(e) => ResidualSummary {
-                    output: output.to_owned(),
-                    input: input.to_owned(),
-                    confidence: DEFAULT_CONFIDENCE,
-                    band: 0.0,
-                    lags_outside: 0,
-                    lags_total: 0,
-                    worst_ratio: 0.0,
-                    note: Some(e.to_string()),
-                },
+        for (input, u) in inputs {
+            all.push(ResidualCorrelation {
+                output,
+                input,
+                result: input_residual_correlation(
+                    &residual,
+                    u,
+                    RESIDUAL_MAX_LAG,
+                    DEFAULT_CONFIDENCE,
+                ),
             });
         }
     }
-    summaries
+    all
+}
+
+/// The results.json summary of each correlation.
+pub fn residual_summaries(correlations: &[ResidualCorrelation]) -> Vec<ResidualSummary> {
+    correlations
+        .iter()
+        .map(|c| match &c.result {
+            Ok(r) => ResidualSummary {
+                output: c.output.to_owned(),
+                input: c.input.to_owned(),
+                confidence: r.confidence,
+                band: r.band,
+                lags_outside: r.outside,
+                lags_total: r.lags.len() - usize::from(c.input == "self"),
+                worst_ratio: r.worst_ratio(),
+                note: None,
+            },
+            Err(e) => ResidualSummary {
+                output: c.output.to_owned(),
+                input: c.input.to_owned(),
+                confidence: DEFAULT_CONFIDENCE,
+                band: 0.0,
+                lags_outside: 0,
+                lags_total: 0,
+                worst_ratio: 0.0,
+                note: Some(e.to_string()),
+            },
+        })
+        .collect()
 }
 
 /// What one model under one protocol produced, with the estimated model for figures.
 pub struct ModelOutcome {
     pub result: ModelResult,
-    /// Simulations of every run with the estimated (or, on failure, start) parameters.
-    pub responses: Vec<(String, SimulationResponse)>,
+    /// Simulations of every run with the estimated (or, on failure, start) parameters, and
+    /// their residual correlations.
+    pub responses: Vec<(String, SimulationResponse, Vec<ResidualCorrelation>)>,
 }
 
 /// Estimates `model_name` on the protocol's runs from `start`, then validates it on every
@@ -310,8 +336,9 @@ pub fn fit_and_validate(
         match simulate_run(&*estimated, &run.run) {
             Ok(response) => {
                 fit.estimated = output_fit(&run.run, &response);
-                fit.residuals = residual_analysis(&run.run, &response);
-                responses.push((run.name.clone(), response));
+                let correlations = residual_correlations(&run.run, &response);
+                fit.residuals = residual_summaries(&correlations);
+                responses.push((run.name.clone(), response, correlations));
             }
             Err(e) => fit.error = Some(e),
         }
