@@ -250,50 +250,79 @@ fn recommendations(h: &mut String, results: &StudyResults) {
             .join(", ")
     };
     h.push_str("<ul>");
+    // The virtual truck's own structure (`truck`) wins on data it generated; name the best
+    // thesis model too, which is what a user of real data would choose among.
+    let best = |ranked: &[(String, f64)]| -> Option<String> {
+        let (model, fit) = ranked.first()?;
+        let mut text = format!("<code>{}</code> ({:.1} %)", esc(model), fit);
+        if let Some((m, f)) = ranked.iter().find(|(m, _)| m != "truck")
+            && model == "truck"
+        {
+            let _ = write!(
+                text,
+                ", the virtual truck's own structure; among the thesis models <code>{}</code> ({:.1} %)",
+                esc(m),
+                f
+            );
+        }
+        Some(text)
+    };
     let load = validation(best_protocol, &load_runs);
-    if let Some((model, fit)) = load.first() {
+    if let Some(text) = best(&load) {
         let _ = write!(
             h,
-            "<li><b>Axle-load estimation and loading simulations:</b> <code>{}</code> reproduces the loading runs best (mean NRMSE of height and pressure {:.1} %; all: {}). Weighing reads the static balance, so what matters is the pressure level after each step.</li>",
-            esc(model),
-            fit,
+            "<li><b>Axle-load estimation and loading simulations:</b> {text} reproduces the loading runs best (mean NRMSE of height and pressure; all: {}). Weighing reads the static balance, so what matters is the pressure level after each step.</li>",
             describe(&load)
         );
     }
     let valve = validation(best_protocol, &valve_runs);
-    if let Some((model, fit)) = valve.first() {
+    if let Some(text) = best(&valve) {
         let _ = write!(
             h,
-            "<li><b>Level-controller design:</b> <code>{}</code> follows the valve runs best ({:.1} %; all: {}). A level controller acts only through the valve, so fill and exhaust dynamics must be right.</li>",
-            esc(model),
-            fit,
+            "<li><b>Level-controller design:</b> {text} follows the valve runs best (all: {}). A level controller acts only through the valve, so fill and exhaust dynamics must be right.</li>",
             describe(&valve)
         );
     }
     if results.protocols.len() >= 2 {
         let first = &results.protocols[0];
+        let runs: Vec<&str> = valve_runs
+            .iter()
+            .copied()
+            .filter(|r| !best_protocol.estimation_runs.iter().any(|e| e == r))
+            .collect();
+        // Per output, before → after, averaged over the valve runs neither protocol estimated on.
+        let output_mean = |m: &ModelResult, pick: fn(&OutputFit) -> f64| -> Option<f64> {
+            let v: Vec<f64> = m
+                .runs
+                .iter()
+                .filter(|r| runs.contains(&r.run.as_str()))
+                .filter_map(|r| r.estimated.as_ref().map(pick))
+                .collect();
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        };
         let gain: Vec<String> = best_protocol
             .models
             .iter()
             .filter_map(|m| {
                 let before = first.models.iter().find(|f| f.model == m.model)?;
-                let runs: Vec<&str> = valve_runs
-                    .iter()
-                    .copied()
-                    .filter(|r| !best_protocol.estimation_runs.iter().any(|e| e == r))
-                    .collect();
-                let a = mean_fit(before, |r| runs.contains(&r))?;
-                let b = mean_fit(m, |r| runs.contains(&r))?;
-                Some(format!("{} {:+.1} points", esc(&m.model), b - a))
+                Some(format!(
+                    "{}: height {:.1} → {:.1} %, pressure {:.1} → {:.1} %",
+                    esc(&m.model),
+                    output_mean(before, |f| f.height_percent)?,
+                    output_mean(m, |f| f.height_percent)?,
+                    output_mean(before, |f| f.pressure_percent)?,
+                    output_mean(m, |f| f.pressure_percent)?
+                ))
             })
             .collect();
         if !gain.is_empty() {
             let _ = write!(
                 h,
-                "<li><b>What valve-action data buys:</b> estimating on “{}” instead of “{}” changes the mean NRMSE on the valve runs not used for estimation by {}. A closed-valve run cannot determine the gas volume's scale or the flow resistances (SPEC §4).</li>",
+                "<li><b>What valve-action data buys</b> on the valve runs not used for estimation ({}), estimating on “{}” instead of “{}”: {}. A closed-valve run cannot determine the gas volume's scale or the flow resistances (SPEC §4).</li>",
+                esc(&runs.join(", ")),
                 esc(&best_protocol.name),
                 esc(&first.name),
-                gain.join(", ")
+                gain.join("; ")
             );
         }
     }
