@@ -146,6 +146,20 @@ impl Corner {
         )
     }
 
+    /// Both measured quantities for a bellow height and amount of air (SPEC §1 output map,
+    /// eq 3.17).
+    pub fn outputs(
+        &self,
+        bellow_height_m: f64,
+        amount_mol: f64,
+        wheel_load_kg: f64,
+    ) -> crate::model::OutputSample {
+        crate::model::OutputSample {
+            sensor_height_m: self.sensor_height_m(bellow_height_m, wheel_load_kg),
+            bellow_gauge_pa: self.pressure_abs_pa(bellow_height_m, amount_mol) - self.ambient_pa,
+        }
+    }
+
     /// The bellow height the sensor reading implies (SPEC §1 inverted).
     pub fn bellow_height_from_sensor_m(&self, sensor_height_m: f64, wheel_load_kg: f64) -> f64 {
         let rigid_axle_m =

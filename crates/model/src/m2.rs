@@ -361,11 +361,8 @@ impl SuspensionModel for Model2 {
     }
 
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample {
-        let h_b = self.bellow_height_m(x);
-        OutputSample {
-            sensor_height_m: self.corner.sensor_height_m(h_b, u.wheel_load_kg),
-            bellow_gauge_pa: self.corner.pressure_abs_pa(h_b, x[4]) - self.corner.ambient_pa,
-        }
+        self.corner
+            .outputs(self.bellow_height_m(x), x[4], u.wheel_load_kg)
     }
 
     fn initial_state(
