@@ -3,6 +3,9 @@
 /// What the solver did, for one simulation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct SolverStatistics {
+    /// The method that finished the run after the requested one failed (see the `solve`
+    /// module's fallback policy); `None` when the requested method did.
+    pub fallback: Option<crate::problem::Method>,
     /// Accepted steps.
     pub steps: usize,
     /// Steps rejected by the local error test.
