@@ -13,9 +13,9 @@ Typical workflow:
   airsus study study.toml --out out/         the same on your own files
   airsus params --builtin > truck.toml       start from the reference truck
   airsus check study.toml                    validate a study and every file it names
-  airsus generate --out ref/                  the virtual truck's reference experiments
+  airsus generate --out ref/                 the virtual truck's reference experiments
   airsus simulate --model m2 --truck ref/truck.toml --run ref/ds1.csv --out sim.csv
-  airsus greybox --model m2 --free p0,p1,p2,p3,p4,m2,ig --truck ref/truck.toml \
+  airsus greybox --model m2 --free p0,p1,p2,p3,p4,m2,ig --truck ref/truck.toml \\
       --run ref/ds1.csv --out est.toml
   airsus ident --structure oe --nb 2 --nf 2 --nk 1 \\
       --inputs wheel_load_kg,pressure_kpa --output height_mm ds1.csv
