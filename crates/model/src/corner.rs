@@ -162,9 +162,14 @@ impl Corner {
 
     /// The bellow height the sensor reading implies (SPEC §1 inverted).
     pub fn bellow_height_from_sensor_m(&self, sensor_height_m: f64, wheel_load_kg: f64) -> f64 {
-        let rigid_axle_m =
-            sensor_height_m + self.lever_compliance_m_per_n * wheel_load_kg * self.gravity_m_s2;
-        self.h0_m + self.lever_gain * (rigid_axle_m - self.h0_m)
+        crate::submodels::bellow_height_from_sensor_m(
+            self.h0_m,
+            self.lever_gain,
+            sensor_height_m,
+            self.lever_compliance_m_per_n,
+            wheel_load_kg,
+            self.gravity_m_s2,
+        )
     }
 
     /// Highest bellow height the lever geometry allows: lever hanging vertically, m.

@@ -4,7 +4,7 @@
 
 use airsus_data::{Channel, TruckParameters};
 use airsus_estimate::submodel::derivative::savitzky_golay_slope;
-use airsus_model::submodels::{bellow_volume_m3, effective_area_m2};
+use airsus_model::submodels::{bellow_height_from_sensor_m, bellow_volume_m3, effective_area_m2};
 use airsus_report::chart::{Chart, Panel, Series, SeriesStyle};
 use airsus_sim::SimulationResponse;
 
@@ -274,7 +274,9 @@ pub fn pressure_height_chart(input: &StudyInput, truck: &TruckParameters) -> Opt
             .sensor_height_m
             .iter()
             .zip(&r.run.inputs.wheel_load_kg)
-            .map(|(h, m)| g.h0_m + k_l * (h + g.lever_compliance_m_per_n * m * gravity - g.h0_m))
+            .map(|(&h, &m)| {
+                bellow_height_from_sensor_m(g.h0_m, k_l, h, g.lever_compliance_m_per_n, m, gravity)
+            })
             .collect();
         let step = (h_b.len() / 1500).max(1);
         series.push(Series {

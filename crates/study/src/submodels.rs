@@ -292,7 +292,14 @@ fn identify_model3(
         .iter()
         .zip(&run.inputs.wheel_load_kg)
         .map(|(h, m)| {
-            1e3 * (g.h0_m + k_l * (h + g.lever_compliance_m_per_n * m * gravity - g.h0_m))
+            1e3 * airsus_model::submodels::bellow_height_from_sensor_m(
+                g.h0_m,
+                k_l,
+                *h,
+                g.lever_compliance_m_per_n,
+                *m,
+                gravity,
+            )
         })
         .collect();
     let dev = |x: &[f64]| -> Vec<f64> { x.iter().map(|v| v - x[0]).collect() };

@@ -402,8 +402,14 @@ impl TruckModel {
         let h_max = c.h0_m + c.l12_m;
         match *ic {
             InitialCondition::SensorHeight { height_m } => {
-                let rigid = height_m + c.compliance * load * c.g;
-                let h = c.h0_m + c.lever_gain * (rigid - c.h0_m);
+                let h = airsus_model::submodels::bellow_height_from_sensor_m(
+                    c.h0_m,
+                    c.lever_gain,
+                    height_m,
+                    c.compliance,
+                    load,
+                    c.g,
+                );
                 if !(h > 0.0 && h < h_max) {
                     return Err(fail(
                         format!("sensor height {:.1} mm", height_m * 1e3),

@@ -83,9 +83,14 @@ impl StaticLaw {
 
     /// Bellow height for a sensor reading under a wheel load, m (SPEC §1 inverted).
     pub fn bellow_height_m(&self, sensor_height_m: f64, wheel_load_kg: f64) -> f64 {
-        let rigid_axle_m =
-            sensor_height_m + self.lever_compliance_m_per_n * wheel_load_kg * self.gravity_m_s2;
-        self.h0_m + self.lever_gain * (rigid_axle_m - self.h0_m)
+        airsus_model::submodels::bellow_height_from_sensor_m(
+            self.h0_m,
+            self.lever_gain,
+            sensor_height_m,
+            self.lever_compliance_m_per_n,
+            wheel_load_kg,
+            self.gravity_m_s2,
+        )
     }
 
     /// `A_eff(h, p)`, m² (eq 5.4, held constant outside the trusted range, times the stretch).

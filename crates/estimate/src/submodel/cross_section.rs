@@ -26,7 +26,7 @@
 //! least squares in closed form.
 
 use airsus_data::{Run, TruckParameters, ValveState};
-use airsus_model::submodels::{bellow_height_from_axle_m, cross_section_m2};
+use airsus_model::submodels::{bellow_height_from_sensor_m, cross_section_m2};
 use airsus_validate::nrmse_percent;
 use serde::Serialize;
 
@@ -130,9 +130,14 @@ fn heights_and_pressures(
     let mut h = Vec::with_capacity(run.len());
     let mut p = Vec::with_capacity(run.len());
     for k in 0..run.len() {
-        let axle = out.sensor_height_m[k]
-            + g.lever_compliance_m_per_n * run.inputs.wheel_load_kg[k] * grav;
-        let hb = bellow_height_from_axle_m(g.h0_m, kl, axle);
+        let hb = bellow_height_from_sensor_m(
+            g.h0_m,
+            kl,
+            out.sensor_height_m[k],
+            g.lever_compliance_m_per_n,
+            run.inputs.wheel_load_kg[k],
+            grav,
+        );
         let pa = out.bellow_gauge_pa[k] + amb;
         if !(hb.is_finite() && hb > 0.0 && pa.is_finite() && pa > 0.0) {
             return Err(bad(format!(

@@ -44,9 +44,33 @@ pub fn sensor_height_m(
         - lever_compliance_m_per_n * wheel_load_kg * gravity_m_s2
 }
 
+/// The bellow height a sensor reading implies under a wheel load, m: [`sensor_height_m`]
+/// inverted (the lever's static flex added back, then eq 2.1).
+pub fn bellow_height_from_sensor_m(
+    h0_m: f64,
+    lever_gain: f64,
+    sensor_height_m: f64,
+    lever_compliance_m_per_n: f64,
+    wheel_load_kg: f64,
+    gravity_m_s2: f64,
+) -> f64 {
+    let rigid_axle_m = sensor_height_m + lever_compliance_m_per_n * wheel_load_kg * gravity_m_s2;
+    bellow_height_from_axle_m(h0_m, lever_gain, rigid_axle_m)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sensor_map_and_its_inverse_round_trip() {
+        let kl = lever_gain(0.62, 0.28);
+        let hb = 0.3;
+        let s = sensor_height_m(0.1, kl, hb, 2e-7, 3350.0, 9.81);
+        // 0.1 + 0.2/1.4516129 - 2e-7·3350·9.81 = 0.2377778 - 0.0065727
+        assert!((s - (0.1 + 0.2 / kl - 2e-7 * 3350.0 * 9.81)).abs() < 1e-15);
+        assert!((bellow_height_from_sensor_m(0.1, kl, s, 2e-7, 3350.0, 9.81) - hb).abs() < 1e-15);
+    }
 
     #[test]
     fn gain_and_eq_2_1_by_hand() {

@@ -20,8 +20,8 @@ pub use damper::Damper;
 pub use friction::hinge_friction_n;
 pub use gas::{air_amount_mol, bellow_volume_m3, cross_section_m2, pressure_abs_pa};
 pub use lever::{
-    axle_height_from_bellow_m, bellow_height_from_angle_m, bellow_height_from_axle_m, lever_gain,
-    sensor_height_m,
+    axle_height_from_bellow_m, bellow_height_from_angle_m, bellow_height_from_axle_m,
+    bellow_height_from_sensor_m, lever_gain, sensor_height_m,
 };
 pub use tire::tire_force_n;
 pub use valve::air_flow_mol_s;
