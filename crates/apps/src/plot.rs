@@ -54,14 +54,38 @@ pub fn plot_closed_loop(
     let svg = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+    // Whole or not at all, like every other output: render into memory (SVG) or a temporary
+    // file beside the target (PNG: the encoder picks the format from the extension, so the
+    // temporary name ends in .png), then rename.
     if svg {
-        let root = SVGBackend::new(path, (1200, 900)).into_drawing_area();
-        draw_closed_loop(&root, runs, tolerance_m, title).map_err(|e| plot_err(path, e))?;
-        root.present().map_err(|e| plot_err(path, e))
+        let mut text = String::new();
+        {
+            let root = SVGBackend::with_string(&mut text, (1200, 900)).into_drawing_area();
+            draw_closed_loop(&root, runs, tolerance_m, title).map_err(|e| plot_err(path, e))?;
+            root.present().map_err(|e| plot_err(path, e))?;
+        }
+        airsus_data::atomic::write_text_atomically(path, &text).map_err(|e| plot_err(path, e))
     } else {
-        let root = BitMapBackend::new(path, (1200, 900)).into_drawing_area();
-        draw_closed_loop(&root, runs, tolerance_m, title).map_err(|e| plot_err(path, e))?;
-        root.present().map_err(|e| plot_err(path, e))
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => std::path::PathBuf::from("."),
+        };
+        let stem = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "plot".to_owned());
+        let tmp = dir.join(format!(".{stem}.tmp-{}.png", std::process::id()));
+        let drawn = (|| {
+            let root = BitMapBackend::new(&tmp, (1200, 900)).into_drawing_area();
+            draw_closed_loop(&root, runs, tolerance_m, title).map_err(|e| plot_err(path, e))?;
+            root.present().map_err(|e| plot_err(path, e))?;
+            drop(root);
+            std::fs::rename(&tmp, path).map_err(|e| plot_err(path, e))
+        })();
+        if drawn.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        drawn
     }
 }
 

@@ -101,3 +101,110 @@ fn simulate_rejects_an_unknown_model_with_a_suggestion() {
         "nothing written on failure"
     );
 }
+
+#[test]
+fn no_command_writes_over_its_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    assert!(airsus(&["generate", "--out", &p("")]).status.success());
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    let measured = std::fs::read(p("ds1.csv")).unwrap();
+    let truck = std::fs::read(p("truck.toml")).unwrap();
+    // The same file by its own name, through `sub/..`, and through a symbolic link.
+    std::os::unix::fs::symlink(p("ds1.csv"), p("link.csv")).unwrap();
+    let other_path = dir.path().join("sub/../ds1.csv");
+    for out in [
+        p("ds1.csv"),
+        other_path.to_str().unwrap().to_owned(),
+        p("link.csv"),
+    ] {
+        let res = airsus(&[
+            "simulate",
+            "--model",
+            "m2",
+            "--truck",
+            &p("truck.toml"),
+            "--run",
+            &p("ds1.csv"),
+            "--out",
+            &out,
+        ]);
+        assert!(!res.status.success(), "simulate --out {out} succeeded");
+        let stderr = String::from_utf8_lossy(&res.stderr);
+        assert!(
+            stderr.contains("refusing to write") && stderr.contains("ds1.csv"),
+            "{stderr}"
+        );
+    }
+    for args in [
+        vec![
+            "greybox", "--model", "m2", "--free", "m2", "--truck", "T", "--run", "R", "--out", "R",
+        ],
+        vec![
+            "greybox", "--model", "m2", "--free", "m2", "--truck", "T", "--run", "R", "--out", "T",
+        ],
+        vec!["weigh", "--truck", "T", "--run", "R", "--out", "R"],
+        vec![
+            "road",
+            "--truck",
+            "T",
+            "--model",
+            "m2",
+            "--profile",
+            "bump",
+            "--out",
+            "T",
+        ],
+        vec!["params", "--truck", "T", "--out", "T"],
+        vec!["fit", "slow-dynamics", "--run", "R", "--out", "R"],
+        vec!["fit", "valve", "--study", "S", "--out", "T"],
+    ] {
+        let args: Vec<String> = args
+            .iter()
+            .map(|a| match *a {
+                "T" => p("truck.toml"),
+                "R" => p("ds1.csv"),
+                "S" => p("study.toml"),
+                a => a.to_owned(),
+            })
+            .collect();
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let res = airsus(&args);
+        let stderr = String::from_utf8_lossy(&res.stderr);
+        assert!(
+            !res.status.success() && stderr.contains("refusing to write"),
+            "{args:?}: {stderr}"
+        );
+    }
+    assert_eq!(
+        std::fs::read(p("ds1.csv")).unwrap(),
+        measured,
+        "measurement lost"
+    );
+    assert_eq!(
+        std::fs::read(p("truck.toml")).unwrap(),
+        truck,
+        "truck file lost"
+    );
+
+    // A study whose output folder would put results over one of its inputs.
+    std::fs::create_dir(dir.path().join("estimated")).unwrap();
+    std::fs::copy(p("ds3.csv"), p("estimated/ds3.csv")).unwrap();
+    let study = std::fs::read_to_string(p("study.toml"))
+        .unwrap()
+        .replace("\"ds3.csv\"", "\"estimated/ds3.csv\"");
+    std::fs::write(p("study_moved.toml"), study).unwrap();
+    let res = airsus(&[
+        "study",
+        &p("study_moved.toml"),
+        "--out",
+        &p(""),
+        "--models",
+        "m2",
+    ]);
+    let stderr = String::from_utf8_lossy(&res.stderr);
+    assert!(
+        !res.status.success() && stderr.contains("would write over the input"),
+        "{stderr}"
+    );
+}

@@ -107,6 +107,12 @@ pub enum DataErrorKind {
     },
     #[error("missing key `{key}`: {expected}")]
     MissingKey { key: String, expected: String },
+    #[error(
+        "refusing to write here: this output is the input file {} (same file{}); choose another output path",
+        input.display(),
+        if *same_path { "" } else { " through another path" }
+    )]
+    OutputIsInput { input: PathBuf, same_path: bool },
     #[error("`{key}` = {value}: {reason}")]
     InvalidValue {
         key: String,

@@ -73,6 +73,17 @@ pub struct Study {
     pub discharges: Vec<StudyDischarge>,
 }
 
+impl Study {
+    /// Every file the study names: truck, runs, force map, discharges.
+    pub fn files(&self) -> Vec<&Path> {
+        std::iter::once(self.truck.as_path())
+            .chain(self.runs.iter().map(|r| r.file.as_path()))
+            .chain(self.force_map.as_deref())
+            .chain(self.discharges.iter().map(|d| d.file.as_path()))
+            .collect()
+    }
+}
+
 const SCHEMA: &[TableSchema] = &[
     TableSchema {
         name: "",

@@ -52,6 +52,9 @@ pub struct StudyInput {
     pub runs: Vec<StudyRunData>,
     pub force_map: Option<ForceMap>,
     pub discharges: Vec<DischargeData>,
+    /// Every file read: the study file (when there is one) and the files it names. The
+    /// pipeline refuses to write over any of them.
+    pub files: Vec<PathBuf>,
 }
 
 impl StudyInput {
@@ -72,7 +75,9 @@ impl StudyInput {
 /// Loads a study file and every file it names.
 pub fn load_study(path: &Path) -> Result<StudyInput, StudyError> {
     let study = read_study(path)?;
-    load_parts(path.display().to_string(), &study)
+    let mut input = load_parts(path.display().to_string(), &study)?;
+    input.files.insert(0, path.to_path_buf());
+    Ok(input)
 }
 
 /// Loads the files a parsed study names; `label` names it in the report.
@@ -123,5 +128,6 @@ pub fn load_parts(label: String, study: &Study) -> Result<StudyInput, StudyError
         runs,
         force_map,
         discharges,
+        files: study.files().into_iter().map(Path::to_path_buf).collect(),
     })
 }

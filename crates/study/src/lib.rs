@@ -37,6 +37,12 @@ pub enum StudyError {
     Generate(#[from] airsus_truck::error::TruckError),
     #[error("protocol `{protocol}`: {reason}")]
     Protocol { protocol: String, reason: String },
+    #[error(
+        "refusing to write the study into {}: it would write over the input {} (the study writes report.html, results.json, figures/ and estimated/ there); choose another --out",
+        out_dir.display(),
+        input.display()
+    )]
+    OutputOverInput { out_dir: PathBuf, input: PathBuf },
     #[error("cannot create the output folder {path}: {source}")]
     OutputFolder {
         path: PathBuf,
@@ -84,6 +90,7 @@ pub fn run_study(
         path: out_dir.to_path_buf(),
         source,
     })?;
+    refuse_writing_over_inputs(input, out_dir)?;
     for p in &options.protocols {
         if p.estimation.is_empty() {
             return Err(StudyError::Protocol {
@@ -216,6 +223,35 @@ pub fn run_study(
     results.elapsed_s = started.elapsed().as_secs_f64();
     let report = write_report(out_dir, &results, &charts)?;
     Ok(StudyOutcome { results, report })
+}
+
+/// Where the pipeline writes inside its output folder: files and whole folders.
+const OUTPUT_FILES: [&str; 2] = ["report.html", "results.json"];
+const OUTPUT_FOLDERS: [&str; 2] = ["figures", "estimated"];
+
+/// Refuses an output folder in which the study would write over one of its own inputs (a
+/// run kept in `estimated/`, a truck file named `results.json`, …), before anything is
+/// computed.
+fn refuse_writing_over_inputs(input: &StudyInput, out_dir: &Path) -> Result<(), StudyError> {
+    let Ok(out) = std::fs::canonicalize(out_dir) else {
+        return Ok(());
+    };
+    for file in &input.files {
+        let Ok(canonical) = std::fs::canonicalize(file) else {
+            continue;
+        };
+        let clash = OUTPUT_FILES.iter().any(|f| canonical == out.join(f))
+            || OUTPUT_FOLDERS
+                .iter()
+                .any(|d| canonical.starts_with(out.join(d)));
+        if clash {
+            return Err(StudyError::OutputOverInput {
+                out_dir: out_dir.to_path_buf(),
+                input: file.clone(),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The virtual truck's reference study: generates it into `out_dir/data` (seed `seed`) and

@@ -1,5 +1,6 @@
 //! `airsus control`: level controllers for the 3-state valve in closed loop.
 
+use airsus_data::atomic::refuse_overwriting_inputs;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -52,6 +53,9 @@ pub struct ControlArgs {
 }
 
 pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
+    if let Some(plot) = &args.plot {
+        refuse_overwriting_inputs(plot, &[&args.truck])?;
+    }
     let truck = read_truck(&args.truck)
         .with_context(|| format!("reading truck file {}", args.truck.display()))?
         .parameters;

@@ -8,6 +8,7 @@
 //!   study file or from `--discharge` files with their metadata;
 //! * `slow-dynamics` — the OE block of Model 2 extended from one load step (5.2.4).
 
+use airsus_data::atomic::refuse_overwriting_inputs;
 use std::path::{Path, PathBuf};
 
 use airsus_data::{
@@ -114,6 +115,28 @@ pub enum FitCommand {
     },
 }
 
+impl FitCommand {
+    /// The files this fit reads (a study's own files are checked when it is read).
+    fn input_paths(&self) -> Vec<&Path> {
+        match self {
+            Self::CrossSection {
+                run, validation, ..
+            } => std::iter::once(run.as_path())
+                .chain(validation.iter().map(PathBuf::as_path))
+                .collect(),
+            Self::EffectiveArea { force_map, .. } => vec![force_map],
+            Self::Valve {
+                study, discharge, ..
+            } => study
+                .iter()
+                .chain(discharge)
+                .map(PathBuf::as_path)
+                .collect(),
+            Self::SlowDynamics { run, .. } => vec![run],
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ChannelArg {
     Fill,
@@ -155,6 +178,11 @@ fn print_json<T: serde::Serialize>(value: &T) -> anyhow::Result<()> {
 }
 
 pub fn run(args: &FitArgs) -> anyhow::Result<()> {
+    if let Some(out) = &args.out {
+        let mut inputs: Vec<&Path> = args.truck.iter().map(PathBuf::as_path).collect();
+        inputs.extend(args.fit.input_paths());
+        refuse_overwriting_inputs(out, &inputs)?;
+    }
     let mut truck = load_truck(args.truck.as_deref())?;
     match &args.fit {
         FitCommand::CrossSection {
@@ -263,6 +291,9 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             let mut specs = Vec::new();
             if let Some(study_path) = study {
                 let s = read_study(study_path)?;
+                if let Some(out) = &args.out {
+                    refuse_overwriting_inputs(out, &s.files())?;
+                }
                 if s.discharges.is_empty() {
                     bail!("study {} lists no [[discharge]]", study_path.display());
                 }

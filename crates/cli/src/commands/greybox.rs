@@ -11,6 +11,7 @@
 //! reference truck's effective area is flat near its working point, so the pressure would pin
 //! the height poorly), or at its first measured pressure with `--initial pressure`.
 
+use airsus_data::atomic::refuse_overwriting_inputs;
 use std::path::PathBuf;
 
 use airsus_data::{read_run, read_truck, write_truck};
@@ -96,6 +97,11 @@ fn parse_bounds(text: &str) -> anyhow::Result<(String, f64, f64)> {
 }
 
 pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
+    if let Some(out) = &args.out {
+        let mut inputs: Vec<&std::path::Path> = vec![&args.truck];
+        inputs.extend(args.runs.iter().map(PathBuf::as_path));
+        refuse_overwriting_inputs(out, &inputs)?;
+    }
     let loaded = read_truck(&args.truck)?;
     if !loaded.defaulted.is_empty() {
         eprintln!(

@@ -1,5 +1,6 @@
 use std::path::PathBuf;
 
+use airsus_data::atomic::refuse_overwriting_inputs;
 use anyhow::Context;
 use clap::Args;
 
@@ -20,6 +21,9 @@ pub struct ParamsArgs {
 }
 
 pub fn run(args: &ParamsArgs) -> anyhow::Result<()> {
+    if let (Some(out), Some(truck)) = (&args.out, &args.truck) {
+        refuse_overwriting_inputs(out, &[truck])?;
+    }
     let parameters = match &args.truck {
         Some(path) => {
             let loaded = read_truck(path)?;

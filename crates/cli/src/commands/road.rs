@@ -1,5 +1,6 @@
 //! `airsus road`: a model driven over a bump or an ISO 8608 random road.
 
+use airsus_data::atomic::refuse_overwriting_inputs;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -55,6 +56,7 @@ pub struct RoadArgs {
 }
 
 pub fn run(args: &RoadArgs) -> anyhow::Result<()> {
+    refuse_overwriting_inputs(&args.out, &[&args.truck])?;
     let truck = read_truck(&args.truck)
         .with_context(|| format!("reading truck file {}", args.truck.display()))?
         .parameters;

@@ -15,6 +15,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use airsus_data::atomic::refuse_overwriting_inputs;
 use airsus_data::{Outputs, RunOutputs, read_run_with, read_truck, write_run};
 use airsus_model::InitialCondition;
 use airsus_sim::{InitialState, InputSeries, Method, SimulationProblem, SolverOptions, simulate};
@@ -79,6 +80,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     if !(args.rtol.is_finite() && args.rtol > 0.0 && args.rtol < 1.0) {
         bail!("--rtol {} must be between 0 and 1", args.rtol);
     }
+    refuse_overwriting_inputs(&args.out, &[&args.truck, &args.run])?;
     let loaded = read_truck(&args.truck)?;
     if !loaded.defaulted.is_empty() {
         eprintln!(

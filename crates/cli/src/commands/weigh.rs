@@ -1,5 +1,6 @@
 //! `airsus weigh`: axle-load estimation from a run's bellow pressure and height.
 
+use airsus_data::atomic::refuse_overwriting_inputs;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -49,6 +50,12 @@ pub struct WeighArgs {
 }
 
 pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
+    if let Some(out) = &args.out {
+        let mut inputs: Vec<&std::path::Path> = vec![&args.truck, &args.run];
+        inputs.extend(args.calibration_run.as_deref());
+        inputs.extend(args.truth.as_deref());
+        refuse_overwriting_inputs(out, &inputs)?;
+    }
     let loaded = read_truck(&args.truck)
         .with_context(|| format!("reading truck file {}", args.truck.display()))?;
     for d in &loaded.defaulted {
