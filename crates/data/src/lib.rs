@@ -26,7 +26,8 @@ pub use lab::{
     ForceMap, TankDischarge, read_discharge, read_force_map, write_discharge, write_force_map,
 };
 pub use run::{
-    Outputs, Run, RunInputs, RunOutputs, ValveState, read_run, read_run_with, write_run,
+    Outputs, Run, RunInputs, RunOutputs, RunPrecision, ValveState, read_run, read_run_with,
+    write_run, write_run_with_precision,
 };
 pub use study::{Channel, Role, Study, StudyDischarge, StudyRun, read_study, write_study};
 pub use truck::{

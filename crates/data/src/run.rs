@@ -244,10 +244,70 @@ pub(crate) fn check_above_vacuum(
     }
 }
 
+/// How many decimals each column of a written run carries, in the file's units (s, kg, kPa,
+/// mm); `None` writes Rust's shortest round-trip form of the value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RunPrecision {
+    pub time_decimals: Option<usize>,
+    pub wheel_load_decimals: Option<usize>,
+    pub supply_decimals: Option<usize>,
+    pub road_decimals: Option<usize>,
+    pub height_decimals: Option<usize>,
+    pub pressure_decimals: Option<usize>,
+}
+
+impl RunPrecision {
+    /// Every value in its shortest round-trip form (simulations, truth files).
+    pub const FULL: Self = Self {
+        time_decimals: None,
+        wheel_load_decimals: None,
+        supply_decimals: None,
+        road_decimals: None,
+        height_decimals: None,
+        pressure_decimals: None,
+    };
+
+    /// The decimals that show a quantisation step `step` (in file units) exactly: 0.1 → 1,
+    /// 1 → 0, 0.25 → 2. Steps that are not finite and positive get the full form.
+    pub fn decimals_for_step(step: f64) -> Option<usize> {
+        if !(step.is_finite() && step > 0.0) {
+            return None;
+        }
+        (0..=12).find(|&d| {
+            let scaled = step * 10f64.powi(d as i32);
+            (scaled - scaled.round()).abs() <= 1e-9 * scaled.max(1.0)
+        })
+    }
+}
+
+/// One value as the file shows it: with `decimals` fixed (and never `-0.0`), or shortest.
+fn format_value(value: f64, decimals: Option<usize>) -> String {
+    match decimals {
+        Some(d) => {
+            let scale = 10f64.powi(d as i32);
+            // + 0.0 turns a rounded -0.0 into 0.0, so a sensor reading never shows as `-0.0`.
+            let rounded = (value * scale).round() / scale + 0.0;
+            format!("{rounded:.d$}")
+        }
+        None => format!("{value}"),
+    }
+}
+
 /// Writes a run in the contract's format and units, atomically. Values are written in Rust's
 /// shortest round-trip form, so a run written and read back is the same to the last bit of the
 /// file units (the SI conversion itself may round in the last place).
 pub fn write_run(path: &Path, run: &Run) -> Result<(), DataError> {
+    write_run_with_precision(path, run, &RunPrecision::FULL)
+}
+
+/// Writes a run with the given decimals per column, atomically: a measurement file at its
+/// sensors' resolution reads `235.2`, not the float artefact `235.20000000000002` that the
+/// conversion from SI leaves.
+pub fn write_run_with_precision(
+    path: &Path,
+    run: &Run,
+    precision: &RunPrecision,
+) -> Result<(), DataError> {
     let n = run.len();
     let inputs = &run.inputs;
     let consistent = inputs.wheel_load_kg.len() == n
@@ -276,21 +336,22 @@ pub fn write_run(path: &Path, run: &Run) -> Result<(), DataError> {
         }
         writeln!(w)?;
         for i in 0..n {
+            let p = precision;
             write!(
                 w,
                 "{},{},{},{},{}",
-                run.time_s[i],
-                inputs.wheel_load_kg[i],
+                format_value(run.time_s[i], p.time_decimals),
+                format_value(inputs.wheel_load_kg[i], p.wheel_load_decimals),
                 inputs.valve[i].code(),
-                inputs.supply_gauge_pa[i] / PA_PER_KPA,
-                mm_from_m(inputs.road_height_m[i]),
+                format_value(inputs.supply_gauge_pa[i] / PA_PER_KPA, p.supply_decimals),
+                format_value(mm_from_m(inputs.road_height_m[i]), p.road_decimals),
             )?;
             if let Some(o) = &run.outputs {
                 write!(
                     w,
                     ",{},{}",
-                    mm_from_m(o.sensor_height_m[i]),
-                    o.bellow_gauge_pa[i] / PA_PER_KPA
+                    format_value(mm_from_m(o.sensor_height_m[i]), p.height_decimals),
+                    format_value(o.bellow_gauge_pa[i] / PA_PER_KPA, p.pressure_decimals)
                 )?;
             }
             writeln!(w)?;
@@ -327,6 +388,55 @@ mod tests {
         let out = run.outputs.as_ref().unwrap();
         assert!((out.sensor_height_m[1] - 0.2401).abs() < 1e-15);
         assert_eq!(out.bellow_gauge_pa[2], 361_000.0);
+    }
+
+    #[test]
+    fn decimals_follow_the_quantisation_step() {
+        assert_eq!(RunPrecision::decimals_for_step(0.1), Some(1));
+        assert_eq!(RunPrecision::decimals_for_step(1.0), Some(0));
+        assert_eq!(RunPrecision::decimals_for_step(0.25), Some(2));
+        assert_eq!(RunPrecision::decimals_for_step(0.0), None);
+        assert_eq!(format_value(235.200_000_000_000_02, Some(1)), "235.2");
+        assert_eq!(format_value(850.000_000_000_1, Some(0)), "850");
+        assert_eq!(format_value(-0.04, Some(1)), "0.0");
+        assert_eq!(format_value(0.1 + 0.2, None), "0.30000000000000004");
+    }
+
+    #[test]
+    fn a_run_written_at_sensor_resolution_has_no_float_artefacts() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut run = parse(GOOD).unwrap();
+        // SI values as a quantiser leaves them: 0.2352 m reads back as 235.20000000000002 mm.
+        let out = run.outputs.as_mut().unwrap();
+        out.sensor_height_m[0] = 2352.0 * 1e-4;
+        out.bellow_gauge_pa[0] = 350_100.000_000_000_06;
+        run.inputs.supply_gauge_pa[0] = 850_000.000_000_000_1;
+        let full = dir.path().join("full.csv");
+        write_run(&full, &run).unwrap();
+        assert!(
+            std::fs::read_to_string(&full)
+                .unwrap()
+                .contains("235.20000000000002"),
+            "the shortest form keeps every bit"
+        );
+        let precision = RunPrecision {
+            time_decimals: Some(1),
+            wheel_load_decimals: Some(1),
+            supply_decimals: Some(0),
+            road_decimals: Some(1),
+            height_decimals: Some(1),
+            pressure_decimals: Some(1),
+        };
+        let path = dir.path().join("sensor.csv");
+        write_run_with_precision(&path, &run, &precision).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(
+            text.lines().nth(1).unwrap(),
+            "0.0,2830.0,0,850,0.0,235.2,350.1",
+            "{text}"
+        );
+        let back = parse_run(text.as_bytes(), &path, Outputs::Required).unwrap();
+        assert_eq!(back.len(), run.len());
     }
 
     #[test]

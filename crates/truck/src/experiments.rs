@@ -17,8 +17,9 @@
 use std::path::{Path, PathBuf};
 
 use airsus_data::{
-    Channel, Role, Run, RunInputs, RunOutputs, Study, StudyDischarge, StudyRun, TruckParameters,
-    write_discharge, write_force_map, write_run, write_study, write_truck,
+    Channel, Role, Run, RunInputs, RunOutputs, RunPrecision, Study, StudyDischarge, StudyRun,
+    TruckParameters, write_discharge, write_force_map, write_run, write_run_with_precision,
+    write_study, write_truck,
 };
 use airsus_model::{InitialCondition, InputSample, SuspensionModel};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, SolverOptions, simulate};
@@ -146,6 +147,23 @@ pub fn run_experiment_with(
 
 /// The virtual truck's extra effects as TOML, keyed by the `truck` model's parameter names,
 /// so an estimate of the `truck` structure can be compared with the truth.
+/// The decimals of a logged run: each sensor at its resolution (0.1 mm, 0.1 kPa, 1 kPa
+/// supply), the time at the sample clock's, the logged load to 0.1 kg, the road to 0.01 mm.
+pub fn logged_precision() -> RunPrecision {
+    RunPrecision {
+        time_decimals: RunPrecision::decimals_for_step(crate::scenario::SAMPLE_TIME_S),
+        wheel_load_decimals: Some(1),
+        supply_decimals: RunPrecision::decimals_for_step(
+            SensorSpec::SUPPLY_PRESSURE_PA.resolution / 1e3,
+        ),
+        road_decimals: Some(2),
+        height_decimals: RunPrecision::decimals_for_step(SensorSpec::HEIGHT_M.resolution * 1e3),
+        pressure_decimals: RunPrecision::decimals_for_step(
+            SensorSpec::BELLOW_PRESSURE_PA.resolution / 1e3,
+        ),
+    }
+}
+
 pub fn effects_toml(truck: &VirtualTruck) -> String {
     let e = &truck.effect_parameters;
     let f = &truck.effects;
@@ -269,7 +287,7 @@ pub fn generate(
         .enumerate()
     {
         let file = out_dir.join(format!("{}.csv", run.logged.name));
-        write_run(&file, &run.logged)?;
+        write_run_with_precision(&file, &run.logged, &logged_precision())?;
         let truth_file = truth_dir.join(format!("{}.csv", run.truth.name));
         write_run(&truth_file, &run.truth)?;
         files.push(file.clone());

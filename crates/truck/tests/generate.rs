@@ -162,6 +162,44 @@ fn the_study_follows_the_data_contract_and_looks_like_the_thesis_truck() {
 }
 
 #[test]
+fn measurement_files_carry_the_sensor_resolution_without_float_artefacts() {
+    let dir = tempfile::tempdir().unwrap();
+    generate_into(dir.path(), 3);
+    // Decimals per column as the sensors resolve them: time (100 ms clock) 1, load 1,
+    // valve 0, supply (1 kPa) 0, road 2, height (0.1 mm) 1, pressure (0.1 kPa) 1.
+    let max_decimals = [1usize, 1, 0, 0, 2, 1, 1];
+    for name in ["ds1", "ds2", "ds3", "ds4"] {
+        let path = dir.path().join(format!("{name}.csv"));
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(
+            lines.next(),
+            Some("time_s,wheel_load_kg,valve,supply_kpa,road_mm,height_mm,pressure_kpa")
+        );
+        for (k, line) in lines.enumerate() {
+            for (col, (cell, &most)) in line.split(',').zip(&max_decimals).enumerate() {
+                let decimals = cell.split_once('.').map_or(0, |(_, f)| f.len());
+                assert!(
+                    decimals <= most && !cell.starts_with("-0.0"),
+                    "{name}.csv:{}:{}: `{cell}` has {decimals} decimals, the sensor {most}",
+                    k + 2,
+                    col + 1
+                );
+            }
+        }
+        // The values are the quantised ones, not merely rounded for show: reading the file
+        // back lands on the same 0.1 mm grid the sensor model produced.
+        let run = read_run(&path).unwrap();
+        let heights = &run.outputs.as_ref().unwrap().sensor_height_m;
+        assert!(
+            heights
+                .iter()
+                .all(|h| ((h * 1e4) - (h * 1e4).round()).abs() < 1e-6)
+        );
+    }
+}
+
+#[test]
 fn same_seed_same_bytes_and_another_seed_other_bytes() {
     let (a, b, c) = (
         tempfile::tempdir().unwrap(),
