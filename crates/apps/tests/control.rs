@@ -84,6 +84,15 @@ fn both_controllers_hold_the_band_through_load_steps_on_the_virtual_truck() {
         assert_no_hunting(&run, &guard);
         assert_eq!(s.short_openings, 0);
         assert_eq!(s.quick_reversals, 0);
+        // One scored segment per load change: a score without segments would pass the loop
+        // below vacuously.
+        assert_eq!(
+            s.segments.len(),
+            scenario.events_s.len(),
+            "{}: {s:?}",
+            c.name()
+        );
+        assert!(s.openings >= scenario.events_s.len(), "{}: {s:?}", c.name());
         // Every event settles into the ±5 mm band within 100 s and stays there.
         for seg in &s.segments {
             let t = seg.settling_time_s.expect("settles");
@@ -133,10 +142,14 @@ fn guard_enforces_on_time_rest_and_lockout() {
     let mut t = 0.0;
     let mut applied = Vec::new();
     for k in 0..400 {
-        let req = match k % 3 {
-            0 => ValveState::Fill,
-            1 => ValveState::Exhaust,
-            _ => ValveState::Closed,
+        // 20 s of requests flipping every sample, then 20 s that ask only to exhaust: the
+        // second half exercises the reversal lock-out after the fills of the first.
+        let req = match (k < 200, k % 3) {
+            (true, 0) => ValveState::Fill,
+            (true, 1) => ValveState::Exhaust,
+            (true, _) => ValveState::Closed,
+            (false, 0) => ValveState::Closed,
+            (false, _) => ValveState::Exhaust,
         };
         applied.push(g.apply(t, req));
         t += 0.1;
@@ -148,6 +161,30 @@ fn guard_enforces_on_time_rest_and_lockout() {
         ..ClosedLoopRun::default()
     };
     assert_no_hunting(&run, &guard);
+    // A guard that never opens would pass the check above; this one must pass requests on,
+    // in both directions, each held for the minimum on-time.
+    let openings = |dir: ValveState| {
+        run.valve
+            .windows(2)
+            .filter(|w| w[0] != dir && w[1] == dir)
+            .count()
+            + usize::from(run.valve.first() == Some(&dir))
+    };
+    let (fills, exhausts) = (openings(ValveState::Fill), openings(ValveState::Exhaust));
+    assert!(
+        fills >= 2 && exhausts >= 2,
+        "fills {fills}, exhausts {exhausts}"
+    );
+    let open_samples = run
+        .valve
+        .iter()
+        .filter(|&&v| v != ValveState::Closed)
+        .count();
+    assert!(
+        open_samples as f64 * 0.1 >= (fills + exhausts) as f64 * guard.min_on_s - 1e-9,
+        "{open_samples} open samples for {} openings",
+        fills + exhausts
+    );
 }
 
 #[test]

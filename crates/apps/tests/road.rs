@@ -73,38 +73,73 @@ fn linearised_model_2_matches_for_a_small_bump_and_not_for_a_large_one() {
     assert!(h_ref > h_small);
 }
 
+/// ISO 8608:2016 Table 1, `Gd(n0)` at n0 = 0.1 cycles/m, geometric mean of each class, in
+/// 10⁻⁶ m³, written out here (not read from the crate) so that the check is independent.
+const ISO8608_TABLE_1E6_M3: [(char, f64); 5] = [
+    ('A', 16.0),
+    ('B', 64.0),
+    ('C', 256.0),
+    ('D', 1024.0),
+    ('E', 4096.0),
+];
+
+/// The structure function `D(Δ) = E[(z(s+Δ) - z(s))²] = 2 ∫ G(n) (1 - cos 2πnΔ) dn` of the
+/// ISO 8608 PSD `G(n) = Gd(n0) (n0/n)²` over the band `[n1, n2]`, by Simpson's rule: an
+/// independent reference that shares neither the generator's sum of cosines nor a PSD
+/// estimator.
+fn structure_function_m2(gd_n0_m3: f64, n1: f64, n2: f64, lag_m: f64) -> f64 {
+    let steps = 200_000;
+    let h = (n2 - n1) / steps as f64;
+    let f = |n: f64| {
+        2.0 * gd_n0_m3 * (0.1 / n).powi(2) * (1.0 - (2.0 * std::f64::consts::PI * n * lag_m).cos())
+    };
+    let mut sum = f(n1) + f(n2);
+    for i in 1..steps {
+        let n = n1 + i as f64 * h;
+        sum += if i % 2 == 1 { 4.0 } else { 2.0 } * f(n);
+    }
+    sum * h / 3.0
+}
+
 #[test]
 fn iso8608_generator_has_the_class_psd() {
     let ds = 0.05;
+    let (n1, n2) = (0.011, 2.83);
     let s: Vec<f64> = (0..40_000).map(|k| k as f64 * ds).collect();
     for (class, seed) in [('C', 1), ('A', 2), ('E', 3)] {
-        let road = Iso8608Road::new(class, 0.011, 2.83, 4000, seed).unwrap();
+        let table = ISO8608_TABLE_1E6_M3
+            .iter()
+            .find(|(c, _)| *c == class)
+            .unwrap()
+            .1
+            * 1e-6;
+        assert_eq!(iso8608_gd_n0_m3(class).unwrap(), table, "class {class}");
+        let road = Iso8608Road::new(class, n1, n2, 4000, seed).unwrap();
         let z = road.heights_m(&s);
-        // Estimated PSD at 40 log-spaced frequencies in 0.05..1 cycles/m, 10 segments of 200 m.
-        let freqs: Vec<f64> = (0..40)
-            .map(|i| 0.05 * (20f64).powf(i as f64 / 39.0))
-            .collect();
-        let psd = estimate_psd_m3(&z, ds, 10, &freqs);
-        // Fit log Gd = log Gd(n0) - w log(n/n0) by least squares.
-        let xs: Vec<f64> = freqs.iter().map(|n| (n / ISO8608_N0).ln()).collect();
-        let ys: Vec<f64> = psd.iter().map(|g| g.ln()).collect();
-        let m = xs.len() as f64;
-        let (mx, my) = (xs.iter().sum::<f64>() / m, ys.iter().sum::<f64>() / m);
-        let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
-        let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
-        let slope = sxy / sxx;
-        let gd_n0 = (my - slope * mx).exp();
-        let expected = iso8608_gd_n0_m3(class).unwrap();
-        println!(
-            "class {class}: slope {slope:.3}, Gd(n0) {:.1}e-6 (class {:.0}e-6)",
-            gd_n0 * 1e6,
-            expected * 1e6
-        );
-        assert!((slope + 2.0).abs() < 0.15, "slope {slope}");
-        assert!((gd_n0 / expected - 1.0).abs() < 0.25, "Gd(n0) {gd_n0}");
-        // And the variance is what the band carries.
+        // Height differences at lags from 0.5 m (short waves) to 10 m (long waves) against the
+        // class's analytic structure function: each lag weighs another part of the spectrum,
+        // so a wrong slope or level shows.
+        for lag_m in [0.5, 1.0, 2.0, 5.0, 10.0] {
+            let k = (lag_m / ds).round() as usize;
+            let d_measured =
+                z.windows(k + 1).map(|w| (w[k] - w[0]).powi(2)).sum::<f64>() / (z.len() - k) as f64;
+            let d_expected = structure_function_m2(table, n1, n2, lag_m);
+            println!(
+                "class {class}, lag {lag_m} m: D {:.3e} m² (analytic {:.3e})",
+                d_measured, d_expected
+            );
+            assert!(
+                (d_measured / d_expected - 1.0).abs() < 0.2,
+                "class {class}, lag {lag_m} m: {d_measured:e} vs {d_expected:e}"
+            );
+        }
+        // Total variance: ∫ G dn = Gd(n0) n0² (1/n1 - 1/n2), analytic.
         let var = z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64;
-        assert!((var / road.variance_m2() - 1.0).abs() < 0.3, "{var}");
+        let var_expected = table * 0.01 * (1.0 / n1 - 1.0 / n2);
+        assert!(
+            (var / var_expected - 1.0).abs() < 0.3,
+            "class {class}: variance {var:e} vs {var_expected:e}"
+        );
     }
     assert!(iso8608_gd_n0_m3('Z').is_err());
 }

@@ -748,6 +748,31 @@ mod tests {
     }
 
     #[test]
+    fn a_chart_that_cannot_be_written_is_reported_in_its_place_and_the_rest_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let r = results();
+        let mut charts = vec![charts()[0].clone()];
+        // A file name inside a folder that does not exist: the SVG write must fail.
+        let mut unwritable = charts[0].clone();
+        unwritable.name = "no_such_folder/fig_m2".to_owned();
+        unwritable.title = "the unwritable one".to_owned();
+        charts.push(unwritable);
+        let files = write_report(dir.path(), &r, &charts).unwrap();
+        assert_eq!(files.chart_failures.len(), 1, "{:?}", files.chart_failures);
+        assert!(
+            files.chart_failures[0].contains("no_such_folder"),
+            "{:?}",
+            files.chart_failures
+        );
+        let html = std::fs::read_to_string(&files.html).unwrap();
+        assert_eq!(html.matches("could not be drawn").count(), 1);
+        assert!(html.contains("Figure no_such_folder/fig_m2 could not be drawn"));
+        assert!(files.figures.contains(&dir.path().join("figures/ok.svg")));
+        assert!(dir.path().join("figures/ok.png").exists());
+        assert!(files.json.exists());
+    }
+
+    #[test]
     fn results_json_round_trips_from_disk() {
         let dir = tempfile::tempdir().unwrap();
         let r = results();
