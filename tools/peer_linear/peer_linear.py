@@ -4,16 +4,18 @@
 Uses SIPPY (``pip install sippy-unipi``; Armenise et al., "An open-source system
 identification package for multivariable processes", UKACC 2018), a published Python
 identification package, to estimate ARX (linear least squares) and OE (prediction-error
-minimisation via CasADi/IPOPT) models on measured data sets from ``shared/data/real``, and
-writes the numbers as JSON fixtures that ``crates/ident/tests/peer_agreement.rs`` compares
-against.
+minimisation via CasADi/IPOPT) models on measured data sets vendored in
+``crates/ident/tests/data`` (copied byte for byte from the project's ``shared/data/real``;
+sources and terms in that folder's README.md), and writes the numbers as JSON fixtures that
+``crates/ident/tests/peer_agreement.rs`` compares against. ``peer_armax_bj.py`` does the same
+for ARMAX and BJ.
 
 Usage (from the workspace root, /work/main):
 
     python3 -m venv /tmp/peer_venv
     /tmp/peer_venv/bin/pip install sippy-unipi==1.0.1
     /tmp/peer_venv/bin/python tools/peer_linear/peer_linear.py \
-        --data ../shared/data/real --out crates/ident/tests/fixtures
+        --data crates/ident/tests/data --out crates/ident/tests/fixtures
 
 Conventions that must match the Rust side (documented in each fixture):
 
@@ -174,7 +176,7 @@ def peer_oe(u_est, y_est, u_val, y_val, nb, nf, nk):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--data", type=Path, default=Path("../shared/data/real"))
+    parser.add_argument("--data", type=Path, default=Path("crates/ident/tests/data"))
     parser.add_argument("--out", type=Path, default=Path("crates/ident/tests/fixtures"))
     parser.add_argument("--only", help="comma-separated data set names")
     args = parser.parse_args()

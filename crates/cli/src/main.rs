@@ -95,4 +95,17 @@ mod tests {
     fn cli_definition_is_consistent() {
         Cli::command().debug_assert();
     }
+
+    #[test]
+    fn the_study_estimates_every_model_with_60_iterations_by_default() {
+        // The README's main command; these defaults are what its numbers were measured with.
+        let cli = Cli::try_parse_from(["airsus", "study", "--builtin", "--out", "out"]).unwrap();
+        let Command::Study(args) = cli.command else {
+            panic!("parsed as another command");
+        };
+        assert_eq!(args.models, ["m1", "m2", "m2x", "m2xh", "m3", "truck"]);
+        assert_eq!(args.max_iterations, 60);
+        assert_eq!(args.seed, 1);
+        assert!(args.builtin && args.study.is_none());
+    }
 }

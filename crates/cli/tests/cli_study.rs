@@ -37,6 +37,34 @@ fn study_builtin_writes_the_report_and_prints_the_summary() {
     ] {
         assert!(dir.path().join(file).exists(), "{file} missing; {stderr}");
     }
+    // What it wrote says the estimation worked: under the valve protocol m2 goes from a
+    // hopeless nominal fit of the valve run to a usable one, and the printed table shows the
+    // same numbers as results.json.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("results.json")).unwrap())
+            .unwrap();
+    let valve = json["protocols"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "valve")
+        .unwrap();
+    let m2 = &valve["models"][0];
+    assert_eq!(m2["model"], "m2");
+    let ds3 = m2["runs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["run"] == "data-set 3")
+        .unwrap();
+    let nominal = ds3["nominal"]["height_percent"].as_f64().unwrap();
+    let estimated = ds3["estimated"]["height_percent"].as_f64().unwrap();
+    assert!(
+        nominal < 0.0 && estimated > 70.0,
+        "data-set 3 height {nominal} -> {estimated}"
+    );
+    let printed = format!("{estimated:.1}");
+    assert!(stdout.contains(&printed), "{printed} not in {stdout}");
 }
 
 #[test]

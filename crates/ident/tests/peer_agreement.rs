@@ -1,8 +1,8 @@
 //! Agreement with an independent peer (SIPPY, `sippy-unipi` 1.0.1) on measured data.
 //!
 //! Fixtures in `tests/fixtures/peer_sippy_*.json` were produced by
-//! `tools/peer_linear/peer_linear.py` (see its README). The data come from
-//! `../shared/data/real` beside the workspace.
+//! `tools/peer_linear/peer_linear.py` (see its README). The data are vendored in `tests/data/`
+//! (sources and terms of use in `tests/data/README.md`), so these tests run on a fresh clone.
 //!
 //! * ARX is a linear least-squares problem with a unique solution, so coefficients and loss
 //!   must agree to ~1e-6 relative.
@@ -10,117 +10,16 @@
 //!   zero-initial-condition simulation, the criterion airsus minimises), and airsus must be at
 //!   least as good on the estimation data and comparable on validation data.
 
-use std::path::{Path, PathBuf};
+mod peer_data;
 
 use airsus_ident::linear::{
     ArxOrders, IdData, OeOrders, PemOptions, arx, fit_percent, is_stable, oe,
 };
+use peer_data::{f64_of, floats, load, usize_of};
 use serde_json::Value;
 
-fn data_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/real")
-}
-
 fn fixture(name: &str) -> Value {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures")
-        .join(format!("peer_sippy_{name}.json"));
-    let text = std::fs::read_to_string(&path)
-        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
-    serde_json::from_str(&text).expect("fixture is JSON")
-}
-
-/// DaISy `.dat`: whitespace-separated numbers, no header.
-fn read_dat(path: &Path) -> Vec<Vec<f64>> {
-    let text = std::fs::read_to_string(path)
-        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
-    text.lines()
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| {
-            l.split_whitespace()
-                .map(|v| v.parse().expect("number"))
-                .collect()
-        })
-        .collect()
-}
-
-/// nonlinearbenchmark CSV: quoted header, trailing comma (empty last field), columns by name.
-fn read_csv_columns(path: &Path, names: &[&str]) -> Vec<Vec<f64>> {
-    let text = std::fs::read_to_string(path)
-        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
-    let mut lines = text.lines();
-    let header: Vec<String> = lines
-        .next()
-        .expect("header")
-        .split(',')
-        .map(|h| h.trim().trim_matches('"').to_owned())
-        .collect();
-    let idx: Vec<usize> = names
-        .iter()
-        .map(|n| header.iter().position(|h| h == n).expect("column"))
-        .collect();
-    let rows: Vec<Vec<&str>> = lines
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| l.split(',').collect())
-        .collect();
-    idx.iter()
-        .map(|&i| {
-            rows.iter()
-                .map(|r| r[i].trim().parse().expect("number"))
-                .collect()
-        })
-        .collect()
-}
-
-fn usize_of(v: &Value) -> usize {
-    v.as_u64().expect("integer") as usize
-}
-
-fn floats(v: &Value) -> Vec<f64> {
-    v.as_array()
-        .expect("array")
-        .iter()
-        .map(|x| x.as_f64().expect("number"))
-        .collect()
-}
-
-/// Estimation and validation data exactly as the fixture describes.
-fn load(fx: &Value) -> (IdData, IdData) {
-    let path = data_dir().join(fx["file"].as_str().expect("file"));
-    let ts = fx["ts_s"].as_f64().expect("ts");
-    let (ue, ye, uv, yv) = if fx["format"] == "dat" {
-        let rows = read_dat(&path);
-        let col = |c: &str| -> Vec<f64> {
-            let k = usize_of(&fx["columns"][c]);
-            rows.iter().map(|r| r[k]).collect()
-        };
-        let (u, y) = (col("u"), col("y"));
-        let e = floats(&fx["estimation"]);
-        let v = floats(&fx["validation"]);
-        let (e0, e1, v0, v1) = (e[0] as usize, e[1] as usize, v[0] as usize, v[1] as usize);
-        (
-            u[e0..e1].to_vec(),
-            y[e0..e1].to_vec(),
-            u[v0..v1].to_vec(),
-            y[v0..v1].to_vec(),
-        )
-    } else {
-        let c = &fx["columns"];
-        let names = ["u_est", "y_est", "u_val", "y_val"].map(|k| c[k].as_str().expect("name"));
-        let mut cols = read_csv_columns(&path, &names).into_iter();
-        let mut next = || cols.next().expect("column");
-        (next(), next(), next(), next())
-    };
-    let est = IdData::siso(ye, ue, ts).expect("valid estimation data");
-    let val = IdData::siso(yv, uv, ts).expect("valid validation data");
-    match fx["detrend"].as_str() {
-        Some("segment_mean") => (est.detrend().0, val.detrend().0),
-        Some("estimation_mean") => {
-            let (est_d, offsets) = est.detrend();
-            (est_d, val.remove_offsets(&offsets))
-        }
-        other => panic!("unknown detrend mode {other:?}"),
-    }
+    peer_data::fixture(&format!("peer_sippy_{name}"))
 }
 
 fn check_arx(fx: &Value, est: &IdData) {
@@ -129,6 +28,20 @@ fn check_arx(fx: &Value, est: &IdData) {
     let ours = arx(est, &orders).expect("arx");
     let mut peer = floats(&p["a"])[1..].to_vec();
     peer.extend(floats(&p["b"]));
+    // Same orders, same parameter vector: a length mismatch would make the zip below
+    // silently compare only a prefix.
+    assert_eq!(
+        ours.parameters.len(),
+        peer.len(),
+        "{}: {} parameters ours vs {} SIPPY",
+        fx["dataset"],
+        ours.parameters.len(),
+        peer.len()
+    );
+    assert_eq!(
+        ours.parameters.len(),
+        usize_of(&p["na"]) + usize_of(&p["nb"])
+    );
     let scale = peer.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     for (o, q) in ours.parameters.iter().zip(&peer) {
         let rel = (o.value - q).abs() / q.abs().max(1e-3 * scale);
@@ -142,7 +55,7 @@ fn check_arx(fx: &Value, est: &IdData) {
         );
     }
     assert_eq!(ours.n_samples, usize_of(&p["n_rows"]));
-    let peer_loss = p["loss"].as_f64().expect("loss");
+    let peer_loss = f64_of(&p["loss"]);
     assert!(
         (ours.loss - peer_loss).abs() < 1e-6 * peer_loss,
         "{} loss {} vs {}",

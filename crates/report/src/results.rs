@@ -158,9 +158,8 @@ impl ModelResult {
 mod tests {
     use super::*;
 
-    #[test]
-    fn results_round_trip_through_json() {
-        let results = StudyResults {
+    fn sample() -> StudyResults {
+        StudyResults {
             schema_version: SCHEMA_VERSION,
             airsus_version: "0.1.0".to_owned(),
             study: "study.toml".to_owned(),
@@ -218,10 +217,147 @@ mod tests {
                 }],
             }],
             elapsed_s: 1.5,
-        };
+        }
+    }
+
+    #[test]
+    fn results_round_trip_through_json() {
+        let results = sample();
         let json = serde_json::to_string_pretty(&results).unwrap();
         assert!(json.contains("\"height_percent\": 65.18"));
         let back: StudyResults = serde_json::from_str(&json).unwrap();
         assert_eq!(back, results);
+    }
+
+    /// Every key path of a JSON value, arrays as `[]`.
+    fn key_paths(
+        value: &serde_json::Value,
+        prefix: &str,
+        out: &mut std::collections::BTreeSet<String>,
+    ) {
+        match value {
+            serde_json::Value::Object(map) => {
+                for (k, v) in map {
+                    let path = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    out.insert(path.clone());
+                    key_paths(v, &path, out);
+                }
+            }
+            serde_json::Value::Array(items) => {
+                for v in items {
+                    key_paths(v, &format!("{prefix}[]"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// results.json is read by other people's scripts: its key names are a contract. A change
+    /// here must bump SCHEMA_VERSION and the README's results.json section.
+    #[test]
+    fn results_json_key_names_are_pinned() {
+        let mut r = sample();
+        let model = &mut r.protocols[0].models[0];
+        model.estimates.push(ParameterEstimate {
+            name: "m2".to_owned(),
+            unit: "kg".to_owned(),
+            nominal: 520.0,
+            estimate: 560.0,
+            std: Some(3.0),
+            identifiable: true,
+        });
+        model.runs[0].estimated = model.runs[0].nominal;
+        model.runs[0].residuals.push(ResidualSummary {
+            output: "height".to_owned(),
+            input: "self".to_owned(),
+            confidence: 0.99,
+            band: 0.02,
+            lags_outside: 1,
+            lags_total: 50,
+            worst_ratio: 1.1,
+            note: None,
+        });
+        let mut keys = std::collections::BTreeSet::new();
+        key_paths(&serde_json::to_value(&r).unwrap(), "", &mut keys);
+        let expected = [
+            "airsus_version",
+            "elapsed_s",
+            "protocols",
+            "protocols[].description",
+            "protocols[].estimation_runs",
+            "protocols[].models",
+            "protocols[].models[].description",
+            "protocols[].models[].error",
+            "protocols[].models[].estimates",
+            "protocols[].models[].estimates[].estimate",
+            "protocols[].models[].estimates[].identifiable",
+            "protocols[].models[].estimates[].name",
+            "protocols[].models[].estimates[].nominal",
+            "protocols[].models[].estimates[].std",
+            "protocols[].models[].estimates[].unit",
+            "protocols[].models[].estimation_time_s",
+            "protocols[].models[].free",
+            "protocols[].models[].model",
+            "protocols[].models[].notes",
+            "protocols[].models[].runs",
+            "protocols[].models[].runs[].error",
+            "protocols[].models[].runs[].estimated",
+            "protocols[].models[].runs[].estimated.height_percent",
+            "protocols[].models[].runs[].estimated.pressure_percent",
+            "protocols[].models[].runs[].nominal",
+            "protocols[].models[].runs[].nominal.height_percent",
+            "protocols[].models[].runs[].nominal.pressure_percent",
+            "protocols[].models[].runs[].residuals",
+            "protocols[].models[].runs[].residuals[].band",
+            "protocols[].models[].runs[].residuals[].confidence",
+            "protocols[].models[].runs[].residuals[].input",
+            "protocols[].models[].runs[].residuals[].lags_outside",
+            "protocols[].models[].runs[].residuals[].lags_total",
+            "protocols[].models[].runs[].residuals[].note",
+            "protocols[].models[].runs[].residuals[].output",
+            "protocols[].models[].runs[].residuals[].worst_ratio",
+            "protocols[].models[].runs[].role",
+            "protocols[].models[].runs[].run",
+            "protocols[].models[].simulations",
+            "protocols[].models[].stop_reason",
+            "protocols[].models[].truck_file",
+            "protocols[].name",
+            "runs",
+            "runs[].duration_s",
+            "runs[].file",
+            "runs[].name",
+            "runs[].role",
+            "runs[].samples",
+            "runs[].valve_action",
+            "schema_version",
+            "study",
+            "submodels",
+            "submodels.fits",
+            "submodels.fits[].description",
+            "submodels.fits[].error",
+            "submodels.fits[].name",
+            "submodels.fits[].notes",
+            "submodels.fits[].nrmse_estimation_percent",
+            "submodels.fits[].nrmse_validation_percent",
+            "submodels.fits[].parameters",
+            "submodels.fits[].parameters[].name",
+            "submodels.fits[].parameters[].std",
+            "submodels.fits[].parameters[].unit",
+            "submodels.fits[].parameters[].value",
+            "truck",
+        ];
+        let expected: std::collections::BTreeSet<String> =
+            expected.iter().map(|k| (*k).to_owned()).collect();
+        let added: Vec<_> = keys.difference(&expected).collect();
+        let removed: Vec<_> = expected.difference(&keys).collect();
+        assert!(
+            added.is_empty() && removed.is_empty(),
+            "results.json keys changed (bump SCHEMA_VERSION = {SCHEMA_VERSION} and the README): added {added:?}, removed {removed:?}"
+        );
+        assert_eq!(SCHEMA_VERSION, 1);
     }
 }

@@ -77,6 +77,78 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         m2.estimates.iter().any(|e| e.name == "rflow1"),
         "valve runs free the flow parameters"
     );
+    // Estimation must do something, not merely not hurt: on the valve run the nominal m2
+    // is far off (it starts from the submodel fits, which see no valve data) and the fit
+    // must repair it; on data-set 1 it must gain at least a point.
+    for m in &p.models {
+        let fit = |run: &str| {
+            let r = m.run(run).unwrap();
+            (r.nominal.unwrap(), r.estimated.unwrap())
+        };
+        let (nominal, estimated) = fit("data-set 1");
+        println!("{} data-set 1: {nominal:?} -> {estimated:?}", m.model);
+        assert!(
+            estimated.height_percent + estimated.pressure_percent
+                >= nominal.height_percent + nominal.pressure_percent + 1.0,
+            "{}: data-set 1 {nominal:?} -> {estimated:?}",
+            m.model
+        );
+        let (nominal, estimated) = fit("data-set 3");
+        println!("{} data-set 3: {nominal:?} -> {estimated:?}", m.model);
+    }
+    let ds3 = m2.run("data-set 3").unwrap();
+    let (nominal, estimated) = (ds3.nominal.unwrap(), ds3.estimated.unwrap());
+    assert!(
+        nominal.height_percent < 0.0 && estimated.height_percent > 70.0,
+        "m2 on the valve run: {nominal:?} -> {estimated:?}"
+    );
+    let moved = m2
+        .estimates
+        .iter()
+        .filter(|e| e.identifiable && (e.estimate / e.nominal - 1.0).abs() > 0.02)
+        .count();
+    assert!(moved >= 2, "{:?}", m2.estimates);
+
+    // Against the truth (structure mismatch: the virtual truck has hysteresis, creep, a
+    // pressure-dependent area and an orifice valve that m2 lacks). The parameters themselves
+    // have no true value in m2's structure, but its simulation has one: on the validation
+    // run, the estimated m2 must follow the noise-free truth closer than m2 with the file's
+    // nominal parameters does, in both outputs.
+    let truth_run = airsus_data::read_run(&data.join("truth/ds2.csv")).unwrap();
+    let logged = airsus_data::read_run(&data.join("ds2.csv")).unwrap();
+    let truth_out = truth_run.outputs.as_ref().unwrap();
+    let rms_error = |truck: &std::path::Path| {
+        let truck = airsus_data::read_truck(truck).unwrap().parameters;
+        let model = airsus_truck::models::build_any_model("m2", &truck).unwrap();
+        let initial =
+            airsus_sim::InitialState::Equilibrium(airsus_model::InitialCondition::SensorHeight {
+                height_m: logged.outputs.as_ref().unwrap().sensor_height_m[0],
+            });
+        let problem = airsus_sim::SimulationProblem::new(
+            &*model,
+            airsus_sim::InputSeries::from_run(&logged).unwrap(),
+            initial,
+        );
+        let sim = airsus_sim::simulate(&problem).unwrap();
+        let rms = |a: &[f64], b: &[f64]| {
+            (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
+        };
+        (
+            rms(&sim.sensor_height_m, &truth_out.sensor_height_m) * 1e3,
+            rms(&sim.bellow_gauge_pa, &truth_out.bellow_gauge_pa) * 1e-3,
+        )
+    };
+    let (h_nominal, p_nominal) = rms_error(&data.join("truck.toml"));
+    let (h_estimated, p_estimated) = rms_error(&out.join(m2.truck_file.as_ref().unwrap()));
+    println!(
+        "m2 on data-set 2 against the truth: nominal {h_nominal:.2} mm / {p_nominal:.2} kPa, estimated {h_estimated:.2} mm / {p_estimated:.2} kPa rms"
+    );
+    // The pressure error falls four-fold; the height error only slightly, because creep and
+    // hysteresis (3 mm) are not in m2's structure — the gap issue #12 is about.
+    assert!(
+        h_estimated < 0.98 * h_nominal && p_estimated < 0.5 * p_nominal,
+        "estimated {h_estimated} mm / {p_estimated} kPa vs nominal {h_nominal} mm / {p_nominal} kPa"
+    );
 
     let json: StudyResults =
         serde_json::from_str(&std::fs::read_to_string(&outcome.report.json).unwrap()).unwrap();
