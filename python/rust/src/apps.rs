@@ -1,0 +1,317 @@
+//! The model registry, weighing, the study pipeline, the virtual truck's reference experiments
+//! and NRMSE: crates/cli/src/commands/{weigh,study,generate}.rs as functions.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use numpy::{IntoPyArray, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use airsus_apps::weigh::{
+    EkfTuning, LinearCalibration, StandstillRule, StaticLaw, StaticWeigher, WeighSeries,
+    WeighingUncertainty, weigh_ekf, weigh_static,
+};
+use airsus_data::{Outputs, Run, TruckParameters};
+use airsus_study::{
+    Event, Protocol, STUDY_MODELS, StudyOptions, load_study, run_builtin, run_study,
+};
+use airsus_truck::models::{all_model_names, build_any_model};
+
+use crate::error::OrPy;
+use crate::progress::Progress;
+use crate::runs::{RunSource, RunSpec};
+use crate::truck::NativeTruck;
+
+/// Every model airsus builds by name: `[{"name", "description", "parameters", "units",
+/// "states"}, ...]`, built with the reference truck.
+#[pyfunction]
+pub fn models(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
+    let truck = TruckParameters::reference();
+    let mut out = Vec::new();
+    for (name, description) in all_model_names() {
+        let model = build_any_model(name, &truck).or_py()?;
+        let entry = PyDict::new(py);
+        entry.set_item("name", name)?;
+        entry.set_item("description", description)?;
+        let infos = model.parameter_info();
+        entry.set_item(
+            "parameters",
+            infos.iter().map(|i| i.name).collect::<Vec<_>>(),
+        )?;
+        entry.set_item("units", infos.iter().map(|i| i.unit).collect::<Vec<_>>())?;
+        entry.set_item("states", model.state_names().to_vec())?;
+        out.push(entry);
+    }
+    Ok(out)
+}
+
+struct Weighed {
+    series: WeighSeries,
+    /// `(gain, offset_kg, samples, residual_rms_kg)` of the calibration, when one was fitted.
+    calibration: Option<(f64, f64, usize, f64)>,
+}
+
+fn run_weigh(
+    truck: &TruckParameters,
+    source: &RunSource,
+    method: &str,
+    model_name: &str,
+    window_s: f64,
+    calibration: Option<&RunSource>,
+) -> anyhow::Result<Weighed> {
+    let ekf = match method {
+        "static" => false,
+        "ekf" => true,
+        other => bail!("unknown method `{other}`; the methods are: static, ekf"),
+    };
+    let run = source
+        .load(Outputs::Required)
+        .with_context(|| format!("reading run {}", source.label()))?;
+    let weigher = StaticWeigher::new(StaticLaw::from_truck(truck), WeighingUncertainty::default());
+    if !(window_s.is_finite() && window_s >= 0.0) {
+        bail!("window_s must be a non-negative number of seconds");
+    }
+    let window = ((window_s / run.sample_time_s).round() as usize).max(1);
+    let estimate = |run: &Run| -> anyhow::Result<WeighSeries> {
+        Ok(if ekf {
+            let model = build_any_model(model_name, truck)?;
+            weigh_ekf(run, model, &weigher, &EkfTuning::default())?
+        } else {
+            weigh_static(run, &weigher, window)?
+        })
+    };
+    let mut series = estimate(&run).with_context(|| format!("weighing {}", source.label()))?;
+    let mut fitted = None;
+    if let Some(cal_source) = calibration {
+        let rule = StandstillRule::default();
+        let cal_run = cal_source
+            .load(Outputs::Required)
+            .with_context(|| format!("reading {}", cal_source.label()))?;
+        let cal_est = estimate(&cal_run)?;
+        let cal = LinearCalibration::fit(
+            &cal_run.time_s,
+            &cal_est.wheel_load_kg,
+            &cal_run.inputs.wheel_load_kg,
+            &cal_run.inputs.valve,
+            &rule,
+        )
+        .with_context(|| format!("calibrating on {}", cal_source.label()))?;
+        series = cal.apply(&series);
+        fitted = Some((cal.gain, cal.offset_kg, cal.samples, cal.residual_rms_kg));
+    }
+    Ok(Weighed {
+        series,
+        calibration: fitted,
+    })
+}
+
+/// The wheel load over a run from its measured pressure and height, as `airsus weigh` does
+/// (`method` `static` or `ekf`, `model` for the filter, `window_s` for the static average).
+/// Returns `{"time_s", "wheel_load_kg", "wheel_load_std_kg", "calibration"}` at full precision
+/// (the command's CSV rounds to 3 decimals).
+#[pyfunction]
+#[pyo3(signature = (truck, run, method=None, model=None, window_s=None, calibration_run=None))]
+pub fn weigh<'py>(
+    py: Python<'py>,
+    truck: PyRef<'py, NativeTruck>,
+    run: RunSpec<'py>,
+    method: Option<String>,
+    model: Option<String>,
+    window_s: Option<f64>,
+    calibration_run: Option<RunSpec<'py>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let params = truck.params.clone();
+    drop(truck);
+    let source = RunSource::from_spec(run)?;
+    let calibration = calibration_run.map(RunSource::from_spec).transpose()?;
+    // The command's defaults: `--method static --model m2 --window-s 2`.
+    let method = method.unwrap_or_else(|| "static".to_owned());
+    let model = model.unwrap_or_else(|| "m2".to_owned());
+    let window_s = window_s.unwrap_or(2.0);
+    let weighed = py
+        .detach(|| {
+            run_weigh(
+                &params,
+                &source,
+                &method,
+                &model,
+                window_s,
+                calibration.as_ref(),
+            )
+        })
+        .or_py()?;
+    let out = PyDict::new(py);
+    let s = weighed.series;
+    out.set_item("time_s", s.time_s.into_pyarray(py))?;
+    out.set_item("wheel_load_kg", s.wheel_load_kg.into_pyarray(py))?;
+    out.set_item("wheel_load_std_kg", s.std_kg.into_pyarray(py))?;
+    match weighed.calibration {
+        Some((gain, offset_kg, samples, residual_rms_kg)) => {
+            let cal = PyDict::new(py);
+            cal.set_item("gain", gain)?;
+            cal.set_item("offset_kg", offset_kg)?;
+            cal.set_item("samples", samples)?;
+            cal.set_item("residual_rms_kg", residual_rms_kg)?;
+            out.set_item("calibration", cal)?;
+        }
+        None => out.set_item("calibration", py.None())?,
+    }
+    Ok(out)
+}
+
+fn study_event(progress: &Progress, event: Event<'_>) {
+    match event {
+        Event::Stage(stage) => progress.stage(stage),
+        Event::ModelDone {
+            protocol,
+            model,
+            seconds,
+            done,
+            total,
+        } => progress.emit(|d| {
+            d.set_item("event", "model_done")?;
+            d.set_item("protocol", protocol)?;
+            d.set_item("model", model)?;
+            d.set_item("seconds", seconds)?;
+            d.set_item("done", done)?;
+            d.set_item("total", total)
+        }),
+    }
+}
+
+struct Studied {
+    results_json: PathBuf,
+    report_html: PathBuf,
+    notes: Vec<String>,
+    chart_failures: Vec<String>,
+}
+
+fn run_the_study(
+    study: Option<&Path>,
+    out: &Path,
+    models: &[String],
+    max_iterations: usize,
+    seed: u64,
+    progress: &Progress,
+) -> anyhow::Result<Studied> {
+    for m in models {
+        if !STUDY_MODELS.contains(&m.as_str()) {
+            bail!(
+                "unknown model `{m}`; the study estimates {}",
+                STUDY_MODELS.join(", ")
+            );
+        }
+    }
+    if max_iterations == 0 {
+        bail!("max_iterations must be at least 1");
+    }
+    let on_event = |event: Event<'_>| study_event(progress, event);
+    let mut notes = Vec::new();
+    let outcome = match study {
+        Some(path) => {
+            let input = load_study(path)?;
+            for d in &input.defaulted {
+                notes.push(format!("{} omits {}", input.truck_file.display(), d));
+            }
+            let options = StudyOptions {
+                models: models.to_vec(),
+                protocols: vec![Protocol::from_roles(&input)],
+                max_iterations,
+            };
+            run_study(&input, &options, out, &on_event)
+        }
+        None => run_builtin(out, seed, models, max_iterations, &on_event),
+    }
+    .with_context(|| format!("running the study into {}", out.display()))?;
+    Ok(Studied {
+        results_json: outcome.report.json,
+        report_html: outcome.report.html,
+        notes,
+        chart_failures: outcome.report.chart_failures,
+    })
+}
+
+/// The whole pipeline, as `airsus study STUDY.toml --out OUT` (or `--builtin --seed SEED` when
+/// `study` is None). Returns `{"results": path of results.json, "report": path of report.html,
+/// "notes", "chart_failures"}`.
+#[pyfunction]
+#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None))]
+pub fn study<'py>(
+    py: Python<'py>,
+    study_file: Option<PathBuf>,
+    out: PathBuf,
+    models: Option<Vec<String>>,
+    max_iterations: Option<usize>,
+    seed: Option<u64>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    if study_file.is_some() && seed.is_some() {
+        return Err(crate::error::to_py(anyhow::anyhow!(
+            "seed applies to the built-in study only (study=None)"
+        )));
+    }
+    // The command's defaults: every study model, `--max-iterations 60`, `--seed 1`.
+    let models = models.unwrap_or_else(|| STUDY_MODELS.iter().map(|m| (*m).to_owned()).collect());
+    let max_iterations = max_iterations.unwrap_or(60);
+    let seed = seed.unwrap_or(1);
+    let progress = Progress::new(progress);
+    let result = py.detach(|| {
+        run_the_study(
+            study_file.as_deref(),
+            &out,
+            &models,
+            max_iterations,
+            seed,
+            &progress,
+        )
+    });
+    progress.finish()?;
+    let studied = result.or_py()?;
+    let dict = PyDict::new(py);
+    dict.set_item("results", studied.results_json.display().to_string())?;
+    dict.set_item("report", studied.report_html.display().to_string())?;
+    dict.set_item("notes", studied.notes)?;
+    dict.set_item("chart_failures", studied.chart_failures)?;
+    Ok(dict)
+}
+
+/// The virtual truck's reference experiments, as `airsus generate --out OUT --seed SEED`.
+/// Returns `{"study", "study_valve", "files"}` (paths).
+#[pyfunction]
+#[pyo3(signature = (out, seed=1, progress=None))]
+pub fn generate<'py>(
+    py: Python<'py>,
+    out: PathBuf,
+    seed: u64,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let progress = Progress::new(progress);
+    let result = py.detach(|| {
+        airsus_truck::experiments::generate(&out, seed, &mut |step: &str| progress.stage(step))
+            .with_context(|| format!("generating the reference study into {}", out.display()))
+    });
+    progress.finish()?;
+    let generated = result.or_py()?;
+    let dict = PyDict::new(py);
+    dict.set_item("study", generated.study.display().to_string())?;
+    dict.set_item("study_valve", generated.study_valve.display().to_string())?;
+    dict.set_item(
+        "files",
+        generated
+            .files
+            .iter()
+            .map(|f| f.display().to_string())
+            .collect::<Vec<_>>(),
+    )?;
+    Ok(dict)
+}
+
+/// NRMSE in percent, thesis eq 3.33: `100 (1 - ||y - yhat|| / ||y - mean(y)||)`.
+#[pyfunction]
+pub fn nrmse(
+    measured: PyReadonlyArray1<'_, f64>,
+    simulated: PyReadonlyArray1<'_, f64>,
+) -> PyResult<f64> {
+    airsus_validate::nrmse_percent(measured.as_slice()?, simulated.as_slice()?).or_py()
+}

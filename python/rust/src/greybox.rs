@@ -1,0 +1,169 @@
+//! `airsus.greybox`: crates/cli/src/commands/greybox.rs, the result as data.
+
+use anyhow::{Context, bail};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use airsus_data::{Outputs, TruckParameters};
+use airsus_estimate::{
+    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
+    OutputWeights, estimate,
+};
+use airsus_model::build_model;
+
+use crate::error::OrPy;
+use crate::progress::{Progress, ProgressObserver};
+use crate::runs::{RunSource, RunSpec};
+use crate::truck::NativeTruck;
+
+/// The command's options, with its defaults filled in.
+struct Settings {
+    free: Vec<String>,
+    bounds: Vec<(String, f64, f64)>,
+    max_iterations: usize,
+    tolerance: f64,
+    initial: InitialChoice,
+    height_weight: f64,
+    pressure_weight: f64,
+    max_relative_std: f64,
+    keep_unidentifiable: bool,
+}
+
+struct Estimated {
+    json: String,
+    text: String,
+    stop: String,
+    converged: bool,
+    truck: TruckParameters,
+}
+
+fn run_greybox(
+    model_name: &str,
+    mut truck: TruckParameters,
+    sources: &[RunSource],
+    settings: &Settings,
+    progress: &Progress,
+) -> anyhow::Result<Estimated> {
+    let model = build_model(model_name, &truck)?;
+    let runs = sources
+        .iter()
+        .map(|s| {
+            s.load(Outputs::Required)
+                .with_context(|| format!("estimation run {}", s.label()))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let run_refs: Vec<&_> = runs.iter().collect();
+
+    let mut free: Vec<FreeParameter> = settings.free.iter().map(FreeParameter::new).collect();
+    for (name, lo, hi) in &settings.bounds {
+        let Some(p) = free.iter_mut().find(|p| p.name == *name) else {
+            bail!("bounds {name}: `{name}` is not in free");
+        };
+        *p = FreeParameter::new(name.clone()).with_bounds(*lo, *hi);
+    }
+    let mut problem = GreyboxProblem::new(&*model, &run_refs, &[])
+        .with_weights(OutputWeights {
+            height: settings.height_weight,
+            pressure: settings.pressure_weight,
+        })
+        .with_initial(settings.initial);
+    problem.free = free;
+    let options = GreyboxOptions {
+        max_iterations: settings.max_iterations,
+        tolerance: settings.tolerance,
+        max_relative_std: settings.max_relative_std,
+        policy: if settings.keep_unidentifiable {
+            IdentifiabilityPolicy::ReportOnly
+        } else {
+            IdentifiabilityPolicy::FixAtNominal
+        },
+        ..GreyboxOptions::default()
+    };
+    let mut observer = ProgressObserver(progress);
+    let result = estimate(&problem, &options, &mut observer)?;
+
+    // What `--json` prints (compact here; the values are the same) and what the command
+    // prints without it.
+    let json = serde_json::to_string(&result)?;
+    let text = result.to_string();
+    result.estimated_model.write_parameters(&mut truck);
+    Ok(Estimated {
+        json,
+        text,
+        stop: result.stop.to_string(),
+        converged: result.stop.is_converged(),
+        truck,
+    })
+}
+
+/// Grey-box estimation of `free` parameters of `model` on all `runs` at once, as
+/// `airsus greybox` does. Options left `None` take the command's defaults.
+///
+/// Returns `{"report": JSON text of `--json`, "text": the command's printout, "stop_reason",
+/// "converged", "truck": the truck with the estimates written back (as `--out`)}`.
+#[pyfunction]
+#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn greybox<'py>(
+    py: Python<'py>,
+    model: String,
+    truck: PyRef<'py, NativeTruck>,
+    runs: Vec<RunSpec<'py>>,
+    free: Vec<String>,
+    bounds: Option<Vec<(String, f64, f64)>>,
+    max_iterations: Option<usize>,
+    tolerance: Option<f64>,
+    initial: Option<String>,
+    height_weight: Option<f64>,
+    pressure_weight: Option<f64>,
+    max_relative_std: Option<f64>,
+    keep_unidentifiable: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let params = truck.params.clone();
+    drop(truck);
+    let sources = runs
+        .into_iter()
+        .map(RunSource::from_spec)
+        .collect::<PyResult<Vec<_>>>()?;
+    if free.is_empty() {
+        return Err(crate::error::to_py(anyhow::anyhow!(
+            "free: name at least one parameter to estimate"
+        )));
+    }
+    let initial = match initial.as_deref().unwrap_or("height") {
+        "height" => InitialChoice::SensorHeight,
+        "pressure" => InitialChoice::BellowPressure,
+        other => {
+            return Err(crate::error::to_py(anyhow::anyhow!(
+                "initial `{other}`: expected `height` or `pressure`"
+            )));
+        }
+    };
+    let defaults = GreyboxOptions::default();
+    let settings = Settings {
+        free,
+        bounds: bounds.unwrap_or_default(),
+        max_iterations: max_iterations.unwrap_or(defaults.max_iterations),
+        tolerance: tolerance.unwrap_or(defaults.tolerance),
+        initial,
+        // The command's defaults (`--height-weight 1`, `--pressure-weight 1`,
+        // `--max-relative-std 0.5`).
+        height_weight: height_weight.unwrap_or(1.0),
+        pressure_weight: pressure_weight.unwrap_or(1.0),
+        max_relative_std: max_relative_std.unwrap_or(0.5),
+        keep_unidentifiable,
+    };
+    let progress = Progress::new(progress);
+    let result = py.detach(|| run_greybox(&model, params, &sources, &settings, &progress));
+    progress.finish()?;
+    let estimated = result.or_py()?;
+
+    let out = PyDict::new(py);
+    out.set_item("report", estimated.json)?;
+    out.set_item("text", estimated.text)?;
+    out.set_item("stop_reason", estimated.stop)?;
+    out.set_item("converged", estimated.converged)?;
+    out.set_item("truck", NativeTruck::new(estimated.truck))?;
+    Ok(out)
+}

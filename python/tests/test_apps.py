@@ -1,0 +1,88 @@
+"""NRMSE, weighing, the virtual truck and the study pipeline."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import airsus
+
+
+def test_nrmse_is_thesis_eq_3_33() -> None:
+    y = np.array([1.0, 2.0, 3.0, 4.0, 6.0])
+    yhat = np.array([1.1, 1.9, 3.2, 3.8, 5.5])
+    expected = 100.0 * (1.0 - np.linalg.norm(y - yhat) / np.linalg.norm(y - y.mean()))
+    assert airsus.nrmse(y, yhat) == pytest.approx(expected, rel=1e-12)
+    assert airsus.nrmse(y, y) == 100.0
+    assert airsus.nrmse(y, np.full(5, y.mean())) == pytest.approx(0.0, abs=1e-12)
+    with pytest.raises(airsus.AirsusError, match="constant"):
+        airsus.nrmse(np.ones(5), yhat)
+    with pytest.raises(airsus.AirsusError, match="differ in length"):
+        airsus.nrmse(y, yhat[:3])
+
+
+def test_generate_writes_the_reference_study(reference: Path, tmp_path: Path) -> None:
+    for name in (
+        "ds1.csv",
+        "ds2.csv",
+        "ds3.csv",
+        "ds4.csv",
+        "truck.toml",
+        "study.toml",
+        "study_valve.toml",
+        "force_map.csv",
+    ):
+        assert (reference / name).is_file(), name
+    events = []
+    again = airsus.generate(tmp_path / "again", seed=1, progress=events.append)
+    assert Path(again["study"]).name == "study.toml"
+    assert (tmp_path / "again" / "ds3.csv").read_bytes() == (reference / "ds3.csv").read_bytes()
+    assert events and all(e["event"] == "stage" for e in events)
+
+
+def test_weigh_equals_the_command(reference: Path, tmp_path: Path, cli) -> None:
+    out = tmp_path / "load.csv"
+    truck = reference / "truck.toml"
+    run = reference / "ds2.csv"
+    cli("weigh", "--truck", truck, "--run", run, "--out", out)
+    with open(out, newline="", encoding="utf-8") as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == ["time_s", "wheel_load_kg", "wheel_load_std_kg"]
+    load = airsus.weigh(truck, run)
+    assert list(load.columns) == rows[0]
+    assert len(load) == len(rows) - 1
+    # The command prints the load with 3 decimals; the same numbers, rounded the same way.
+    for row, (t, m, s) in zip(rows[1:], load.itertuples(index=False)):
+        assert float(row[0]) == t
+        assert row[1] == f"{m:.3f}" and row[2] == f"{s:.3f}"
+
+
+def test_weigh_static_tracks_the_true_load(reference: Path) -> None:
+    truck = airsus.Truck.load(reference / "truth" / "truck.toml")
+    run = airsus.read_run(reference / "ds2.csv")
+    load = airsus.weigh(truck, run, window_s=5.0)
+    truth = airsus.read_run(reference / "truth" / "ds2.csv")
+    # Far from the steps, the static estimate with the true parameters is within a few %.
+    error = np.abs(load["wheel_load_kg"] - truth["wheel_load_kg"]) / truth["wheel_load_kg"]
+    assert np.median(error) < 0.05
+
+
+def test_study_runs_the_pipeline(reference: Path, tmp_path: Path) -> None:
+    events = []
+    out = tmp_path / "out"
+    results = airsus.study(
+        reference / "study.toml", out, models=["m2"], max_iterations=3, progress=events.append
+    )
+    assert results["schema_version"] >= 1
+    (protocol,) = results["protocols"]
+    (model,) = protocol["models"]
+    assert model["model"] == "m2"
+    assert (out / "report.html").is_file()
+    assert (out / model["truck_file"]).is_file()
+    assert airsus.Truck.load(out / model["truck_file"])["m2"] > 0
+    assert {e["event"] for e in events} >= {"stage", "model_done"}
+    with pytest.raises(airsus.AirsusError, match="unknown model `m9`"):
+        airsus.study(reference / "study.toml", out, models=["m9"])

@@ -1,0 +1,91 @@
+"""Grey-box estimation: a parameter is recovered from data its own model made; progress."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import airsus
+
+
+def measured_by(truck: airsus.Truck, short_run: Path) -> pd.DataFrame:
+    """The short run's inputs with the outputs `truck` simulates (no noise)."""
+    run = airsus.read_run(short_run)
+    sim = airsus.simulate("m2", truck, run)
+    measured = run.copy()
+    measured["height_mm"] = sim["height_mm"].to_numpy()
+    measured["pressure_kpa"] = sim["pressure_kpa"].to_numpy()
+    measured.attrs["name"] = "synthetic"
+    return measured
+
+
+def test_greybox_recovers_a_parameter(reference: Path, short_run: Path) -> None:
+    nominal = airsus.Truck.load(reference / "truck.toml")
+    truth = nominal.copy()
+    truth["p0"] = nominal["p0"] + 0.002
+    events = []
+    fit = airsus.greybox(
+        "m2", nominal, [measured_by(truth, short_run)], free=["p0"], progress=events.append
+    )
+    assert fit.converged, fit.stop_reason
+    assert fit.estimates.loc["p0", "estimate"] == pytest.approx(truth["p0"], abs=1e-4)
+    assert fit.estimates.loc["p0", "nominal"] == nominal["p0"]
+    assert bool(fit.estimates.loc["p0", "identifiable"])
+    assert fit.truck["p0"] == fit.estimates.loc["p0", "estimate"]
+    assert fit.truck["m2"] == nominal["m2"], "only the freed parameter moves"
+    assert list(fit.nrmse.index) == ["synthetic"]
+    assert fit.nrmse.loc["synthetic", "pressure_estimated"] > 99.0
+    assert fit.report["model"] == "m2"
+    assert "Grey-box estimation, model m2" in str(fit)
+    assert any(e["event"] == "stage" for e in events)
+    assert any(e["event"] == "iteration" for e in events)
+
+
+def test_a_raising_progress_callback_stops_the_call(reference: Path, short_run: Path) -> None:
+    truck = airsus.Truck.load(reference / "truck.toml")
+
+    def stop(event: dict) -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        airsus.greybox("m2", truck, short_run, free="p0", max_iterations=2, progress=stop)
+
+
+def test_bounds_must_name_a_freed_parameter(reference: Path, short_run: Path) -> None:
+    truck = reference / "truck.toml"
+    with pytest.raises(airsus.AirsusError, match="`m2` is not in free"):
+        airsus.greybox("m2", truck, short_run, free="p0", bounds={"m2": (400.0, 600.0)})
+    with pytest.raises(airsus.AirsusError, match="has no parameter `q0`"):
+        airsus.greybox("m2", truck, short_run, free=["q0"])
+
+
+def test_greybox_equals_the_command(reference: Path, short_run: Path, tmp_path: Path, cli) -> None:
+    import json
+
+    truck = reference / "truck.toml"
+    out = tmp_path / "est.toml"
+    printed = cli(
+        "greybox",
+        "--model",
+        "m2",
+        "--free",
+        "p0,m2",
+        "--truck",
+        truck,
+        "--run",
+        short_run,
+        "--max-iterations",
+        "5",
+        "--json",
+        "--out",
+        out,
+    ).stdout
+    expected = json.loads(printed)
+    fit = airsus.greybox("m2", truck, short_run, free="p0,m2", max_iterations=5)
+    for got, want in zip(fit.report["parameters"], expected["parameters"]):
+        assert got["name"] == want["name"]
+        assert got["estimate"] == want["estimate"], got["name"]
+    assert fit.report["stop"] == expected["stop"]
+    assert fit.truck == airsus.Truck.load(out)

@@ -1,0 +1,89 @@
+"""Trucks: the reference truck, short names, range checks, files."""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import pytest
+
+import airsus
+
+SPEC_NAMES = [
+    "p0",
+    "p1",
+    "p2",
+    "p3",
+    "p4",
+    "a0",
+    "a1",
+    "m2",
+    "ig",
+    "kf",
+    "kw",
+    "kscl",
+    "rflow1",
+    "rflow2",
+    "ksd",
+]
+
+
+def test_the_reference_truck_has_the_spec_values() -> None:
+    truck = airsus.Truck.builtin()
+    assert truck["m2"] == 520.0
+    assert truck["p1"] == 0.8362, "the corrected effective-area coefficient"
+    assert truck["kw"] == 1.8e6
+    assert truck["rflow1"] == 2.5e6
+    assert truck.keys() == SPEC_NAMES
+    assert "kscl" in truck and "l3" not in truck
+
+
+def test_parameters_are_set_by_short_name_within_their_range() -> None:
+    truck = airsus.Truck.builtin()
+    truck["m2"] = 600.0
+    assert truck["m2"] == 600.0
+    assert airsus.Truck.builtin()["m2"] == 520.0, "a new truck is independent"
+    with pytest.raises(airsus.AirsusError, match="outside its admissible range 10 to 3000 kg"):
+        truck["m2"] = -1.0
+    with pytest.raises(airsus.AirsusError, match="outside its admissible range"):
+        truck["kw"] = math.nan
+    assert truck["m2"] == 600.0, "a rejected value leaves the parameter unchanged"
+    with pytest.raises(airsus.AirsusError, match=r"no parameter `rflwo1` \(did you mean `rflow1`\?\)"):
+        truck["rflwo1"]
+
+
+def test_parameters_table() -> None:
+    table = airsus.Truck.builtin().parameters()
+    assert list(table.columns) == ["name", "unit", "value", "min", "max", "description"]
+    assert table["name"].tolist() == SPEC_NAMES
+    row = table.set_index("name").loc["m2"]
+    assert (row["unit"], row["value"], row["min"], row["max"]) == ("kg", 520.0, 10.0, 3000.0)
+
+
+def test_a_truck_file_round_trips(tmp_path: Path) -> None:
+    truck = airsus.Truck.builtin()
+    truck["m2"] = 612.5
+    truck["p1"] = 0.83
+    path = tmp_path / "truck.toml"
+    truck.save(path)
+    back = airsus.Truck.load(path)
+    assert back == truck
+    assert back["m2"] == 612.5 and back["p1"] == 0.83
+    assert back.to_toml() == path.read_text()
+    assert back.defaulted == []
+    assert airsus.Truck.from_toml(path.read_text()) == truck
+
+
+def test_a_truck_file_error_names_the_line(tmp_path: Path) -> None:
+    path = tmp_path / "truck.toml"
+    text = airsus.Truck.builtin().to_toml().replace("l3_m", "l3_mm", 1)
+    path.write_text(text)
+    pattern = rf"^{re.escape(str(path))}:\d+: unknown key `geometry\.l3_mm`"
+    with pytest.raises(airsus.AirsusError, match=pattern):
+        airsus.Truck.load(path)
+
+
+def test_the_builtin_truck_is_the_commands(cli) -> None:
+    printed = cli("params", "--builtin").stdout
+    assert airsus.Truck.builtin().to_toml() == printed
