@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# The FMU checks of issue #18: build airsus and the FMU library, install FMPy into a venv,
+# then validate the FMUs and compare them with `airsus simulate` (tools/fmu/test_fmu.py).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+cargo build --release --locked -p airsus -p airsus-fmu
+venv="${AIRSUS_FMU_VENV:-target/fmu-venv}"
+if [ ! -x "$venv/bin/python" ]; then
+  python3 -m venv "$venv"
+fi
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r tools/fmu/requirements.txt
+export AIRSUS_BIN="${AIRSUS_BIN:-$PWD/target/release/airsus}"
+"$venv/bin/python" -m pytest tools/fmu -q -p no:cacheprovider
