@@ -574,16 +574,29 @@ mod tests {
         assert!(output.contains("initial=\"calculated\""), "{output}");
         assert!(!output.contains("start="), "{output}");
         // Height feeds through from the wheel load (index 1) only, pressure from nothing.
-        assert!(xml.contains("<Unknown index=\"5\" dependencies=\"1\"/>"), "{xml}");
-        assert!(xml.contains("<Unknown index=\"6\" dependencies=\"\"/>"), "{xml}");
-        assert!(xml.contains("<InitialUnknowns>\n      <Unknown index=\"5\"/>\n      <Unknown index=\"6\"/>"));
+        assert!(
+            xml.contains("<Unknown index=\"5\" dependencies=\"1\"/>"),
+            "{xml}"
+        );
+        assert!(
+            xml.contains("<Unknown index=\"6\" dependencies=\"\"/>"),
+            "{xml}"
+        );
+        assert!(xml.contains(
+            "<InitialUnknowns>\n      <Unknown index=\"5\"/>\n      <Unknown index=\"6\"/>"
+        ));
         // Every unit is defined.
         for v in &p.variables {
             if let Some(u) = &v.unit {
-                assert!(xml.contains(&format!("<Unit name=\"{}\"", escape(u))), "{u}");
+                assert!(
+                    xml.contains(&format!("<Unit name=\"{}\"", escape(u))),
+                    "{u}"
+                );
             }
         }
-        assert!(xml.contains("<Unit name=\"kPa\"><BaseUnit kg=\"1\" m=\"-1\" s=\"-2\" factor=\"1000.0\"/></Unit>"));
+        assert!(xml.contains(
+            "<Unit name=\"kPa\"><BaseUnit kg=\"1\" m=\"-1\" s=\"-2\" factor=\"1000.0\"/></Unit>"
+        ));
     }
 
     #[test]

@@ -93,8 +93,7 @@ const FMI2_TERMINATED: c_int = 3;
 const INSTANCE_MAGIC: u64 = 0x6169_7273_7573_2d63; // "airsus-c"
 const STATE_MAGIC: u64 = 0x6169_7273_7573_2d73; // "airsus-s"
 
-const NO_MODEL_EXCHANGE: &str =
-    "this FMU implements FMI 2.0 for Co-Simulation only; Model Exchange functions are not available";
+const NO_MODEL_EXCHANGE: &str = "this FMU implements FMI 2.0 for Co-Simulation only; Model Exchange functions are not available";
 
 /// The logger callback with the instance's name and which categories are on.
 struct Logger {
@@ -452,10 +451,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
         let prepared = match prepared {
             Ok(p) => p,
             Err(reason) => {
-                return refuse(
-                    &logger,
-                    &format!("{}: {reason}", path.display()),
-                );
+                return refuse(&logger, &format!("{}: {reason}", path.display()));
             }
         };
         if prepared.guid != guid {
@@ -561,7 +557,9 @@ pub unsafe extern "C" fn fmi2Terminate(c: Fmi2Component) -> Fmi2Status {
 pub unsafe extern "C" fn fmi2Reset(c: Fmi2Component) -> Fmi2Status {
     let body = |instance: &mut Instance| -> Result<(), Failure> {
         instance.slave.reset();
-        instance.logger.log(Status::Ok, "reset to the instantiated state");
+        instance
+            .logger
+            .log(Status::Ok, "reset to the instantiated state");
         Ok(())
     };
     // SAFETY: the module's contract.
@@ -1186,7 +1184,10 @@ mod tests {
             assert_eq!(fmi2GetReal(c, refs.as_ptr(), 2, out.as_mut_ptr()), OK);
             assert!((out[0] - DEFAULT_INITIAL_HEIGHT_MM).abs() < 1e-6, "{out:?}");
             let fill = [1];
-            assert_eq!(fmi2SetInteger(c, [vr::VALVE].as_ptr(), 1, fill.as_ptr()), OK);
+            assert_eq!(
+                fmi2SetInteger(c, [vr::VALVE].as_ptr(), 1, fill.as_ptr()),
+                OK
+            );
             assert_eq!(fmi2DoStep(c, 0.0, 0.1, 1), OK);
             assert_eq!(fmi2DoStep(c, 0.1, 0.9, 1), OK);
             let before = out[1];
@@ -1194,20 +1195,35 @@ mod tests {
             assert!(out[1] > before, "filling raises the pressure: {out:?}");
             // Misuse.
             assert_eq!(fmi2GetReal(c, std::ptr::null(), 2, out.as_mut_ptr()), ERROR);
-            assert_eq!(fmi2GetReal(std::ptr::null_mut(), refs.as_ptr(), 2, out.as_mut_ptr()), ERROR);
-            assert_eq!(fmi2SetInteger(c, [vr::VALVE].as_ptr(), 1, [7].as_ptr()), ERROR);
+            assert_eq!(
+                fmi2GetReal(std::ptr::null_mut(), refs.as_ptr(), 2, out.as_mut_ptr()),
+                ERROR
+            );
+            assert_eq!(
+                fmi2SetInteger(c, [vr::VALVE].as_ptr(), 1, [7].as_ptr()),
+                ERROR
+            );
             assert_eq!(fmi2DoStep(c, 1.0, 20.0, 1), ERROR, "past stopTime");
             assert_eq!(fmi2EnterEventMode(c), ERROR);
-            assert_eq!(fmi2GetBoolean(c, std::ptr::null(), 0, std::ptr::null_mut()), OK);
+            assert_eq!(
+                fmi2GetBoolean(c, std::ptr::null(), 0, std::ptr::null_mut()),
+                OK
+            );
             let mut last = 0.0;
-            assert_eq!(fmi2GetRealStatus(c, FMI2_LAST_SUCCESSFUL_TIME, &mut last), OK);
+            assert_eq!(
+                fmi2GetRealStatus(c, FMI2_LAST_SUCCESSFUL_TIME, &mut last),
+                OK
+            );
             assert!((last - 1.0).abs() < 1e-12);
             // FMU state round trip.
             let mut state: Fmi2FmuState = std::ptr::null_mut();
             assert_eq!(fmi2GetFMUstate(c, &mut state), OK);
             assert_eq!(fmi2DoStep(c, 1.0, 1.0, 1), OK);
             assert_eq!(fmi2SetFMUstate(c, state), OK);
-            assert_eq!(fmi2GetRealStatus(c, FMI2_LAST_SUCCESSFUL_TIME, &mut last), OK);
+            assert_eq!(
+                fmi2GetRealStatus(c, FMI2_LAST_SUCCESSFUL_TIME, &mut last),
+                OK
+            );
             assert!((last - 1.0).abs() < 1e-12);
             assert_eq!(fmi2FreeFMUstate(c, &mut state), OK);
             assert!(state.is_null());

@@ -75,8 +75,5 @@ pub const LAYOUT_VERSION: u32 = 1;
 /// A string the FMU library carries and `airsus fmu` looks for before packing a library: the
 /// crate version and the layout. (`LAYOUT_VERSION` is repeated literally here: `concat!` takes
 /// literals only.)
-pub const BUILD_MARKER: &str = concat!(
-    "airsus-fmu-build:",
-    env!("CARGO_PKG_VERSION"),
-    ":layout-1;"
-);
+pub const BUILD_MARKER: &str =
+    concat!("airsus-fmu-build:", env!("CARGO_PKG_VERSION"), ":layout-1;");

@@ -30,7 +30,10 @@ pub fn write_fmu(path: &Path, prepared: &Prepared, library: &[u8]) -> Result<u64
     let library_name = library_entry();
     let resource_name = format!("resources/{RESOURCE_FILE}");
     let entries: [(&str, &[u8]); 6] = [
-        ("modelDescription.xml", prepared.model_description.as_bytes()),
+        (
+            "modelDescription.xml",
+            prepared.model_description.as_bytes(),
+        ),
         ("binaries/", b""),
         ("binaries/linux64/", b""),
         (&library_name, library),
@@ -92,7 +95,9 @@ fn put32(out: &mut Vec<u8>, v: u32) {
 }
 
 fn too_large(what: &str) -> std::io::Error {
-    std::io::Error::other(format!("{what} exceeds the 4 GiB of a zip archive without ZIP64"))
+    std::io::Error::other(format!(
+        "{what} exceeds the 4 GiB of a zip archive without ZIP64"
+    ))
 }
 
 /// A zip archive of `(name, content)` entries; names ending in `/` are folders.

@@ -636,7 +636,8 @@ mod tests {
             let mut pressure = Vec::new();
             for (k, &t) in time.iter().enumerate() {
                 s.set_real(vr::WHEEL_LOAD_KG, load[k]).unwrap();
-                s.set_integer(vr::VALVE, i32::from(valve[k].code())).unwrap();
+                s.set_integer(vr::VALVE, i32::from(valve[k].code()))
+                    .unwrap();
                 // Outputs at t_k under u_k, as the engine samples them.
                 height.push(s.get_real(vr::HEIGHT_MM).unwrap());
                 pressure.push(s.get_real(vr::PRESSURE_KPA).unwrap());
@@ -656,8 +657,14 @@ mod tests {
             let r = simulate(&problem).unwrap();
             let h_ref: Vec<f64> = r.sensor_height_m.iter().map(|h| h * 1e3).collect();
             let p_ref: Vec<f64> = r.bellow_gauge_pa.iter().map(|p| p / 1e3).collect();
-            let (fh, fp) = (nrmse_percent(&h_ref, &height), nrmse_percent(&p_ref, &pressure));
-            assert!(fh > 99.9 && fp > 99.9, "{model}: height {fh} %, pressure {fp} %");
+            let (fh, fp) = (
+                nrmse_percent(&h_ref, &height),
+                nrmse_percent(&p_ref, &pressure),
+            );
+            assert!(
+                fh > 99.9 && fp > 99.9,
+                "{model}: height {fh} %, pressure {fp} %"
+            );
         }
     }
 
@@ -706,7 +713,12 @@ mod tests {
         let err = s.exit_initialization_mode().unwrap_err();
         assert_eq!(err.status, Status::Error);
         assert_eq!(s.phase(), Phase::Error);
-        assert!(s.do_step(0.0, 0.1).unwrap_err().message.contains("error state"));
+        assert!(
+            s.do_step(0.0, 0.1)
+                .unwrap_err()
+                .message
+                .contains("error state")
+        );
         s.reset();
         assert_eq!(s.phase(), Phase::Instantiated);
         initialise(&mut s);

@@ -196,7 +196,10 @@ mod tests {
             kpa.to_xml(),
             "<BaseUnit kg=\"1\" m=\"-1\" s=\"-2\" factor=\"1000.0\"/>"
         );
-        assert_eq!(parse_unit("mm").unwrap().to_xml(), "<BaseUnit m=\"1\" factor=\"0.001\"/>");
+        assert_eq!(
+            parse_unit("mm").unwrap().to_xml(),
+            "<BaseUnit m=\"1\" factor=\"0.001\"/>"
+        );
         assert_eq!(parse_unit("1").unwrap().to_xml(), "<BaseUnit/>");
     }
 
