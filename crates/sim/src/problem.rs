@@ -133,6 +133,22 @@ pub enum InitialState {
 }
 
 impl InitialState {
+    /// How the state starts, in words for a progress line or a report
+    /// (`static equilibrium at sensor height 235.0 mm`).
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Equilibrium(InitialCondition::BellowPressure { gauge_pa }) => format!(
+                "static equilibrium at bellow pressure {:.1} kPa",
+                gauge_pa / 1e3
+            ),
+            Self::Equilibrium(InitialCondition::SensorHeight { height_m }) => format!(
+                "static equilibrium at sensor height {:.1} mm",
+                height_m * 1e3
+            ),
+            Self::State(_) => "given state".to_owned(),
+        }
+    }
+
     /// Static equilibrium matching the run's first measured bellow pressure, when the run has
     /// measured outputs.
     pub fn from_run(run: &Run) -> Option<Self> {

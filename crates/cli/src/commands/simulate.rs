@@ -112,21 +112,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             ),
         },
     };
-    let what = match &initial {
-        InitialState::Equilibrium(InitialCondition::BellowPressure { gauge_pa }) => {
-            format!(
-                "static equilibrium at bellow pressure {:.1} kPa",
-                gauge_pa / 1e3
-            )
-        }
-        InitialState::Equilibrium(InitialCondition::SensorHeight { height_m }) => {
-            format!(
-                "static equilibrium at sensor height {:.1} mm",
-                height_m * 1e3
-            )
-        }
-        InitialState::State(_) => "given state".to_owned(),
-    };
+    let what = initial.describe();
 
     let inputs = InputSeries::from_run(&run)?;
     let options = SolverOptions::default()
