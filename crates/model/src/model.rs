@@ -123,6 +123,14 @@ pub trait SuspensionModel: Send + Sync + std::fmt::Debug {
     /// The sensor quantities for state `x` under inputs `u`.
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample;
 
+    /// Whether the supply pressure acts on the state while the valve is closed or exhausting
+    /// (a modelled supply line filling from the tank, say). The thesis models use it only in
+    /// the fill flow (eq 3.19), so a simulator may ignore supply changes while the valve is
+    /// shut; a model that returns `true` must see every change.
+    fn uses_supply_while_valve_shut(&self) -> bool {
+        false
+    }
+
     /// The state in static equilibrium under `u` that matches `ic`.
     fn initial_state(&self, u: &InputSample, ic: &InitialCondition)
     -> Result<Vec<f64>, ModelError>;

@@ -514,6 +514,11 @@ where
     ) -> Result<SolverStatistics, SimError> {
         let inputs = &self.problem.inputs;
         let options = &self.problem.options;
+        let supply_relevance = if self.problem.model.uses_supply_while_valve_shut() {
+            SupplyRelevance::Always
+        } else {
+            options.supply
+        };
         let times = inputs.time_s();
         let len = times.len();
         let n = self.names.len();
@@ -527,7 +532,7 @@ where
         while next < len {
             // The segment ends at the first sample whose inputs matter and differ, or at the end.
             let mut r = next;
-            while r < len && !input_change_matters(&held, &inputs.sample(r), options.supply) {
+            while r < len && !input_change_matters(&held, &inputs.sample(r), supply_relevance) {
                 r += 1;
             }
             let last = r.min(len - 1);

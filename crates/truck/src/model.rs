@@ -634,6 +634,12 @@ impl SuspensionModel for TruckModel {
         };
     }
 
+    /// With a supply line in [`SupplyMode::Measured`], the line fills from the logged tank
+    /// pressure whatever the valve does, so every change of it matters.
+    fn uses_supply_while_valve_shut(&self) -> bool {
+        self.supply == SupplyMode::Measured && self.truth.effects.supply_line
+    }
+
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample {
         let c = &self.c;
         let h_b = self.bellow_height_m(x);

@@ -230,3 +230,48 @@ fn parameters_include_the_spec_names_and_the_effects() {
     model.write_parameters(&mut truck);
     assert_eq!(truck.mass.unsprung_kg, 600.0);
 }
+
+#[test]
+fn the_supply_line_follows_the_logged_tank_pressure_while_the_valve_is_shut() {
+    // The line fills from the logged tank pressure whatever the valve does; a simulator that
+    // ignored supply changes while the valve is shut (right for the thesis models, eq 3.19)
+    // would leave it at the old pressure and fill the bellow from there.
+    let model = TruckModel::reference();
+    assert!(model.uses_supply_while_valve_shut());
+    let n = 41; // 4 s
+    let time: Vec<f64> = (0..n).map(|i| i as f64 * 0.1).collect();
+    let load = vec![3390.0; n];
+    let valve: Vec<ValveState> = (0..n)
+        .map(|i| if i < 30 { ValveState::Closed } else { ValveState::Fill })
+        .collect();
+    let road = vec![0.0; n];
+    let run = |supply: &[f64]| {
+        let inputs = InputSeries::new(&time, &load, &valve, supply, &road).unwrap();
+        let problem = SimulationProblem::new(
+            &model as &dyn SuspensionModel,
+            inputs,
+            InitialState::Equilibrium(InitialCondition::SensorHeight { height_m: 0.235 }),
+        )
+        .with_options(SolverOptions::default().with_states(true));
+        simulate(&problem).unwrap()
+    };
+    let steady = run(&vec![850e3; n]);
+    let dropped: Vec<f64> = (0..n).map(|i| if i < 5 { 850e3 } else { 650e3 }).collect();
+    let dropped = run(&dropped);
+    let line = |r: &airsus_sim::SimulationResponse, k: usize| r.states.as_ref().unwrap().at(k).unwrap()[8];
+    let (line_steady, line_dropped) = (line(&steady, 29), line(&dropped, 29));
+    assert!(
+        line_dropped < 0.9 * line_steady,
+        "the line lost air after the tank dropped: {line_dropped} vs {line_steady} mol"
+    );
+    // Shut valve: the bellow does not see it, yet.
+    assert!((steady.bellow_gauge_pa[29] - dropped.bellow_gauge_pa[29]).abs() < 1.0);
+    // One second of filling from the emptier line raises the bellow pressure less.
+    let rise = |r: &airsus_sim::SimulationResponse| r.bellow_gauge_pa[40] - r.bellow_gauge_pa[29];
+    assert!(
+        rise(&dropped) < 0.9 * rise(&steady),
+        "fill from 650 kPa {} Pa vs from 850 kPa {} Pa",
+        rise(&dropped),
+        rise(&steady)
+    );
+}
