@@ -49,7 +49,8 @@ def test_parameters_are_set_by_short_name_within_their_range() -> None:
     with pytest.raises(airsus.AirsusError, match="outside its admissible range"):
         truck["kw"] = math.nan
     assert truck["m2"] == 600.0, "a rejected value leaves the parameter unchanged"
-    with pytest.raises(airsus.AirsusError, match=r"no parameter `rflwo1` \(did you mean `rflow1`\?\)"):
+    did_you_mean = r"no parameter `rflwo1` \(did you mean `rflow1`\?\)"
+    with pytest.raises(airsus.AirsusError, match=did_you_mean):
         truck["rflwo1"]
 
 

@@ -60,13 +60,9 @@ class CheckFailed(Exception):
 
 def airsus(binary: Path, *args: str) -> str:
     """Runs the airsus CLI; its stderr is the message of a failure."""
-    done = subprocess.run(
-        [str(binary), *args], capture_output=True, text=True, check=False
-    )
+    done = subprocess.run([str(binary), *args], capture_output=True, text=True, check=False)
     if done.returncode != 0:
-        raise CheckFailed(
-            f"airsus {' '.join(args)} failed ({done.returncode}):\n{done.stderr}"
-        )
+        raise CheckFailed(f"airsus {' '.join(args)} failed ({done.returncode}):\n{done.stderr}")
     return done.stderr
 
 
@@ -220,7 +216,7 @@ def check_model(
         print(
             f"{model}: {what}: NRMSE FMU vs airsus simulate: height {fits[0]:.4f} %, pressure {fits[1]:.4f} %"
         )
-        for name, fit in zip(OUTPUTS, fits):
+        for name, fit in zip(OUTPUTS, fits, strict=True):
             if not fit >= THRESHOLD:
                 failures.append(f"{model}: {what}: {name} NRMSE {fit:.4f} % < {THRESHOLD} %")
         return height, pressure
@@ -262,7 +258,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--models", default=",".join(DEFAULT_MODELS))
     parser.add_argument("--run", type=Path, help="run CSV (default: ds3.csv of airsus generate)")
     parser.add_argument("--truck", type=Path, help="truck file (default: that of airsus generate)")
-    parser.add_argument("--work", type=Path, help="folder for the FMUs and CSVs (default: temporary)")
+    parser.add_argument(
+        "--work", type=Path, help="folder for the FMUs and CSVs (default: temporary)"
+    )
     args = parser.parse_args(argv)
 
     if not args.airsus.is_file():

@@ -52,9 +52,9 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import lfilter
+from sippy_unipi import system_identification
 
 from peer_linear import DATASETS, load, nrmse_fit
-from sippy_unipi import system_identification
 
 # (data set, structure, orders). ARMAX orders [na nb nc nk], BJ orders [nb nc nd nf nk]
 # (MATLAB order). Chosen small and well posed: a 30-start random search of airsus' criterion
@@ -69,6 +69,9 @@ CASES = [
 
 MAX_ITERATIONS = 200
 
+# Keys copied from a data set's spec into its fixture.
+SPEC_KEYS = ("file", "format", "columns", "ts_s", "estimation", "validation", "detrend", "note")
+
 
 # --- airsus' criterion, independently --------------------------------------------------
 
@@ -81,24 +84,28 @@ def full_orders(structure, o):
 
 
 def names(na, nb, nc, nd, nf):
-    return ([f"a{k}" for k in range(1, na + 1)] + [f"b{k}" for k in range(1, nb + 1)]
-            + [f"c{k}" for k in range(1, nc + 1)] + [f"d{k}" for k in range(1, nd + 1)]
-            + [f"f{k}" for k in range(1, nf + 1)])
+    return (
+        [f"a{k}" for k in range(1, na + 1)]
+        + [f"b{k}" for k in range(1, nb + 1)]
+        + [f"c{k}" for k in range(1, nc + 1)]
+        + [f"d{k}" for k in range(1, nd + 1)]
+        + [f"f{k}" for k in range(1, nf + 1)]
+    )
 
 
 def unpack(x, na, nb, nc, nd, nf):
     """Polynomials (a, b, c, d, f) from theta in getpvec order; monic ones with leading 1."""
     x = np.asarray(x, dtype=float)
     i = 0
-    a = np.r_[1.0, x[i:i + na]]
+    a = np.r_[1.0, x[i : i + na]]
     i += na
-    b = x[i:i + nb]
+    b = x[i : i + nb]
     i += nb
-    c = np.r_[1.0, x[i:i + nc]]
+    c = np.r_[1.0, x[i : i + nc]]
     i += nc
-    d = np.r_[1.0, x[i:i + nd]]
+    d = np.r_[1.0, x[i : i + nd]]
     i += nd
-    f = np.r_[1.0, x[i:i + nf]]
+    f = np.r_[1.0, x[i : i + nf]]
     return a, b, c, d, f
 
 
@@ -137,7 +144,7 @@ def score(theta, orders, ue, ye, uv, yv):
         "d": [float(v) for v in d],
         "f": [float(v) for v in f],
         "max_root_radius": {"a": max_root(a), "c": max_root(c), "d": max_root(d), "f": max_root(f)},
-        "loss": float(np.mean(e_est ** 2)),
+        "loss": float(np.mean(e_est**2)),
         "fit_percent_estimation_1step": nrmse_fit(ye, ye - e_est),
         "fit_percent_estimation_simulation": nrmse_fit(ye, simulation(ue, a, b, nk, f)),
         "fit_percent_validation_1step": nrmse_fit(yv, yv - e_val),
@@ -152,28 +159,39 @@ def sippy_estimate(structure, o, ue, ye):
     """SIPPY's estimate as a getpvec-ordered theta, and its own (scaled) loss 2 Vn."""
     theta_s = o["nk"] - 1
     if structure == "armax":
-        m = system_identification(ye, ue, "ARMAX", ARMAX_orders=[o["na"], o["nb"], o["nc"], theta_s],
-                                  ARMAX_mod="OPT", max_iterations=MAX_ITERATIONS)
+        m = system_identification(
+            ye,
+            ue,
+            "ARMAX",
+            ARMAX_orders=[o["na"], o["nb"], o["nc"], theta_s],
+            ARMAX_mod="OPT",
+            max_iterations=MAX_ITERATIONS,
+        )
     else:
-        m = system_identification(ye, ue, "BJ", BJ_orders=[o["nb"], o["nc"], o["nd"], o["nf"], theta_s],
-                                  max_iterations=MAX_ITERATIONS)
+        m = system_identification(
+            ye,
+            ue,
+            "BJ",
+            BJ_orders=[o["nb"], o["nc"], o["nd"], o["nf"], theta_s],
+            max_iterations=MAX_ITERATIONS,
+        )
     # SISO: [output][input][coefficients]; G = NUM/DEN = B/(A F), H = NUMH/DENH = C/(A D).
     num = np.asarray(m.NUMERATOR[0][0], dtype=float)
     den = np.asarray(m.DENOMINATOR[0][0], dtype=float)
     num_h = np.asarray(m.NUMERATOR_H[0][0], dtype=float)
     den_h = np.asarray(m.DENOMINATOR_H[0][0], dtype=float)
     na, nb, nc, nd, nf, nk = full_orders(structure, o)
-    b = num[theta_s:theta_s + nb]
-    c = num_h[:nc + 1]
+    b = num[theta_s : theta_s + nb]
+    c = num_h[: nc + 1]
     if structure == "armax":
-        a, d, f = den[:na + 1], np.array([1.0]), np.array([1.0])
+        a, d, f = den[: na + 1], np.array([1.0]), np.array([1.0])
         # For ARMAX SIPPY's H denominator is A itself.
-        assert np.allclose(den_h[:na + 1], a), (den_h, a)
+        assert np.allclose(den_h[: na + 1], a), (den_h, a)
     else:
-        a, d, f = np.array([1.0]), den_h[:nd + 1], den[:nf + 1]
+        a, d, f = np.array([1.0]), den_h[: nd + 1], den[: nf + 1]
     # Nothing beyond the model orders (SIPPY pads with zeros).
-    assert not np.any(num[:theta_s]) and not np.any(num[theta_s + nb:])
-    assert not np.any(den[len(a) + len(f) - 1:]) and not np.any(num_h[nc + 1:])
+    assert not np.any(num[:theta_s]) and not np.any(num[theta_s + nb :])
+    assert not np.any(den[len(a) + len(f) - 1 :]) and not np.any(num_h[nc + 1 :])
     return pack(a, b, c, d, f), float(2.0 * m.Vn)
 
 
@@ -200,8 +218,10 @@ def reference_optimum(theta0, orders, ue, ye):
         a, b, c, d, f = unpack(x, na, nb, nc, nd, nf)
         return prediction_errors(ye, ue, a, b, nk, c, d, f)
 
-    r = least_squares(residuals, theta0, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=20000)
-    x, rss = r.x, float(np.sum(r.fun ** 2))
+    r = least_squares(
+        residuals, theta0, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=20000
+    )
+    x, rss = r.x, float(np.sum(r.fun**2))
     gauss_newton_steps = 0
     for _ in range(20):
         jac = central_jacobian(residuals, x)
@@ -231,7 +251,9 @@ def reference_optimum(theta0, orders, ue, ye):
 def lagged_lstsq(columns, target, t0):
     """Least squares of target(t) on columns (signal, lag, sign) for t = t0 .. N-1."""
     n = len(target)
-    phi = np.column_stack([sign * np.r_[np.zeros(lag), sig[:n - lag]][t0:] for sig, lag, sign in columns])
+    phi = np.column_stack(
+        [sign * np.r_[np.zeros(lag), sig[: n - lag]][t0:] for sig, lag, sign in columns]
+    )
     theta, *_ = np.linalg.lstsq(phi, target[t0:], rcond=None)
     return theta
 
@@ -253,7 +275,7 @@ def high_order(base, n, n_signals):
 
 def high_order_arx(y, u, nk, base):
     p = high_order(base, len(y), 2)
-    cols = [(y, k, -1.0) for k in range(1, p + 1)] + [(u, nk + l, 1.0) for l in range(p)]
+    cols = [(y, k, -1.0) for k in range(1, p + 1)] + [(u, nk + j, 1.0) for j in range(p)]
     t0 = max(p, nk + p - 1)
     th = lagged_lstsq(cols, y, t0)
     return reflect(np.r_[1.0, th[:p]]), th[p:], t0
@@ -268,33 +290,39 @@ def airsus_like_start(structure, o, ue, ye):
         max_lag = max(na, nc, nk + nb - 1)
         a_h, b_h, t0h = high_order_arx(ye, ue, nk, max_lag + nc)
         e_hat = lfilter(a_h, [1.0], ye) - lfilter(np.r_[np.zeros(nk), b_h], [1.0], ue)
-        e_hat[:min(t0h, n)] = 0.0
-        cols = ([(ye, k, -1.0) for k in range(1, na + 1)] + [(ue, nk + l, 1.0) for l in range(nb)]
-                + [(e_hat, k, 1.0) for k in range(1, nc + 1)])
+        e_hat[: min(t0h, n)] = 0.0
+        cols = (
+            [(ye, k, -1.0) for k in range(1, na + 1)]
+            + [(ue, nk + j, 1.0) for j in range(nb)]
+            + [(e_hat, k, 1.0) for k in range(1, nc + 1)]
+        )
         th = lagged_lstsq(cols, ye, max(max_lag, t0h + nc))
-        a, b, c = reflect(np.r_[1.0, th[:na]]), th[na:na + nb], reflect(np.r_[1.0, th[na + nb:]])
+        a, b, c = reflect(np.r_[1.0, th[:na]]), th[na : na + nb], reflect(np.r_[1.0, th[na + nb :]])
         return pack(a, b, c, np.array([1.0]), np.array([1.0]))
     a_h, b_h, _ = high_order_arx(ye, ue, nk, nb + nf)
     w = lfilter(np.r_[np.zeros(nk), b_h], a_h, ue)
-    cols = [(w, k, -1.0) for k in range(1, nf + 1)] + [(ue, nk + l, 1.0) for l in range(nb)]
+    cols = [(w, k, -1.0) for k in range(1, nf + 1)] + [(ue, nk + j, 1.0) for j in range(nb)]
     th = lagged_lstsq(cols, w, max(nf, nk + nb - 1))
     f, b = reflect(np.r_[1.0, th[:nf]]), th[nf:]
     v = ye - lfilter(np.r_[np.zeros(nk), b], f, ue)
     p = high_order(nc + nd, n, 1)
     ar = lagged_lstsq([(v, k, -1.0) for k in range(1, p + 1)], v, p)
     e_hat = lfilter(np.r_[1.0, ar], [1.0], v)
-    e_hat[:min(p, n)] = 0.0
-    th = lagged_lstsq([(v, k, -1.0) for k in range(1, nd + 1)] + [(e_hat, k, 1.0) for k in range(1, nc + 1)],
-                      v, max(nd, p + nc))
+    e_hat[: min(p, n)] = 0.0
+    th = lagged_lstsq(
+        [(v, k, -1.0) for k in range(1, nd + 1)] + [(e_hat, k, 1.0) for k in range(1, nc + 1)],
+        v,
+        max(nd, p + nc),
+    )
     d, c = reflect(np.r_[1.0, th[:nd]]), reflect(np.r_[1.0, th[nd:]])
     return pack(np.array([1.0]), b, c, d, f)
 
 
 def baselines(structure, o, orders, ref_theta, ue, ye, uv, yv):
     na, nb, nc, nd, nf, nk = orders
-    out = {"zero_model_loss": float(np.mean(ye ** 2))}
+    out = {"zero_model_loss": float(np.mean(ye**2))}
     if structure == "armax":
-        cols = [(ye, k, -1.0) for k in range(1, na + 1)] + [(ue, nk + l, 1.0) for l in range(nb)]
+        cols = [(ye, k, -1.0) for k in range(1, na + 1)] + [(ue, nk + j, 1.0) for j in range(nb)]
         th = lagged_lstsq(cols, ye, max(na, nk + nb - 1))
         arx_theta = np.r_[th, np.zeros(nc)]
         out["arx_same_orders_loss"] = score(arx_theta, orders, ue, ye, uv, yv)["loss"]
@@ -327,8 +355,16 @@ def random_start_search(orders, ue, ye, starts, seed=1):
 
     counts = {}
     for _ in range(starts):
-        x0 = np.r_[monic_tail(na), rng.normal(0.0, 0.05, nb), monic_tail(nc), monic_tail(nd), monic_tail(nf)]
-        r = least_squares(residuals, x0, method="trf", xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=5000)
+        x0 = np.r_[
+            monic_tail(na),
+            rng.normal(0.0, 0.05, nb),
+            monic_tail(nc),
+            monic_tail(nd),
+            monic_tail(nf),
+        ]
+        r = least_squares(
+            residuals, x0, method="trf", xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=5000
+        )
         v = float(f"{np.mean(residuals(r.x) ** 2):.7g}")
         counts[v] = counts.get(v, 0) + 1
     return sorted(counts.items())
@@ -338,13 +374,20 @@ def random_start_search(orders, ue, ye, starts, seed=1):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--data", type=Path, default=Path("crates/ident/tests/data"))
     parser.add_argument("--out", type=Path, default=Path("crates/ident/tests/fixtures"))
     parser.add_argument("--only", help="comma-separated data set names")
-    parser.add_argument("--random-starts", type=int, default=0, metavar="K",
-                        help="also minimise from K random stable starts per case and print the "
-                             "distinct minima found (not stored; K=30 adds a few seconds)")
+    parser.add_argument(
+        "--random-starts",
+        type=int,
+        default=0,
+        metavar="K",
+        help="also minimise from K random stable starts per case and print the "
+        "distinct minima found (not stored; K=30 adds a few seconds)",
+    )
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     only = set(args.only.split(",")) if args.only else None
@@ -373,27 +416,28 @@ def main():
         ref_theta, ref_std, info = reference_optimum(theta_sippy, orders, ue, ye)
         ref = score(ref_theta, orders, ue, ye, uv, yv)
         ref.update({"std": ref_std, **info})
-        sippy["distance_to_reference_in_std"] = [float(abs(p - q) / s) for p, q, s in zip(theta_sippy, ref_theta, ref_std)]
+        sippy["distance_to_reference_in_std"] = [
+            float(abs(p - q) / s) for p, q, s in zip(theta_sippy, ref_theta, ref_std, strict=True)
+        ]
         base = baselines(structure, o, orders, ref_theta, ue, ye, uv, yv)
         start = base["airsus_like_start"]
         start["distance_to_reference_in_std"] = [
-            float(abs(p - q) / s) for p, q, s in zip(start["theta"], ref_theta, ref_std)]
-        fx = fixtures.setdefault(name, {
-            "generated_by": "tools/peer_linear/peer_armax_bj.py",
-            "dataset": name,
-            "file": spec["file"],
-            "format": spec["format"],
-            "columns": spec["columns"],
-            "ts_s": spec["ts_s"],
-            "estimation": spec["estimation"],
-            "validation": spec["validation"],
-            "detrend": spec["detrend"],
-            "note": spec["note"],
-            "n_estimation": int(len(ye)),
-            "n_validation": int(len(yv)),
-            "peer": peer,
-            "criterion": "airsus PEM loss V = (1/N) sum_t eps(t)^2 over all N estimation samples, eps = D/C (A y - q^-nk B/F u) with zero initial conditions; fits are NRMSE % (thesis eq 3.33) of y - eps (1-step) and of q^-nk B/(A F) u (simulation)",
-        })
+            float(abs(p - q) / s)
+            for p, q, s in zip(start["theta"], ref_theta, ref_std, strict=True)
+        ]
+        fx = fixtures.setdefault(
+            name,
+            {
+                "generated_by": "tools/peer_linear/peer_armax_bj.py",
+                "dataset": name,
+                # the data set as the fixture's reader expects it
+                **{key: spec[key] for key in SPEC_KEYS},
+                "n_estimation": int(len(ye)),
+                "n_validation": int(len(yv)),
+                "peer": peer,
+                "criterion": "airsus PEM loss V = (1/N) sum_t eps(t)^2 over all N estimation samples, eps = D/C (A y - q^-nk B/F u) with zero initial conditions; fits are NRMSE % (thesis eq 3.33) of y - eps (1-step) and of q^-nk B/(A F) u (simulation)",
+            },
+        )
         fx[structure] = {
             **o,
             "parameter_names": names(*orders[:5]),
@@ -401,21 +445,26 @@ def main():
             "reference_optimum": ref,
             "baselines": base,
         }
-        print(f"{name} {structure.upper()} {o}:\n"
-              f"  SIPPY     theta={np.round(theta_sippy, 5).tolist()} V={sippy['loss']:.8g} "
-              f"fit1={sippy['fit_percent_estimation_1step']:.4f} sim={sippy['fit_percent_estimation_simulation']:.4f} "
-              f"val1={sippy['fit_percent_validation_1step']:.4f} valsim={sippy['fit_percent_validation_simulation']:.4f}\n"
-              f"  reference theta={np.round(ref_theta, 5).tolist()} V={ref['loss']:.8g} "
-              f"fit1={ref['fit_percent_estimation_1step']:.4f} sim={ref['fit_percent_estimation_simulation']:.4f} "
-              f"val1={ref['fit_percent_validation_1step']:.4f} valsim={ref['fit_percent_validation_simulation']:.4f} "
-              f"std={np.round(ref_std, 5).tolist()}\n"
-              f"  SIPPY - reference in std: {np.round(sippy['distance_to_reference_in_std'], 3).tolist()}\n"
-              f"  baselines: zero {base['zero_model_loss']:.6g}, "
-              + (f"ARX {base['arx_same_orders_loss']:.6g}, " if structure == "armax"
-                 else f"noise model dropped {base['noise_model_dropped_loss']:.6g}, ")
-              + f"airsus-like start {start['loss']:.8g} "
-              f"({100 * (start['loss'] / ref['loss'] - 1):.3f} % above the optimum, up to "
-              f"{max(start['distance_to_reference_in_std']):.2f} std away)")
+        print(
+            f"{name} {structure.upper()} {o}:\n"
+            f"  SIPPY     theta={np.round(theta_sippy, 5).tolist()} V={sippy['loss']:.8g} "
+            f"fit1={sippy['fit_percent_estimation_1step']:.4f} sim={sippy['fit_percent_estimation_simulation']:.4f} "
+            f"val1={sippy['fit_percent_validation_1step']:.4f} valsim={sippy['fit_percent_validation_simulation']:.4f}\n"
+            f"  reference theta={np.round(ref_theta, 5).tolist()} V={ref['loss']:.8g} "
+            f"fit1={ref['fit_percent_estimation_1step']:.4f} sim={ref['fit_percent_estimation_simulation']:.4f} "
+            f"val1={ref['fit_percent_validation_1step']:.4f} valsim={ref['fit_percent_validation_simulation']:.4f} "
+            f"std={np.round(ref_std, 5).tolist()}\n"
+            f"  SIPPY - reference in std: {np.round(sippy['distance_to_reference_in_std'], 3).tolist()}\n"
+            f"  baselines: zero {base['zero_model_loss']:.6g}, "
+            + (
+                f"ARX {base['arx_same_orders_loss']:.6g}, "
+                if structure == "armax"
+                else f"noise model dropped {base['noise_model_dropped_loss']:.6g}, "
+            )
+            + f"airsus-like start {start['loss']:.8g} "
+            f"({100 * (start['loss'] / ref['loss'] - 1):.3f} % above the optimum, up to "
+            f"{max(start['distance_to_reference_in_std']):.2f} std away)"
+        )
         if args.random_starts:
             minima = random_start_search(orders, ue, ye, args.random_starts)
             print(f"  {args.random_starts} random starts: (loss, count) {minima}")

@@ -41,7 +41,6 @@ from pathlib import Path
 
 import numpy as np
 from scipy.signal import lfilter
-
 from sippy_unipi.arx import ARX_id
 from sippy_unipi.io_opt import GEN_id
 
@@ -93,6 +92,9 @@ DATASETS = [
     },
 ]
 
+# Keys copied from a data set's spec into its fixture.
+SPEC_KEYS = ("file", "format", "columns", "ts_s", "estimation", "validation", "detrend", "note")
+
 
 def load(data_dir: Path, spec):
     """(u_est, y_est, u_val, y_val) after split and detrending, as float64 arrays."""
@@ -117,7 +119,12 @@ def load(data_dir: Path, spec):
         u_est, y_est = column(c["u_est"]), column(c["y_est"])
         u_val, y_val = column(c["u_val"]), column(c["y_val"])
     if spec["detrend"] == "segment_mean":
-        return (u_est - u_est.mean(), y_est - y_est.mean(), u_val - u_val.mean(), y_val - y_val.mean())
+        return (
+            u_est - u_est.mean(),
+            y_est - y_est.mean(),
+            u_val - u_val.mean(),
+            y_val - y_val.mean(),
+        )
     mu, my = u_est.mean(), y_est.mean()
     return (u_est - mu, y_est - my, u_val - mu, y_val - my)
 
@@ -175,7 +182,9 @@ def peer_oe(u_est, y_est, u_val, y_val, nb, nf, nk):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--data", type=Path, default=Path("crates/ident/tests/data"))
     parser.add_argument("--out", type=Path, default=Path("crates/ident/tests/fixtures"))
     parser.add_argument("--only", help="comma-separated data set names")
@@ -201,14 +210,8 @@ def main():
         fixture = {
             "generated_by": "tools/peer_linear/peer_linear.py",
             "dataset": spec["name"],
-            "file": spec["file"],
-            "format": spec["format"],
-            "columns": spec["columns"],
-            "ts_s": spec["ts_s"],
-            "estimation": spec["estimation"],
-            "validation": spec["validation"],
-            "detrend": spec["detrend"],
-            "note": spec["note"],
+            # the data set as the fixture's reader expects it
+            **{key: spec[key] for key in SPEC_KEYS},
             "n_estimation": int(len(y_est)),
             "peer": peer,
             "arx": arx,
@@ -216,9 +219,11 @@ def main():
         }
         path = args.out / f"peer_sippy_{spec['name']}.json"
         path.write_text(json.dumps(fixture, indent=2) + "\n")
-        print(f"{spec['name']}: ARX a={arx['a']} b={arx['b']} V={arx['loss']:.6g}; "
-              f"OE b={oe['b']} f={oe['f']} fit(est, zero IC)={oe['fit_percent_estimation_zero_ic']}% "
-              f"fit(val)={oe['fit_percent_validation_zero_ic']}% -> {path}")
+        print(
+            f"{spec['name']}: ARX a={arx['a']} b={arx['b']} V={arx['loss']:.6g}; "
+            f"OE b={oe['b']} f={oe['f']} fit(est, zero IC)={oe['fit_percent_estimation_zero_ic']}% "
+            f"fit(val)={oe['fit_percent_validation_zero_ic']}% -> {path}"
+        )
 
 
 if __name__ == "__main__":

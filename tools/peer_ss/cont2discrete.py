@@ -36,24 +36,32 @@ from scipy.signal import cont2discrete
 def oscillator_3x2x2():
     """3 states, 2 inputs, 2 outputs; a lightly damped complex pair (about -0.3 +- 2.5j)
     coupled to a real pole, with a non-zero feedthrough. Ts = 0.1 s."""
-    a = np.array([
-        [-0.3, 2.5, 0.0],
-        [-2.5, -0.3, 0.4],
-        [0.2, 0.0, -1.5],
-    ])
-    b = np.array([
-        [1.0, 0.0],
-        [0.0, 0.5],
-        [0.3, -1.2],
-    ])
-    c = np.array([
-        [1.0, 0.0, 0.5],
-        [0.0, 2.0, -1.0],
-    ])
-    d = np.array([
-        [0.0, 0.1],
-        [0.05, 0.0],
-    ])
+    a = np.array(
+        [
+            [-0.3, 2.5, 0.0],
+            [-2.5, -0.3, 0.4],
+            [0.2, 0.0, -1.5],
+        ]
+    )
+    b = np.array(
+        [
+            [1.0, 0.0],
+            [0.0, 0.5],
+            [0.3, -1.2],
+        ]
+    )
+    c = np.array(
+        [
+            [1.0, 0.0, 0.5],
+            [0.0, 2.0, -1.0],
+        ]
+    )
+    d = np.array(
+        [
+            [0.0, 0.1],
+            [0.05, 0.0],
+        ]
+    )
     return a, b, c, d, 0.1
 
 
@@ -67,26 +75,34 @@ def quarter_car_4x2x2():
     ms, mu = 4500.0, 700.0  # sprung and unsprung mass per corner, kg
     ks, cs = 2.6e5, 2.0e4  # air spring stiffness N/m, damper N s/m
     kt = 3.2e6  # tyre stiffness N/m
-    a = np.array([
-        [0.0, 1.0, 0.0, 0.0],
-        [-ks / ms, -cs / ms, ks / ms, cs / ms],
-        [0.0, 0.0, 0.0, 1.0],
-        [ks / mu, cs / mu, -(ks + kt) / mu, -cs / mu],
-    ])
-    b = np.array([
-        [0.0, 0.0],
-        [0.0, 1e3 / ms],
-        [0.0, 0.0],
-        [kt / mu, -1e3 / mu],
-    ])
-    c = np.array([
-        [1.0, 0.0, -1.0, 0.0],
-        [0.0, 0.0, 1.0, 0.0],
-    ])
-    d = np.array([
-        [0.0, 0.0],
-        [-1.0, 0.0],
-    ])
+    a = np.array(
+        [
+            [0.0, 1.0, 0.0, 0.0],
+            [-ks / ms, -cs / ms, ks / ms, cs / ms],
+            [0.0, 0.0, 0.0, 1.0],
+            [ks / mu, cs / mu, -(ks + kt) / mu, -cs / mu],
+        ]
+    )
+    b = np.array(
+        [
+            [0.0, 0.0],
+            [0.0, 1e3 / ms],
+            [0.0, 0.0],
+            [kt / mu, -1e3 / mu],
+        ]
+    )
+    c = np.array(
+        [
+            [1.0, 0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ]
+    )
+    d = np.array(
+        [
+            [0.0, 0.0],
+            [-1.0, 0.0],
+        ]
+    )
     return a, b, c, d, 0.01
 
 
@@ -97,18 +113,22 @@ def stiff_4x1x2():
     lam = np.diag([-0.05, -1.0, -8.0, -40.0])
     # Upper coupling makes the block non-normal; T is a fixed, well-conditioned matrix.
     lam[0, 1], lam[1, 2], lam[2, 3] = 0.7, 3.0, 12.0
-    t = np.array([
-        [1.0, 0.2, -0.3, 0.1],
-        [0.0, 1.0, 0.4, -0.2],
-        [0.5, -0.1, 1.0, 0.3],
-        [0.2, 0.3, 0.0, 1.0],
-    ])
+    t = np.array(
+        [
+            [1.0, 0.2, -0.3, 0.1],
+            [0.0, 1.0, 0.4, -0.2],
+            [0.5, -0.1, 1.0, 0.3],
+            [0.2, 0.3, 0.0, 1.0],
+        ]
+    )
     a = t @ lam @ np.linalg.inv(t)
     b = np.array([[1.0], [-0.5], [2.0], [0.25]])
-    c = np.array([
-        [1.0, 0.0, 0.0, 1.0],
-        [0.0, 1.0, -1.0, 0.0],
-    ])
+    c = np.array(
+        [
+            [1.0, 0.0, 0.0, 1.0],
+            [0.0, 1.0, -1.0, 0.0],
+        ]
+    )
     d = np.array([[0.0], [0.2]])
     return a, b, c, d, 0.05
 
@@ -164,14 +184,20 @@ def entry(name, build):
             "logm_round_trip_b_max_rel": rel_err(b_back, b),
         },
     }
-    print(f"{name}: n={n} m={m} p={c.shape[0]} Ts={ts}; |poles_d| = "
-          f"{np.round(np.abs(poles_d), 6).tolist()}; checks {result['checks']}")
+    print(
+        f"{name}: n={n} m={m} p={c.shape[0]} Ts={ts}; |poles_d| = "
+        f"{np.round(np.abs(poles_d), 6).tolist()}; checks {result['checks']}"
+    )
     return result
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", type=Path, default=Path("crates/ident/tests/fixtures/peer_scipy_c2d.json"))
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path("crates/ident/tests/fixtures/peer_scipy_c2d.json")
+    )
     args = parser.parse_args()
     fixture = {
         "generated_by": "tools/peer_ss/cont2discrete.py",
@@ -188,8 +214,11 @@ def main():
     args.out.parent.mkdir(parents=True, exist_ok=True)
     text = json.dumps(fixture, indent=2)
     # One matrix row (a list of plain numbers) per line.
-    text = re.sub(r"\[\s+([-0-9.e+]+(?:,\s+[-0-9.e+]+)*)\s+\]",
-                  lambda mt: "[" + re.sub(r",\s+", ", ", mt.group(1)) + "]", text)
+    text = re.sub(
+        r"\[\s+([-0-9.e+]+(?:,\s+[-0-9.e+]+)*)\s+\]",
+        lambda mt: "[" + re.sub(r",\s+", ", ", mt.group(1)) + "]",
+        text,
+    )
     args.out.write_text(text + "\n")
     print(f"-> {args.out}")
 

@@ -19,6 +19,7 @@ Typical workflow:
       --run ref/ds1.csv --out est.toml
   airsus ident --structure oe --nb 2 --nf 2 --nk 1 \\
       --inputs wheel_load_kg,pressure_kpa --output height_mm ds1.csv
+  airsus fmu --model m2 --truck est.toml --out m2.fmu   an FMU for Simulink, Dymola, FMPy
 
 File formats (runs, force maps, tank discharges, study and truck files) are described in the
 README and fixed by the project's SPEC §5. All commands exit non-zero with a message naming
@@ -46,6 +47,8 @@ enum Command {
     Ident(commands::ident::IdentArgs),
     /// Simulate a model over a run's inputs and write the simulated outputs as a run file.
     Simulate(commands::simulate::SimulateArgs),
+    /// Export a model with its parameters as an FMI 2.0 co-simulation FMU (Linux x86-64).
+    Fmu(commands::fmu::FmuArgs),
     /// Grey-box estimation: fit any named subset of a model's parameters to one or more runs.
     Greybox(commands::greybox::GreyboxArgs),
     /// Submodel fits from lab and run data (thesis 5.2): cross-section, effective area, valve, slow dynamics.
@@ -69,6 +72,7 @@ fn main() -> std::process::ExitCode {
         Command::Check(args) => commands::check::run(args),
         Command::Ident(args) => commands::ident::run(args),
         Command::Simulate(args) => commands::simulate::run(args),
+        Command::Fmu(args) => commands::fmu::run(args),
         Command::Generate(args) => commands::generate::run(args),
         Command::Greybox(args) => commands::greybox::run(args),
         Command::Fit(args) => commands::fit::run(args),

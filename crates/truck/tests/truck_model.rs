@@ -242,7 +242,13 @@ fn the_supply_line_follows_the_logged_tank_pressure_while_the_valve_is_shut() {
     let time: Vec<f64> = (0..n).map(|i| i as f64 * 0.1).collect();
     let load = vec![3390.0; n];
     let valve: Vec<ValveState> = (0..n)
-        .map(|i| if i < 30 { ValveState::Closed } else { ValveState::Fill })
+        .map(|i| {
+            if i < 30 {
+                ValveState::Closed
+            } else {
+                ValveState::Fill
+            }
+        })
         .collect();
     let road = vec![0.0; n];
     let run = |supply: &[f64]| {
@@ -258,7 +264,8 @@ fn the_supply_line_follows_the_logged_tank_pressure_while_the_valve_is_shut() {
     let steady = run(&vec![850e3; n]);
     let dropped: Vec<f64> = (0..n).map(|i| if i < 5 { 850e3 } else { 650e3 }).collect();
     let dropped = run(&dropped);
-    let line = |r: &airsus_sim::SimulationResponse, k: usize| r.states.as_ref().unwrap().at(k).unwrap()[8];
+    let line =
+        |r: &airsus_sim::SimulationResponse, k: usize| r.states.as_ref().unwrap().at(k).unwrap()[8];
     let (line_steady, line_dropped) = (line(&steady, 29), line(&dropped, 29));
     assert!(
         line_dropped < 0.9 * line_steady,

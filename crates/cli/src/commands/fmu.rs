@@ -181,6 +181,10 @@ mod tests {
         let err = format!("{:#}", run(&args).unwrap_err());
         assert!(err.contains("ELF"), "{err}");
         assert!(!truck.with_extension("fmu").exists());
-        assert!(std::fs::read_to_string(&truck).unwrap().contains("[environment]"));
+        assert!(
+            std::fs::read_to_string(&truck)
+                .unwrap()
+                .contains("[environment]")
+        );
     }
 }
