@@ -16,10 +16,22 @@ MODELS = ["m1", "m2", "m2x", "m2xh", "m3", "truck"]
 def test_the_model_registry() -> None:
     registry = airsus.models()
     assert registry["name"].tolist() == MODELS
-    assert list(registry.columns) == ["name", "description", "parameters", "units", "states"]
+    assert list(registry.columns) == [
+        "name",
+        "description",
+        "parameters",
+        "units",
+        "states",
+        "roles",
+        "default_free",
+    ]
     m2 = registry.set_index("name").loc["m2"]
     assert "m2" in m2["parameters"] and "p0" in m2["parameters"]
     assert len(m2["states"]) == 5
+    assert m2["roles"][m2["states"].index("n_mol")] == "bellow_air"
+    assert m2["default_free"] == ["p0", "p1", "p2", "p3", "p4", "m2", "ig"]
+    truck = registry.set_index("name").loc["truck"]
+    assert truck["roles"][truck["states"].index("gas_t_k")] == "gas_temperature"
 
 
 @pytest.mark.parametrize("model", MODELS)

@@ -12,6 +12,7 @@ Typical workflow:
   airsus study --builtin --out out/          the whole pipeline on the built-in virtual truck
   airsus study study.toml --out out/         the same on your own files
   airsus params --builtin > truck.toml       start from the reference truck
+  airsus models [--json]                     the models, their parameters and states
   airsus check study.toml                    validate a study and every file it names
   airsus generate --out ref/                 the virtual truck's reference experiments
   airsus simulate --model m2 --truck ref/truck.toml --run ref/ds1.csv --out sim.csv
@@ -47,6 +48,8 @@ enum Command {
     Ident(commands::ident::IdentArgs),
     /// Simulate a model over a run's inputs and write the simulated outputs as a run file.
     Simulate(commands::simulate::SimulateArgs),
+    /// List the models by name with their parameters (units, bounds, reference values) and states.
+    Models(commands::models::ModelsArgs),
     /// Export a model with its parameters as an FMI 2.0 co-simulation FMU (Linux x86-64).
     Fmu(commands::fmu::FmuArgs),
     /// Grey-box estimation: fit any named subset of a model's parameters to one or more runs.
@@ -73,6 +76,7 @@ fn main() -> std::process::ExitCode {
         Command::Ident(args) => commands::ident::run(args),
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Fmu(args) => commands::fmu::run(args),
+        Command::Models(args) => commands::models::run(args),
         Command::Generate(args) => commands::generate::run(args),
         Command::Greybox(args) => commands::greybox::run(args),
         Command::Fit(args) => commands::fit::run(args),

@@ -13,6 +13,7 @@
 pub mod atomic;
 pub mod error;
 pub mod lab;
+pub mod params;
 pub mod run;
 pub mod study;
 pub mod table;

@@ -96,6 +96,11 @@ impl Run {
         self.time_s.is_empty()
     }
 
+    /// Whether the valve moves during the run (what makes flow parameters identifiable).
+    pub fn valve_action(&self) -> bool {
+        self.inputs.valve.iter().any(|&v| v != ValveState::Closed)
+    }
+
     /// The measured outputs, or an error naming the run when it has none.
     pub fn measured(&self) -> Result<&RunOutputs, DataError> {
         self.outputs.as_ref().ok_or_else(|| {

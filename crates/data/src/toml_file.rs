@@ -166,7 +166,13 @@ pub(crate) fn find_key_line(text: &str, table: &str, key: &str) -> Option<u64> {
     for (i, raw) in text.lines().enumerate() {
         let line = raw.trim();
         if line.starts_with('[') {
-            let name = line.trim_matches(|c| c == '[' || c == ']').trim();
+            // `[section]  # a comment`: the name ends at the first `]`.
+            let name = line
+                .trim_start_matches('[')
+                .split(']')
+                .next()
+                .unwrap_or_default()
+                .trim();
             if name == key || name.ends_with(&format!(".{key}")) {
                 return Some(i as u64 + 1);
             }
@@ -186,6 +192,13 @@ pub(crate) fn find_key_line(text: &str, table: &str, key: &str) -> Option<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_key_is_found_under_a_section_header_with_a_comment() {
+        let text = "[a]\nx = 1\n[slow_dynamics]  # Model 2 extended (thesis Table 5.5)\nx = 2\n";
+        assert_eq!(find_key_line(text, "slow_dynamics", "x"), Some(4));
+        assert_eq!(find_key_line(text, "a", "x"), Some(2));
+    }
 
     #[test]
     fn line_column_counts_from_one() {

@@ -15,6 +15,7 @@ use serde::Deserialize;
 
 use crate::atomic::write_text_atomically;
 use crate::error::{DataError, DataErrorKind, Location};
+use crate::params::Field;
 use crate::toml_file::{
     TableSchema, check_finite, check_keys, deserialize, find_key_line, parse_toml,
 };
@@ -470,42 +471,25 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
         l1_m: ctx.required("geometry", "l1_m", geo.l1_m, 0.05..=3.0, "m")?,
         l2_m: ctx.required("geometry", "l2_m", geo.l2_m, 0.0..=3.0, "m")?,
         l3_m: ctx.required("geometry", "l3_m", geo.l3_m, -3.0..=3.0, "m")?,
-        lever_compliance_m_per_n: ctx.required(
-            "geometry",
-            "lever_compliance_m_per_n",
-            geo.lever_compliance_m_per_n,
-            0.0..=1e-4,
-            "m/N",
-        )?,
+        lever_compliance_m_per_n: ctx
+            .required_param(Field::LeverCompliance, geo.lever_compliance_m_per_n)?,
     };
 
     let mass_file = file.mass.unwrap_or_default();
-    let unsprung_kg = ctx.estimable(
-        "mass",
-        "unsprung_kg",
+    let unsprung_kg = ctx.estimable_param(
+        Field::Unsprung,
         mass_file.unsprung_kg,
         reference.mass.unsprung_kg,
-        1.0..=5000.0,
-        "kg",
     )?;
-    let lever_inertia_kg_m2 = ctx.estimable(
-        "mass",
-        "lever_inertia_kg_m2",
+    let lever_inertia_kg_m2 = ctx.estimable_param(
+        Field::LeverInertia,
         mass_file.lever_inertia_kg_m2,
         unsprung_kg * geometry.l1_m * geometry.l1_m,
-        1e-3..=1e5,
-        "kg m²",
     )?;
 
     let tire_file = file.tire.ok_or_else(|| ctx.missing_section("tire"))?;
     let tire = TireParameters {
-        stiffness_n_per_m: ctx.required(
-            "tire",
-            "stiffness_n_per_m",
-            tire_file.stiffness_n_per_m,
-            1e4..=1e8,
-            "N/m",
-        )?,
+        stiffness_n_per_m: ctx.required_param(Field::TireStiffness, tire_file.stiffness_n_per_m)?,
     };
 
     let damper_file = file.damper.ok_or_else(|| ctx.missing_section("damper"))?;
@@ -524,37 +508,34 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
         bellow_file.cross_section_m2,
         reference.bellow.cross_section_m2,
     )?;
+    for (i, &value) in effective_area_poly_m2.iter().enumerate() {
+        ctx.check_param(Field::EffectiveArea(i), value)?;
+    }
+    for (i, &value) in cross_section_m2.iter().enumerate() {
+        ctx.check_param(Field::CrossSection(i), value)?;
+    }
     ctx.check_areas(&effective_area_poly_m2, &cross_section_m2)?;
     let bellow = BellowParameters {
         effective_area_poly_m2,
         cross_section_m2,
-        hinge_friction_n_s_per_m: ctx.estimable(
-            "bellow",
-            "hinge_friction_n_s_per_m",
+        hinge_friction_n_s_per_m: ctx.estimable_param(
+            Field::HingeFriction,
             bellow_file.hinge_friction_n_s_per_m,
             reference.bellow.hinge_friction_n_s_per_m,
-            0.0..=1e6,
-            "N s/m",
         )?,
     };
 
     let valve_file = file.valve.unwrap_or_default();
     let valve = ValveParameters {
-        fill_resistance_pa_s_per_mol: ctx.estimable(
-            "valve",
-            "fill_resistance_pa_s_per_mol",
+        fill_resistance_pa_s_per_mol: ctx.estimable_param(
+            Field::FillResistance,
             valve_file.fill_resistance_pa_s_per_mol,
             reference.valve.fill_resistance_pa_s_per_mol,
-            1e3..=1e12,
-            "Pa s/mol",
         )?,
-        exhaust_resistance_pa_s_per_mol: ctx.estimable(
-            "valve",
-            "exhaust_resistance_pa_s_per_mol",
+        exhaust_resistance_pa_s_per_mol: ctx.estimable_param(
+            Field::ExhaustResistance,
             valve_file.exhaust_resistance_pa_s_per_mol,
             reference.valve.exhaust_resistance_pa_s_per_mol,
-            1e3..=1e12,
-            "Pa s/mol",
         )?,
     };
 
@@ -644,6 +625,57 @@ impl Ctx<'_> {
                 ),
             ))
         }
+    }
+
+    /// `value` against the declared range of `field` ([`crate::params`]); the error names the
+    /// key (with the index for an array element), the value and the range.
+    fn check_param(&self, field: Field, value: f64) -> Result<f64, DataError> {
+        let (section, key, index) = field.location();
+        let info = &field.param().info;
+        if info.admits(value) {
+            return Ok(value);
+        }
+        let shown = match index {
+            Some(i) => format!("{key}[{i}]"),
+            None => key.to_owned(),
+        };
+        Err(DataError::new(
+            self.location(section, key),
+            DataErrorKind::InvalidValue {
+                key: format!("{section}.{shown}"),
+                value: value.to_string(),
+                reason: format!(
+                    "outside the admissible range of `{}` ({}), {} to {} {}; check the unit",
+                    info.name, info.description, info.lower, info.upper, info.unit
+                ),
+            },
+        ))
+    }
+
+    fn required_param(&self, field: Field, value: Option<f64>) -> Result<f64, DataError> {
+        let (section, key, _) = field.location();
+        let unit = field.param().info.unit;
+        let value = self.required(section, key, value, f64::NEG_INFINITY..=f64::INFINITY, unit)?;
+        self.check_param(field, value)
+    }
+
+    fn estimable_param(
+        &mut self,
+        field: Field,
+        value: Option<f64>,
+        default: f64,
+    ) -> Result<f64, DataError> {
+        let (section, key, _) = field.location();
+        let unit = field.param().info.unit;
+        let value = self.estimable(
+            section,
+            key,
+            value,
+            default,
+            f64::NEG_INFINITY..=f64::INFINITY,
+            unit,
+        )?;
+        self.check_param(field, value)
     }
 
     fn required(
@@ -825,27 +857,18 @@ impl Ctx<'_> {
             oe_f: s.oe_f.unwrap_or(d.oe_f),
             oe_nk,
             oe_sample_time_s,
-            force_scale: s.force_scale_n_per_m,
-            creep_stiffness_n_per_m: match s.creep_stiffness_n_per_m {
-                None => None,
-                Some(k) => Some(self.check_range(
-                    "slow_dynamics",
-                    "creep_stiffness_n_per_m",
-                    k,
-                    0.0..=1e8,
-                    "N/m",
-                )?),
-            },
-            creep_time_constant_s: match s.creep_time_constant_s {
-                None => None,
-                Some(t) => Some(self.check_range(
-                    "slow_dynamics",
-                    "creep_time_constant_s",
-                    t,
-                    1e-3..=1e6,
-                    "s",
-                )?),
-            },
+            force_scale: s
+                .force_scale_n_per_m
+                .map(|k| self.check_param(Field::SlowForceScale, k))
+                .transpose()?,
+            creep_stiffness_n_per_m: s
+                .creep_stiffness_n_per_m
+                .map(|k| self.check_param(Field::CreepStiffness, k))
+                .transpose()?,
+            creep_time_constant_s: s
+                .creep_time_constant_s
+                .map(|t| self.check_param(Field::CreepTimeConstant, t))
+                .transpose()?,
         })
     }
 

@@ -1,4 +1,7 @@
-//! Models by name (the command line's `--model`).
+//! The thesis models by name (the command line's `--model`): one [`ModelEntry`] each.
+//!
+//! The registry of *every* model (these plus the virtual truck's structure) is
+//! `airsus_truck::models`; it is what the commands, the study and the report read.
 
 use airsus_data::TruckParameters;
 use airsus_data::error::nearest_name;
@@ -8,48 +11,97 @@ use crate::m2::Model2;
 use crate::m3::Model3;
 use crate::model::{ModelError, SuspensionModel};
 
-/// The names [`build_model`] accepts, with one line each.
-pub const MODEL_NAMES: &[(&str, &str)] = &[
-    (
-        "m1",
-        "Model 1: QCM 1, two vertical masses (thesis eq 3.4/4.1)",
-    ),
-    (
-        "m2",
-        "Model 2: QCM 2, chassis height and lever angle (thesis eq 3.6-3.13/4.2)",
-    ),
-    (
-        "m2x",
-        "Model 2 extended: + OE slow force from load change (thesis eq 4.3/4.4)",
-    ),
-    (
-        "m2xh",
-        "Model 2 + bellow creep force from height change (thesis 6.2)",
-    ),
-    (
-        "m3",
-        "Model 3: gas and valve physics + OE height model (thesis eq 4.5)",
-    ),
+/// The effective-area polynomial's coefficients (eq 5.4), freed by every thesis estimation.
+const AREA: [&str; 5] = ["p0", "p1", "p2", "p3", "p4"];
+/// The valve's flow resistances (eq 3.19): only valve action determines them (SPEC §4).
+const FLOW: [&str; 2] = ["rflow1", "rflow2"];
+
+/// One registered model: its name, a line saying what it is, how to build it from a truck
+/// file's parameters, and what a grey-box fit frees by default.
+#[derive(Debug, Clone, Copy)]
+pub struct ModelEntry {
+    pub name: &'static str,
+    /// One line with the thesis source, for help texts, `airsus models` and the report.
+    pub summary: &'static str,
+    pub build: fn(&TruckParameters) -> Result<Box<dyn SuspensionModel>, ModelError>,
+    /// Freed by default: the thesis' "Estimation 2" sets (Tables 5.10–5.12).
+    pub default_free: &'static [&'static str],
+    /// Freed as well when the estimation runs have valve action: only then can the data
+    /// determine them (SPEC §4).
+    pub valve_free: &'static [&'static str],
+}
+
+impl ModelEntry {
+    /// The parameters a grey-box fit frees by default on runs with or without valve action.
+    pub fn free_parameters(&self, valve_action: bool) -> Vec<&'static str> {
+        let mut free = self.default_free.to_vec();
+        if valve_action {
+            free.extend_from_slice(self.valve_free);
+        }
+        free
+    }
+}
+
+/// The thesis models, in report order.
+pub const THESIS_MODELS: &[ModelEntry] = &[
+    ModelEntry {
+        name: "m1",
+        summary: "Model 1: QCM 1, two vertical masses (thesis eq 3.4/4.1)",
+        build: |truck| Ok(Box::new(Model1::new(truck))),
+        default_free: &[AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "kf"],
+        valve_free: &FLOW,
+    },
+    ModelEntry {
+        name: "m2",
+        summary: "Model 2: QCM 2, chassis height and lever angle (thesis eq 3.6-3.13/4.2)",
+        build: |truck| Ok(Box::new(Model2::new(truck))),
+        default_free: &[AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "ig"],
+        valve_free: &FLOW,
+    },
+    ModelEntry {
+        name: "m2x",
+        summary: "Model 2 extended: + OE slow force from load change (thesis eq 4.3/4.4)",
+        build: |truck| Ok(Box::new(Model2::extended(truck)?)),
+        default_free: &[
+            AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "ig", "ksd",
+        ],
+        valve_free: &FLOW,
+    },
+    ModelEntry {
+        name: "m2xh",
+        summary: "Model 2 + bellow creep force from height change (thesis 6.2)",
+        build: |truck| Ok(Box::new(Model2::height_creep(truck))),
+        default_free: &[
+            AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "ig", "ksd", "tsd",
+        ],
+        valve_free: &FLOW,
+    },
+    ModelEntry {
+        name: "m3",
+        summary: "Model 3: gas and valve physics + OE height model (thesis eq 4.5)",
+        build: |truck| Ok(Box::new(Model3::new(truck)?)),
+        default_free: &["a1", "kscl"],
+        valve_free: &FLOW,
+    },
 ];
 
-/// Builds the model called `name` (`m1`, `m2`, `m2x`, `m2xh`, `m3`) with `truck`'s parameters.
-/// Unknown names get a nearest-name suggestion.
+/// The entry called `name` among `entries`, or the `UnknownModel` error with a suggestion.
+pub fn find_model<'a>(entries: &'a [ModelEntry], name: &str) -> Result<&'a ModelEntry, ModelError> {
+    entries
+        .iter()
+        .find(|e| e.name == name)
+        .ok_or_else(|| ModelError::UnknownModel {
+            name: name.to_owned(),
+            suggestion: nearest_name(name, entries.iter().map(|e| e.name)),
+            valid: entries.iter().map(|e| e.name.to_owned()).collect(),
+        })
+}
+
+/// Builds the thesis model called `name` (`m1`, `m2`, `m2x`, `m2xh`, `m3`) with `truck`'s
+/// parameters. Unknown names get a nearest-name suggestion.
 pub fn build_model(
     name: &str,
     truck: &TruckParameters,
 ) -> Result<Box<dyn SuspensionModel>, ModelError> {
-    Ok(match name {
-        "m1" => Box::new(Model1::new(truck)),
-        "m2" => Box::new(Model2::new(truck)),
-        "m2x" => Box::new(Model2::extended(truck)?),
-        "m2xh" => Box::new(Model2::height_creep(truck)),
-        "m3" => Box::new(Model3::new(truck)?),
-        _ => {
-            return Err(ModelError::UnknownModel {
-                name: name.to_owned(),
-                suggestion: nearest_name(name, MODEL_NAMES.iter().map(|(n, _)| *n)),
-                valid: MODEL_NAMES.iter().map(|(n, _)| (*n).to_owned()).collect(),
-            });
-        }
-    })
+    (find_model(THESIS_MODELS, name)?.build)(truck)
 }

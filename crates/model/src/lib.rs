@@ -27,11 +27,12 @@ pub mod params;
 pub mod submodels;
 
 pub use corner::MIN_SPRUNG_MASS_KG;
-pub use factory::{MODEL_NAMES, build_model};
+pub use factory::{ModelEntry, THESIS_MODELS, build_model, find_model};
 pub use linear_block::LinearBlock;
 pub use m1::Model1;
 pub use m2::Model2;
 pub use m3::Model3;
 pub use model::{
-    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, SuspensionModel,
+    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, StateInfo, StateRole,
+    SuspensionModel,
 };

@@ -13,7 +13,23 @@
 
 use airsus_ident::linear::{PolyModel, Structure};
 
-use crate::model::ModelError;
+use crate::model::{ModelError, StateInfo, StateRole};
+
+/// States of an OE block inside a model (`oe1`, `oe2`, ..): the block's own scaling, no unit.
+pub const OE_STATES: &[StateInfo] = &[
+    StateInfo::new("oe1", "1", StateRole::Filter),
+    StateInfo::new("oe2", "1", StateRole::Filter),
+    StateInfo::new("oe3", "1", StateRole::Filter),
+    StateInfo::new("oe4", "1", StateRole::Filter),
+    StateInfo::new("oe5", "1", StateRole::Filter),
+    StateInfo::new("oe6", "1", StateRole::Filter),
+    StateInfo::new("oe7", "1", StateRole::Filter),
+    StateInfo::new("oe8", "1", StateRole::Filter),
+    StateInfo::new("oe9", "1", StateRole::Filter),
+    StateInfo::new("oe10", "1", StateRole::Filter),
+    StateInfo::new("oe11", "1", StateRole::Filter),
+    StateInfo::new("oe12", "1", StateRole::Filter),
+];
 
 /// A continuous-time, multi-input single-output linear block in state-space form.
 #[derive(Debug, Clone, PartialEq)]

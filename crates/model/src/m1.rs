@@ -33,13 +33,20 @@ use airsus_data::TruckParameters;
 
 use crate::corner::Corner;
 use crate::model::{
-    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, SuspensionModel,
+    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, StateInfo, StateRole,
+    SuspensionModel,
 };
 use crate::params::{Field, ParamSet};
 use crate::submodels::tire_force_n;
 
 const NAME: &str = "m1";
-const STATES: &[&str] = &["x1_m", "x2_m", "v1_m_s", "v2_m_s", "n_mol"];
+const STATES: &[StateInfo] = &[
+    StateInfo::new("x1_m", "m", StateRole::Position),
+    StateInfo::new("x2_m", "m", StateRole::Position),
+    StateInfo::new("v1_m_s", "m/s", StateRole::Velocity),
+    StateInfo::new("v2_m_s", "m/s", StateRole::Velocity),
+    StateInfo::new("n_mol", "mol", StateRole::BellowAir),
+];
 
 /// The parameters Model 1 uses.
 const FIELDS: &[Field] = &[
@@ -96,7 +103,7 @@ impl SuspensionModel for Model1 {
         "Model 1: quarter-car model QCM 1, two vertical masses, bellow through the lever gain (thesis eq 3.4/4.1)"
     }
 
-    fn state_names(&self) -> &[&'static str] {
+    fn states(&self) -> &[StateInfo] {
         STATES
     }
 

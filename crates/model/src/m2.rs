@@ -89,10 +89,11 @@
 use airsus_data::TruckParameters;
 
 use crate::corner::Corner;
-use crate::linear_block::{LinearBlock, OeInput};
+use crate::linear_block::{LinearBlock, OE_STATES, OeInput};
 use crate::mechanics::{LeverForces, lever_accelerations};
 use crate::model::{
-    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, SuspensionModel,
+    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, StateInfo, StateRole,
+    SuspensionModel,
 };
 use crate::params::{Field, ParamSet};
 use crate::submodels::tire_force_n;
@@ -103,8 +104,15 @@ pub const THESIS_INITIAL_SPRUNG_KG: f64 = 2830.0;
 /// Default creep stiffness of `m2xh`, N/m (see the module docs).
 pub const DEFAULT_CREEP_STIFFNESS_N_PER_M: f64 = 2.5e4;
 
-const BASE_STATES: &[&str] = &["x_m", "alpha_rad", "xdot_m_s", "alphadot_rad_s", "n_mol"];
-const OE_STATES: &[&str] = &["oe1", "oe2", "oe3", "oe4", "oe5", "oe6", "oe7", "oe8"];
+const BASE_STATES: &[StateInfo] = &[
+    StateInfo::new("x_m", "m", StateRole::Position),
+    StateInfo::new("alpha_rad", "rad", StateRole::Angle),
+    StateInfo::new("xdot_m_s", "m/s", StateRole::Velocity),
+    StateInfo::new("alphadot_rad_s", "rad/s", StateRole::Velocity),
+    StateInfo::new("n_mol", "mol", StateRole::BellowAir),
+];
+/// The largest slow-dynamics OE block `m2x` carries.
+const MAX_OE_STATES: usize = 8;
 
 const FIELDS: &[Field] = crate::params::LEVER_MODEL_FIELDS;
 
@@ -132,7 +140,7 @@ pub struct Model2 {
     corner: Corner,
     params: ParamSet,
     slow: SlowForce,
-    states: Vec<&'static str>,
+    states: Vec<StateInfo>,
 }
 
 impl Model2 {
@@ -162,13 +170,13 @@ impl Model2 {
             }],
             sd.oe_sample_time_s,
         )?;
-        if block.n_states() > OE_STATES.len() {
+        if block.n_states() > MAX_OE_STATES {
             return Err(ModelError::InvalidStructure {
                 model: "m2x".to_owned(),
                 reason: format!(
                     "the slow-dynamics OE model has {} states; at most {} are supported",
                     block.n_states(),
-                    OE_STATES.len()
+                    MAX_OE_STATES
                 ),
             });
         }
@@ -184,7 +192,7 @@ impl Model2 {
         fields.push(Field::SlowForceScale);
         let mut states = BASE_STATES.to_vec();
         states.extend_from_slice(&OE_STATES[..block.n_states()]);
-        states.push("load_ref_kg");
+        states.push(StateInfo::new("load_ref_kg", "kg", StateRole::Reference));
         Ok(Self {
             name: "m2x",
             corner: Corner::new(&truck),
@@ -214,7 +222,7 @@ impl Model2 {
         let mut fields = FIELDS.to_vec();
         fields.extend([Field::CreepStiffness, Field::CreepTimeConstant]);
         let mut states = BASE_STATES.to_vec();
-        states.push("f_creep_n");
+        states.push(StateInfo::new("f_creep_n", "N", StateRole::Force));
         Self {
             name: "m2xh",
             corner: Corner::new(&truck),
@@ -297,7 +305,7 @@ impl SuspensionModel for Model2 {
         }
     }
 
-    fn state_names(&self) -> &[&'static str] {
+    fn states(&self) -> &[StateInfo] {
         &self.states
     }
 

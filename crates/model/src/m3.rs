@@ -33,16 +33,14 @@
 use airsus_data::TruckParameters;
 
 use crate::corner::Corner;
-use crate::linear_block::{LinearBlock, OeInput};
+use crate::linear_block::{LinearBlock, OE_STATES, OeInput};
 use crate::model::{
-    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, SuspensionModel,
+    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, StateInfo, StateRole,
+    SuspensionModel,
 };
 use crate::params::{Field, ParamSet};
 
 const NAME: &str = "m3";
-const OE_STATES: &[&str] = &[
-    "oe1", "oe2", "oe3", "oe4", "oe5", "oe6", "oe7", "oe8", "oe9", "oe10", "oe11", "oe12",
-];
 const M_PER_MM: f64 = 1e-3;
 const KPA_PER_PA: f64 = 1e-3;
 
@@ -61,7 +59,7 @@ pub struct Model3 {
     corner: Corner,
     params: ParamSet,
     block: LinearBlock,
-    states: Vec<&'static str>,
+    states: Vec<StateInfo>,
 }
 
 impl Model3 {
@@ -99,9 +97,13 @@ impl Model3 {
                 ),
             });
         }
-        let mut states = vec!["n_mol"];
+        let mut states = vec![StateInfo::new("n_mol", "mol", StateRole::BellowAir)];
         states.extend_from_slice(&OE_STATES[..block.n_states()]);
-        states.extend(["load_ref_kg", "pressure_ref_pa", "bellow_height_ref_m"]);
+        states.extend([
+            StateInfo::new("load_ref_kg", "kg", StateRole::Reference),
+            StateInfo::new("pressure_ref_pa", "Pa", StateRole::Reference),
+            StateInfo::new("bellow_height_ref_m", "m", StateRole::Reference),
+        ]);
         Ok(Self {
             truck: truck.clone(),
             corner: Corner::new(truck),
@@ -145,7 +147,7 @@ impl SuspensionModel for Model3 {
         "Model 3: ideal gas and valve flow for the pressure, two-input OE model (load, pressure) for the bellow height, ZOH to continuous time (thesis eq 4.5)"
     }
 
-    fn state_names(&self) -> &[&'static str] {
+    fn states(&self) -> &[StateInfo] {
         &self.states
     }
 

@@ -41,18 +41,72 @@ pub enum InitialCondition {
     SensorHeight { height_m: f64 },
 }
 
-/// Description of one freeable parameter.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ParameterInfo {
-    /// Short name used by `--free` (SPEC §5: `p0`..`p4`, `a0`, `a1`, `m2`, `ig`, `kf`, `kw`,
-    /// `kscl`, `rflow1`, `rflow2`, `ksd`; models with more document their own).
+/// What a state is: the simulator's admissibility checks and the apps' look-ups go by role,
+/// never by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum StateRole {
+    /// A position or height, m.
+    Position,
+    /// A lever angle, rad.
+    Angle,
+    /// A velocity, m/s, or an angular velocity, rad/s.
+    Velocity,
+    /// The air in the bellow, mol (eq 3.17): must stay positive. Weighing and level control
+    /// estimate it.
+    BellowAir,
+    /// Air elsewhere on the supply side (line, tank), mol: must stay positive.
+    SupplyAir,
+    /// A gas temperature, K: must stay positive.
+    GasTemperature,
+    /// A force element's state (creep, friction), N, or a creep element's position, m.
+    Force,
+    /// A state of an identified linear block (OE), in the block's own scaling.
+    Filter,
+    /// An input or output remembered at the start, against which a deviation model works.
+    Reference,
+}
+
+impl StateRole {
+    /// A state of this role must stay strictly positive (amounts of gas, absolute temperatures).
+    pub fn must_stay_positive(self) -> bool {
+        matches!(
+            self,
+            Self::BellowAir | Self::SupplyAir | Self::GasTemperature
+        )
+    }
+
+    /// The role's name as `airsus models --json` prints it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Position => "position",
+            Self::Angle => "angle",
+            Self::Velocity => "velocity",
+            Self::BellowAir => "bellow_air",
+            Self::SupplyAir => "supply_air",
+            Self::GasTemperature => "gas_temperature",
+            Self::Force => "force",
+            Self::Filter => "filter",
+            Self::Reference => "reference",
+        }
+    }
+}
+
+/// One state variable: name (with its unit, e.g. `x_m`), unit and role.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StateInfo {
     pub name: &'static str,
     pub unit: &'static str,
-    pub description: &'static str,
-    /// Physically admissible range; the estimator's default bounds.
-    pub lower: f64,
-    pub upper: f64,
+    pub role: StateRole,
 }
+
+impl StateInfo {
+    pub const fn new(name: &'static str, unit: &'static str, role: StateRole) -> Self {
+        Self { name, unit, role }
+    }
+}
+
+/// Description of one freeable parameter (declared in the data crate, with the truck-file keys).
+pub use airsus_data::params::ParameterInfo;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ModelError {
@@ -101,11 +155,21 @@ pub trait SuspensionModel: Send + Sync + std::fmt::Debug {
     /// One line saying what the model is, with its thesis source.
     fn description(&self) -> &'static str;
 
+    /// The state variables, in state-vector order.
+    fn states(&self) -> &[StateInfo];
+
     /// Names of the state variables, in state-vector order (with units, e.g. `x1_m`).
-    fn state_names(&self) -> &[&'static str];
+    fn state_names(&self) -> Vec<&'static str> {
+        self.states().iter().map(|s| s.name).collect()
+    }
 
     fn n_states(&self) -> usize {
-        self.state_names().len()
+        self.states().len()
+    }
+
+    /// Index of the first state with `role` (e.g. the bellow's air amount).
+    fn state_index(&self, role: StateRole) -> Option<usize> {
+        self.states().iter().position(|s| s.role == role)
     }
 
     /// Every parameter the estimator may free.

@@ -149,11 +149,24 @@ impl InitialState {
         }
     }
 
-    /// Static equilibrium matching the run's first measured bellow pressure, when the run has
-    /// measured outputs.
+    /// The default start of every simulation and estimation of a run (`simulate`, `greybox`,
+    /// the study, the apps, the Python package): static equilibrium at the run's first
+    /// measured sensor height, when the run has measured outputs.
+    ///
+    /// Height, not pressure: the effective area rises, peaks and falls with height (eq 5.4),
+    /// so one pressure can mean two equilibrium heights or none, while a height gives one
+    /// pressure. [`Self::from_run_pressure`] starts from the pressure instead.
     pub fn from_run(run: &Run) -> Option<Self> {
-        let outputs = run.outputs.as_ref()?;
-        let gauge_pa = *outputs.bellow_gauge_pa.first()?;
+        let height_m = *run.outputs.as_ref()?.sensor_height_m.first()?;
+        Some(Self::Equilibrium(InitialCondition::SensorHeight {
+            height_m,
+        }))
+    }
+
+    /// Static equilibrium at the run's first measured bellow pressure, when the run has
+    /// measured outputs.
+    pub fn from_run_pressure(run: &Run) -> Option<Self> {
+        let gauge_pa = *run.outputs.as_ref()?.bellow_gauge_pa.first()?;
         Some(Self::Equilibrium(InitialCondition::BellowPressure {
             gauge_pa,
         }))
@@ -214,11 +227,11 @@ pub enum SupplyRelevance {
 /// ([`SimError::InadmissibleState`]).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub enum StateBounds {
-    /// From the state names (the model trait carries units in them): an amount of gas
-    /// (name ending in `_mol`) must stay positive; every state must stay finite and within
-    /// `±1e9` in SI units (a blow-up guard far beyond any physical suspension state).
+    /// From the states' roles ([`airsus_model::StateRole`]): amounts of gas and absolute
+    /// temperatures must stay positive; every state must stay finite and within `±1e9` in SI
+    /// units (a blow-up guard far beyond any physical suspension state).
     #[default]
-    FromNames,
+    FromRoles,
     /// One `(lower, upper)` pair per state, in state order.
     PerState(Vec<(f64, f64)>),
 }

@@ -14,7 +14,8 @@
 
 use airsus_data::{Run, RunInputs, ValveState};
 use airsus_model::{
-    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, SuspensionModel,
+    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, StateInfo, StateRole,
+    SuspensionModel,
 };
 
 /// Standard gravity used by the reference models, m/s².
@@ -146,8 +147,12 @@ impl SuspensionModel for DampedOscillator {
     fn description(&self) -> &'static str {
         "reference: damped linear oscillator driven by the wheel load (analytic solution)"
     }
-    fn state_names(&self) -> &[&'static str] {
-        &["x_m", "v_m_s"]
+    fn states(&self) -> &[StateInfo] {
+        const STATES: &[StateInfo] = &[
+            StateInfo::new("x_m", "m", StateRole::Position),
+            StateInfo::new("v_m_s", "m/s", StateRole::Velocity),
+        ];
+        STATES
     }
     fn parameter_info(&self) -> &[ParameterInfo] {
         Self::INFO
@@ -237,8 +242,9 @@ impl SuspensionModel for FirstOrderLag {
     fn description(&self) -> &'static str {
         "reference: first-order lag driven by the wheel load (analytic solution)"
     }
-    fn state_names(&self) -> &[&'static str] {
-        &["y_m"]
+    fn states(&self) -> &[StateInfo] {
+        const STATES: &[StateInfo] = &[StateInfo::new("y_m", "m", StateRole::Position)];
+        STATES
     }
     fn parameter_info(&self) -> &[ParameterInfo] {
         Self::INFO
@@ -354,8 +360,9 @@ impl SuspensionModel for GasVolume {
     fn description(&self) -> &'static str {
         "reference: rigid air vessel behind the 3-state valve (analytic solution)"
     }
-    fn state_names(&self) -> &[&'static str] {
-        &["n_mol"]
+    fn states(&self) -> &[StateInfo] {
+        const STATES: &[StateInfo] = &[StateInfo::new("n_mol", "mol", StateRole::BellowAir)];
+        STATES
     }
     fn parameter_info(&self) -> &[ParameterInfo] {
         Self::INFO
@@ -437,8 +444,12 @@ impl SuspensionModel for Runaway {
     fn description(&self) -> &'static str {
         "reference: a leaking vessel and an exploding state (failure tests)"
     }
-    fn state_names(&self) -> &[&'static str] {
-        &["n_mol", "x_m"]
+    fn states(&self) -> &[StateInfo] {
+        const STATES: &[StateInfo] = &[
+            StateInfo::new("n_mol", "mol", StateRole::BellowAir),
+            StateInfo::new("x_m", "m", StateRole::Position),
+        ];
+        STATES
     }
     fn parameter_info(&self) -> &[ParameterInfo] {
         Self::INFO
@@ -545,8 +556,15 @@ impl SuspensionModel for ToyQuarterCar {
     fn description(&self) -> &'static str {
         "reference: two-mass quarter car with gas bellow and lift-off tire (benchmark stand-in)"
     }
-    fn state_names(&self) -> &[&'static str] {
-        &["x1_m", "x2_m", "v1_m_s", "v2_m_s", "n_mol"]
+    fn states(&self) -> &[StateInfo] {
+        const STATES: &[StateInfo] = &[
+            StateInfo::new("x1_m", "m", StateRole::Position),
+            StateInfo::new("x2_m", "m", StateRole::Position),
+            StateInfo::new("v1_m_s", "m/s", StateRole::Velocity),
+            StateInfo::new("v2_m_s", "m/s", StateRole::Velocity),
+            StateInfo::new("n_mol", "mol", StateRole::BellowAir),
+        ];
+        STATES
     }
     fn parameter_info(&self) -> &[ParameterInfo] {
         Self::INFO

@@ -34,7 +34,7 @@
 
 use std::cell::{Cell, RefCell};
 
-use airsus_model::{InputSample, SuspensionModel};
+use airsus_model::{InputSample, StateInfo, SuspensionModel};
 use diffsol::error::OdeSolverError;
 use diffsol::{
     DiffsolError, NalgebraContext, NalgebraLU, NalgebraMat, NalgebraVec, OdeBuilder, OdeEquations,
@@ -51,7 +51,7 @@ type Mat = NalgebraMat<f64>;
 type Lu = NalgebraLU<f64>;
 type V = NalgebraVec<f64>;
 
-/// A blow-up guard for [`StateBounds::FromNames`]: no state of a truck suspension in SI units
+/// A blow-up guard for [`StateBounds::FromRoles`]: no state of a truck suspension in SI units
 /// comes anywhere near this.
 const BLOW_UP_LIMIT: f64 = 1e9;
 
@@ -90,6 +90,7 @@ fn simulate_with<M: SuspensionModel + ?Sized>(
     let model = problem.model;
     let model_name = model.name();
     let names = model.state_names();
+    let names = names.as_slice();
     let n = names.len();
     let options = &problem.options;
     let inputs = &problem.inputs;
@@ -131,7 +132,7 @@ fn simulate_with<M: SuspensionModel + ?Sized>(
     }
 
     let atol = absolute_tolerance(&options.atol, options.rtol, &x0).map_err(invalid)?;
-    let bounds = state_bounds(&options.bounds, names).map_err(invalid)?;
+    let bounds = state_bounds(&options.bounds, model.states()).map_err(invalid)?;
     let t0 = inputs.time_s()[0];
     check_state(model_name, names, &bounds, t0, &x0)?;
 
@@ -258,12 +259,12 @@ fn absolute_tolerance(atol: &AbsoluteTolerance, rtol: f64, x0: &[f64]) -> Result
     Ok(values)
 }
 
-fn state_bounds(bounds: &StateBounds, names: &[&'static str]) -> Result<Vec<(f64, f64)>, String> {
+fn state_bounds(bounds: &StateBounds, states: &[StateInfo]) -> Result<Vec<(f64, f64)>, String> {
     match bounds {
-        StateBounds::FromNames => Ok(names
+        StateBounds::FromRoles => Ok(states
             .iter()
-            .map(|name| {
-                if name.ends_with("_mol") {
+            .map(|state| {
+                if state.role.must_stay_positive() {
                     (0.0, BLOW_UP_LIMIT)
                 } else {
                     (-BLOW_UP_LIMIT, BLOW_UP_LIMIT)
@@ -271,11 +272,11 @@ fn state_bounds(bounds: &StateBounds, names: &[&'static str]) -> Result<Vec<(f64
             })
             .collect()),
         StateBounds::PerState(b) => {
-            if b.len() != names.len() {
+            if b.len() != states.len() {
                 return Err(format!(
                     "{} state bounds for {} states",
                     b.len(),
-                    names.len()
+                    states.len()
                 ));
             }
             if let Some((lo, hi)) = b

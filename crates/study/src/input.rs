@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use airsus_data::{
-    Channel, ForceMap, Role, Run, Study, TankDischarge, TruckParameters, ValveState,
-    read_discharge, read_force_map, read_run, read_study, read_truck,
+    Channel, ForceMap, Role, Run, Study, TankDischarge, TruckParameters, read_discharge,
+    read_force_map, read_run, read_study, read_truck,
 };
 
 use crate::StudyError;
@@ -22,11 +22,7 @@ pub struct StudyRunData {
 impl StudyRunData {
     /// Whether the valve moves during the run (what makes flow parameters identifiable).
     pub fn valve_action(&self) -> bool {
-        self.run
-            .inputs
-            .valve
-            .iter()
-            .any(|&v| v != ValveState::Closed)
+        self.run.valve_action()
     }
 }
 

@@ -50,8 +50,18 @@ pub enum StudyError {
     },
 }
 
-/// The models a study estimates, in report order.
-pub const STUDY_MODELS: [&str; 6] = ["m1", "m2", "m2x", "m2xh", "m3", "truck"];
+/// The models a study estimates by default: every registered model, in report order.
+pub fn study_models() -> Vec<&'static str> {
+    airsus_truck::models::model_names()
+}
+
+/// Every name in `models` is a registered model (the error suggests the nearest name).
+pub fn check_models(models: &[String]) -> Result<(), airsus_model::ModelError> {
+    for name in models {
+        airsus_truck::models::model_entry(name)?;
+    }
+    Ok(())
+}
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct StudyOptions {

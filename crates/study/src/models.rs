@@ -5,10 +5,10 @@ use std::time::Instant;
 
 use airsus_data::{Run, TruckParameters, ValveState, write_truck};
 use airsus_estimate::{GreyboxOptions, GreyboxProblem, NoProgress, estimate};
-use airsus_model::{InitialCondition, SuspensionModel};
+use airsus_model::SuspensionModel;
 use airsus_report::results::{ModelResult, OutputFit, ParameterEstimate, ResidualSummary, RunFit};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, SimulationResponse, simulate};
-use airsus_truck::models::build_any_model;
+use airsus_truck::models::{build_any_model, model_entry};
 use airsus_validate::{
     Correlation, DEFAULT_CONFIDENCE, ValidateError, input_residual_correlation, nrmse_percent,
     residual_autocorrelation,
@@ -19,30 +19,6 @@ use crate::protocol::Protocol;
 
 /// Lags of the residual analysis, ±: 5 s at 100 ms.
 pub const RESIDUAL_MAX_LAG: usize = 50;
-
-/// The parameters each model frees: the thesis' "Estimation 2" sets (Tables 5.10–5.12) plus
-/// the flow parameters when the estimation runs have valve action (only then can the data
-/// determine them, SPEC §4). The virtual-truck structure frees its creep element too.
-pub fn free_parameters(model: &str, valve_action: bool) -> Vec<&'static str> {
-    const AREA: [&str; 5] = ["p0", "p1", "p2", "p3", "p4"];
-    let mut free: Vec<&'static str> = match model {
-        "m1" => [&AREA[..], &["m2", "kf"]].concat(),
-        "m2" => [&AREA[..], &["m2", "ig"]].concat(),
-        "m2x" => [&AREA[..], &["m2", "ig", "ksd"]].concat(),
-        "m2xh" => [&AREA[..], &["m2", "ig", "ksd", "tsd"]].concat(),
-        "m3" => vec!["a1", "kscl"],
-        "truck" => [&AREA[..], &["m2", "ig", "kc", "tc"]].concat(),
-        _ => vec![],
-    };
-    if valve_action {
-        free.extend(if model == "truck" {
-            ["c1", "c2"]
-        } else {
-            ["rflow1", "rflow2"]
-        });
-    }
-    free
-}
 
 /// Relative bounds for the masses and inertia: without them `m2` drifts to absorb physics a
 /// structure lacks (creep, hysteresis) and ends at physically absurd values.
@@ -60,20 +36,11 @@ fn bounds(model: &dyn SuspensionModel, name: &str) -> Option<(f64, f64)> {
     ))
 }
 
-/// Static equilibrium at the run's first measured sensor height, as the estimator starts.
-fn initial(run: &Run) -> InitialState {
-    let height_m = run
-        .outputs
-        .as_ref()
-        .and_then(|o| o.sensor_height_m.first())
-        .copied()
-        .unwrap_or(0.0);
-    InitialState::Equilibrium(InitialCondition::SensorHeight { height_m })
-}
-
 pub fn simulate_run(model: &dyn SuspensionModel, run: &Run) -> Result<SimulationResponse, String> {
     let inputs = InputSeries::from_run(run).map_err(|e| e.to_string())?;
-    simulate(&SimulationProblem::new(model, inputs, initial(run))).map_err(|e| e.to_string())
+    // The default start, as the estimator's: the run's first measured sensor height.
+    let initial = InitialState::from_run(run).ok_or("the run has no measured outputs")?;
+    simulate(&SimulationProblem::new(model, inputs, initial)).map_err(|e| e.to_string())
 }
 
 fn output_fit(run: &Run, response: &SimulationResponse) -> Option<OutputFit> {
@@ -238,7 +205,11 @@ pub fn fit_and_validate(
         .iter()
         .filter_map(|n| input.run(n))
         .any(|r| r.valve_action());
-    let free = free_parameters(model_name, valve_action);
+    // The registry's default set (thesis "Estimation 2"), plus the flow parameters when the
+    // estimation runs have valve action.
+    let free = model_entry(model_name)
+        .map(|entry| entry.free_parameters(valve_action))
+        .unwrap_or_default();
     result.free = free.iter().map(|s| (*s).to_owned()).collect();
     let mut problem = GreyboxProblem::new(&*nominal, &estimation, &free);
     for name in &free {

@@ -27,7 +27,7 @@ use airsus_model::submodels::{
 };
 use airsus_model::{
     InitialCondition, InputSample, MIN_SPRUNG_MASS_KG, ModelError, OutputSample, ParameterInfo,
-    SuspensionModel,
+    StateInfo, StateRole, SuspensionModel,
 };
 
 use crate::physics::{
@@ -36,17 +36,17 @@ use crate::physics::{
 };
 use crate::truth::{EffectParameters, VirtualTruck};
 
-const STATES: &[&str] = &[
-    "x_m",
-    "alpha_rad",
-    "xdot_m_s",
-    "alphadot_rad_s",
-    "n_mol",
-    "gas_t_k",
-    "creep_s_m",
-    "dahl_f_n",
-    "line_n_mol",
-    "tank_n_mol",
+const STATES: &[StateInfo] = &[
+    StateInfo::new("x_m", "m", StateRole::Position),
+    StateInfo::new("alpha_rad", "rad", StateRole::Angle),
+    StateInfo::new("xdot_m_s", "m/s", StateRole::Velocity),
+    StateInfo::new("alphadot_rad_s", "rad/s", StateRole::Velocity),
+    StateInfo::new("n_mol", "mol", StateRole::BellowAir),
+    StateInfo::new("gas_t_k", "K", StateRole::GasTemperature),
+    StateInfo::new("creep_s_m", "m", StateRole::Force),
+    StateInfo::new("dahl_f_n", "N", StateRole::Force),
+    StateInfo::new("line_n_mol", "mol", StateRole::SupplyAir),
+    StateInfo::new("tank_n_mol", "mol", StateRole::SupplyAir),
 ];
 
 /// Where the valve's supply pressure comes from.
@@ -467,7 +467,7 @@ impl SuspensionModel for TruckModel {
         "Virtual truck: Model 2 mechanics plus bellow creep, wall friction hysteresis, gas heat exchange, ISO 6358 valve flow and supply line"
     }
 
-    fn state_names(&self) -> &[&'static str] {
+    fn states(&self) -> &[StateInfo] {
         STATES
     }
 

@@ -1,43 +1,111 @@
-//! Every model airsus builds by name: the thesis models of `airsus-model` and the virtual
-//! truck's structure `truck`, which lives here because it needs the truck's extra physics.
+//! The model registry: every model airsus builds by name — the thesis models of
+//! `airsus-model` and the virtual truck's structure `truck`, which lives here because it needs
+//! the truck's extra physics. Every command, the study, the FMU export, the Python package and
+//! `airsus models` read this one list.
 
 use airsus_data::TruckParameters;
-use airsus_data::error::nearest_name;
-use airsus_model::{MODEL_NAMES, ModelError, SuspensionModel, build_model};
+use airsus_model::{
+    ModelEntry, ModelError, ParameterInfo, StateInfo, SuspensionModel, THESIS_MODELS, find_model,
+};
 
 use crate::model::TruckModel;
 
-/// The `truck` structure's one-line description.
-pub const TRUCK_MODEL: (&str, &str) = (
-    "truck",
-    "Virtual-truck structure: Model 2 + creep, wall friction, gas heat exchange, ISO 6358 valve, supply line",
-);
+/// The `truck` structure: Model 2's lever with every effect of the virtual truck.
+pub const TRUCK_MODEL: ModelEntry = ModelEntry {
+    name: "truck",
+    summary: "Virtual-truck structure: Model 2 + creep, wall friction, gas heat exchange, ISO 6358 valve, supply line",
+    build: |truck| Ok(Box::new(TruckModel::from_truck_parameters(truck))),
+    // Model 2's set plus the creep element; the ISO 6358 conductances replace the linear
+    // resistances when there is valve action.
+    default_free: &["p0", "p1", "p2", "p3", "p4", "m2", "ig", "kc", "tc"],
+    valve_free: &["c1", "c2"],
+};
 
-/// All model names with their descriptions, in the order the report lists them.
-pub fn all_model_names() -> Vec<(&'static str, &'static str)> {
-    MODEL_NAMES.iter().copied().chain([TRUCK_MODEL]).collect()
+/// Every registered model, in report order: the thesis models, then `truck`.
+pub static MODELS: [ModelEntry; 6] = [
+    THESIS_MODELS[0],
+    THESIS_MODELS[1],
+    THESIS_MODELS[2],
+    THESIS_MODELS[3],
+    THESIS_MODELS[4],
+    TRUCK_MODEL,
+];
+
+/// The registered names, in report order.
+pub fn model_names() -> Vec<&'static str> {
+    MODELS.iter().map(|e| e.name).collect()
 }
 
-/// Builds any model by name; `truck` starts from the file's nominal values with the extra
-/// effects at their built-in defaults.
+/// The registry entry called `name`; unknown names get a nearest-name suggestion.
+pub fn model_entry(name: &str) -> Result<&'static ModelEntry, ModelError> {
+    find_model(&MODELS, name)
+}
+
+/// All model names with their one-line descriptions, in report order.
+pub fn all_model_names() -> Vec<(&'static str, &'static str)> {
+    MODELS.iter().map(|e| (e.name, e.summary)).collect()
+}
+
+/// Builds any registered model by name with `truck`'s parameters; `truck` starts from the
+/// file's nominal values with the extra effects at their built-in defaults.
 pub fn build_any_model(
     name: &str,
     truck: &TruckParameters,
 ) -> Result<Box<dyn SuspensionModel>, ModelError> {
-    if name == TRUCK_MODEL.0 {
-        return Ok(Box::new(TruckModel::from_truck_parameters(truck)));
-    }
-    build_model(name, truck).map_err(|err| match err {
-        ModelError::UnknownModel { name, .. } => {
-            let names = all_model_names();
-            ModelError::UnknownModel {
-                suggestion: nearest_name(&name, names.iter().map(|(n, _)| *n)),
-                valid: names.iter().map(|(n, _)| (*n).to_owned()).collect(),
-                name,
-            }
-        }
-        other => other,
-    })
+    (model_entry(name)?.build)(truck)
+}
+
+/// What `airsus models` prints about one model: built with the reference truck, so each
+/// parameter's `default` is the reference truck's value.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelDescription {
+    pub name: &'static str,
+    /// The model's own description (with its thesis source).
+    pub description: &'static str,
+    /// The registry's one-line summary.
+    pub summary: &'static str,
+    pub default_free: &'static [&'static str],
+    pub valve_free: &'static [&'static str],
+    pub parameters: Vec<ParameterDescription>,
+    pub states: Vec<StateInfo>,
+}
+
+/// One parameter of a [`ModelDescription`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterDescription {
+    pub info: ParameterInfo,
+    /// The value with the reference truck's parameters.
+    pub default: f64,
+}
+
+/// Every registered model described, in report order.
+pub fn describe_models() -> Result<Vec<ModelDescription>, ModelError> {
+    let truck = TruckParameters::reference();
+    MODELS
+        .iter()
+        .map(|entry| {
+            let model = (entry.build)(&truck)?;
+            let parameters = model
+                .parameter_info()
+                .iter()
+                .map(|info| {
+                    Ok(ParameterDescription {
+                        info: info.clone(),
+                        default: model.parameter(info.name)?,
+                    })
+                })
+                .collect::<Result<Vec<_>, ModelError>>()?;
+            Ok(ModelDescription {
+                name: entry.name,
+                description: model.description(),
+                summary: entry.summary,
+                default_free: entry.default_free,
+                valve_free: entry.valve_free,
+                parameters,
+                states: model.states().to_vec(),
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -47,10 +115,79 @@ mod tests {
     #[test]
     fn builds_every_named_model_and_suggests_for_typos() {
         let truck = TruckParameters::reference();
-        for (name, _) in all_model_names() {
-            assert_eq!(build_any_model(name, &truck).unwrap().name(), name);
+        for entry in &MODELS {
+            let model = build_any_model(entry.name, &truck).unwrap();
+            assert_eq!(model.name(), entry.name);
+            // Every default free parameter is one the model has.
+            for name in entry.free_parameters(true) {
+                model
+                    .parameter(name)
+                    .unwrap_or_else(|e| panic!("{}: {e}", entry.name));
+            }
         }
         let err = build_any_model("truk", &truck).unwrap_err().to_string();
-        assert!(err.contains("truck"), "{err}");
+        assert!(err.contains("(did you mean `truck`?)"), "{err}");
+        assert_eq!(MODELS.len(), THESIS_MODELS.len() + 1);
+    }
+
+    #[test]
+    fn every_model_round_trips_its_parameters_through_a_truck_file() {
+        use airsus_data::truck::parse_truck;
+        let reference = TruckParameters::reference();
+        for entry in &MODELS {
+            let mut model = (entry.build)(&reference).unwrap();
+            // Move every parameter off its reference value, inside its bounds.
+            for info in model.parameter_info().to_vec() {
+                let value = model.parameter(info.name).unwrap();
+                let moved = if value * 1.01 <= info.upper {
+                    value * 1.01
+                } else {
+                    value * 0.99
+                };
+                let moved = if moved == 0.0 {
+                    0.5 * (info.lower + info.upper).min(1.0)
+                } else {
+                    moved
+                };
+                model.set_parameter(info.name, moved).unwrap();
+            }
+            let mut truck = reference.clone();
+            model.write_parameters(&mut truck);
+            let text = airsus_data::truck_to_toml(&truck);
+            let loaded = parse_truck(&text, std::path::Path::new("t.toml")).unwrap();
+            let back = (entry.build)(&loaded.parameters).unwrap();
+            for info in model.parameter_info() {
+                let (written, read) = (
+                    model.parameter(info.name).unwrap(),
+                    back.parameter(info.name).unwrap(),
+                );
+                // The truck structure's effects have no truck-file key yet (issue #11, laws as
+                // values); every thesis model's parameter has one.
+                if airsus_data::params::spec_field(info.name).is_none() {
+                    assert_eq!(entry.name, "truck", "{}", info.name);
+                    continue;
+                }
+                assert_eq!(written, read, "{} {}", entry.name, info.name);
+            }
+        }
+    }
+
+    #[test]
+    fn every_description_has_its_parameters_inside_their_bounds() {
+        let described = describe_models().unwrap();
+        assert_eq!(described.len(), MODELS.len());
+        for model in &described {
+            assert!(!model.states.is_empty() && !model.parameters.is_empty());
+            for p in &model.parameters {
+                // m2x's and m2xh's defaults come from the model (the truck file leaves them out).
+                assert!(
+                    p.default >= p.info.lower && p.default <= p.info.upper,
+                    "{} {} = {}",
+                    model.name,
+                    p.info.name,
+                    p.default
+                );
+            }
+        }
     }
 }

@@ -14,33 +14,44 @@ use airsus_apps::weigh::{
 };
 use airsus_data::{Outputs, Run, TruckParameters};
 use airsus_study::{
-    Event, Protocol, STUDY_MODELS, StudyOptions, load_study, run_builtin, run_study,
+    Event, Protocol, StudyOptions, check_models, load_study, run_builtin, run_study, study_models,
 };
-use airsus_truck::models::{all_model_names, build_any_model};
+use airsus_truck::models::{build_any_model, describe_models};
 
 use crate::error::OrPy;
 use crate::progress::Progress;
 use crate::runs::{RunSource, RunSpec};
 use crate::truck::NativeTruck;
 
-/// Every model airsus builds by name: `[{"name", "description", "parameters", "units",
-/// "states"}, ...]`, built with the reference truck.
+/// Every model airsus builds by name (the registry, as `airsus models --json`):
+/// `[{"name", "description", "parameters", "units", "states", "roles", "default_free"}, ...]`,
+/// built with the reference truck.
 #[pyfunction]
 pub fn models(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
-    let truck = TruckParameters::reference();
     let mut out = Vec::new();
-    for (name, description) in all_model_names() {
-        let model = build_any_model(name, &truck).or_py()?;
+    for model in describe_models().or_py()? {
         let entry = PyDict::new(py);
-        entry.set_item("name", name)?;
-        entry.set_item("description", description)?;
-        let infos = model.parameter_info();
+        entry.set_item("name", model.name)?;
+        entry.set_item("description", model.summary)?;
+        let infos: Vec<_> = model.parameters.iter().map(|p| &p.info).collect();
         entry.set_item(
             "parameters",
             infos.iter().map(|i| i.name).collect::<Vec<_>>(),
         )?;
         entry.set_item("units", infos.iter().map(|i| i.unit).collect::<Vec<_>>())?;
-        entry.set_item("states", model.state_names().to_vec())?;
+        entry.set_item(
+            "states",
+            model.states.iter().map(|s| s.name).collect::<Vec<_>>(),
+        )?;
+        entry.set_item(
+            "roles",
+            model
+                .states
+                .iter()
+                .map(|s| s.role.as_str())
+                .collect::<Vec<_>>(),
+        )?;
+        entry.set_item("default_free", model.default_free.to_vec())?;
         out.push(entry);
     }
     Ok(out)
@@ -195,14 +206,7 @@ fn run_the_study(
     seed: u64,
     progress: &Progress,
 ) -> anyhow::Result<Studied> {
-    for m in models {
-        if !STUDY_MODELS.contains(&m.as_str()) {
-            bail!(
-                "unknown model `{m}`; the study estimates {}",
-                STUDY_MODELS.join(", ")
-            );
-        }
-    }
+    check_models(models)?;
     if max_iterations == 0 {
         bail!("max_iterations must be at least 1");
     }
@@ -252,7 +256,7 @@ pub fn study<'py>(
         )));
     }
     // The command's defaults: every study model, `--max-iterations 60`, `--seed 1`.
-    let models = models.unwrap_or_else(|| STUDY_MODELS.iter().map(|m| (*m).to_owned()).collect());
+    let models = models.unwrap_or_else(|| study_models().iter().map(|m| (*m).to_owned()).collect());
     let max_iterations = max_iterations.unwrap_or(60);
     let seed = seed.unwrap_or(1);
     let progress = Progress::new(progress);

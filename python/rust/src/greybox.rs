@@ -9,7 +9,7 @@ use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
     OutputWeights, estimate,
 };
-use airsus_model::build_model;
+use airsus_truck::models::build_any_model;
 
 use crate::error::OrPy;
 use crate::progress::{Progress, ProgressObserver};
@@ -44,7 +44,7 @@ fn run_greybox(
     settings: &Settings,
     progress: &Progress,
 ) -> anyhow::Result<Estimated> {
-    let model = build_model(model_name, &truck)?;
+    let model = build_any_model(model_name, &truck)?;
     let runs = sources
         .iter()
         .map(|s| {

@@ -70,10 +70,8 @@ fn run_simulation(
             height_m: mm * 1e-3,
         }),
         Initial::State(x) => InitialState::State(x),
-        Initial::FromRun => match run.outputs.as_ref().and_then(|o| o.sensor_height_m.first()) {
-            Some(&height_m) => {
-                InitialState::Equilibrium(InitialCondition::SensorHeight { height_m })
-            }
+        Initial::FromRun => match InitialState::from_run(&run) {
+            Some(initial) => initial,
             None => bail!(
                 "run {} has no measured outputs to start from: give initial_state={{\"pressure_kpa\": ...}} or {{\"height_mm\": ...}}",
                 source.label()

@@ -344,8 +344,11 @@ def models() -> pd.DataFrame:
 
     Columns ``name`` (``m1``, ``m2``, ``m2x``, ``m2xh``, ``m3``, ``truck``),
     ``description``, ``parameters`` (the short names grey-box estimation can free),
-    ``units`` (of those parameters) and ``states`` (state names with SI units, in
-    state-vector order).
+    ``units`` (of those parameters), ``states`` (state names with SI units, in
+    state-vector order), ``roles`` (each state's role: ``position``, ``angle``, ``velocity``,
+    ``bellow_air``, ``supply_air``, ``gas_temperature``, ``force``, ``filter``,
+    ``reference``) and ``default_free`` (what a grey-box fit frees by default). The same
+    registry as ``airsus models --json``.
     """
     return pd.DataFrame(_native.models())
 

@@ -10,7 +10,7 @@
 //! a second and a step API is not needed.
 
 use airsus_data::ValveState;
-use airsus_model::{InitialCondition, InputSample, SuspensionModel};
+use airsus_model::{InitialCondition, InputSample, StateRole, SuspensionModel};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, SolverOptions, simulate};
 use airsus_truck::model::TruckModel;
 use airsus_truck::sensors::{NoiseSource, SensorSpec};
@@ -102,7 +102,7 @@ pub fn simulate_closed_loop(
         return Err(invalid("scenario", "it needs at least two samples"));
     }
     let model = plant.model();
-    let amount_index = model.state_names().iter().position(|s| *s == "n_mol");
+    let amount_index = model.state_index(StateRole::BellowAir);
     let input = |k: usize, valve: ValveState| InputSample {
         wheel_load_kg: scenario.true_load_kg[k],
         valve,

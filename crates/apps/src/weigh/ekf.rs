@@ -35,7 +35,7 @@
 //!
 //! The defaults were tuned on the reference experiments (module tests give the numbers).
 
-use airsus_model::{InitialCondition, InputSample, SuspensionModel};
+use airsus_model::{InitialCondition, InputSample, StateRole, SuspensionModel};
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{AppError, invalid};
@@ -128,12 +128,12 @@ impl LoadEkf {
         };
         let x0 = model.initial_state(&u, &InitialCondition::BellowPressure { gauge_pa })?;
         let n = x0.len();
-        let names = model.state_names();
-        let amount_index = names.iter().position(|s| *s == "n_mol");
-        let rate_indices = names
+        let amount_index = model.state_index(StateRole::BellowAir);
+        let rate_indices = model
+            .states()
             .iter()
             .enumerate()
-            .filter(|(_, s)| s.contains("dot") || s.starts_with('v'))
+            .filter(|(_, s)| s.role == StateRole::Velocity)
             .map(|(i, _)| i)
             .collect();
         let mut z = DVector::zeros(n + 1);

@@ -35,8 +35,9 @@ pub struct ControlArgs {
     /// load-steps or height-change.
     #[arg(long, default_value = "load-steps")]
     pub scenario: String,
-    /// Plant: m1, m2, m2x, m2xh, m3 (with the truck file's parameters) or truck (the built-in
-    /// virtual truck with its true parameters, simulated supply tank and compressor).
+    /// Plant: a registered model with the truck file's parameters (`airsus models`), or
+    /// truck (the built-in virtual truck with its true parameters, simulated supply tank and
+    /// compressor).
     #[arg(long, default_value = "truck")]
     pub model: String,
     #[arg(long, value_enum, default_value_t = ControllerChoice::Both)]

@@ -29,7 +29,7 @@ const LIBRARY_FILE: &str = "libairsus_fmu.so";
 /// Export a model with its parameters as an FMI 2.0 co-simulation FMU (Linux x86-64).
 #[derive(Debug, Clone, clap::Args)]
 pub struct FmuArgs {
-    /// Model to export: m1, m2, m2x, m2xh, m3 or truck.
+    /// Model to export: any registered model (`airsus models`).
     #[arg(long)]
     pub model: String,
     /// Truck parameter file (TOML), e.g. an estimated one; omitted *est* keys take the

@@ -19,7 +19,7 @@ use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
     NoProgress, Observer, OutputWeights, TerminalProgress, estimate,
 };
-use airsus_model::build_model;
+use airsus_truck::models::{build_any_model, model_entry};
 use anyhow::{Context, bail};
 
 /// What fixes each run's initial equilibrium.
@@ -35,12 +35,13 @@ pub enum InitialArg {
 /// height and pressure (each normalised by its spread in each run) over all runs at once.
 #[derive(Debug, Clone, clap::Args)]
 pub struct GreyboxArgs {
-    /// Model: m1, m2, m2x, m2xh or m3.
+    /// Model: any registered model (`airsus models`).
     #[arg(long)]
     pub model: String,
-    /// Parameters to estimate, comma-separated short names: p0..p4, a0, a1, m2, ig, kf, kw,
-    /// kscl, rflow1, rflow2, ksd (m2x, m2xh), tsd (m2xh). The others stay fixed.
-    #[arg(long, value_delimiter = ',', required = true)]
+    /// Parameters to estimate, comma-separated short names (`airsus models` lists each
+    /// model's). The others stay fixed. Default: the model's default set (thesis "Estimation
+    /// 2"), plus the valve's flow parameters when a run has valve action.
+    #[arg(long, value_delimiter = ',')]
     pub free: Vec<String>,
     /// Truck parameter file with the nominal (start) values.
     #[arg(long)]
@@ -117,7 +118,7 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         );
     }
     let mut truck = loaded.parameters;
-    let model = build_model(&args.model, &truck)?;
+    let model = build_any_model(&args.model, &truck)?;
     let runs = args
         .runs
         .iter()
@@ -125,7 +126,25 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     let run_refs: Vec<&_> = runs.iter().collect();
 
-    let mut free: Vec<FreeParameter> = args.free.iter().map(FreeParameter::new).collect();
+    let free_names: Vec<String> = if args.free.is_empty() {
+        let entry = model_entry(&args.model)?;
+        let valve_action = runs.iter().any(|r| r.valve_action());
+        let names = entry.free_parameters(valve_action);
+        eprintln!(
+            "freeing {}'s default set{}: {}",
+            entry.name,
+            if valve_action {
+                " with the flow parameters (the runs have valve action)"
+            } else {
+                ""
+            },
+            names.join(",")
+        );
+        names.iter().map(|n| (*n).to_owned()).collect()
+    } else {
+        args.free.clone()
+    };
+    let mut free: Vec<FreeParameter> = free_names.iter().map(FreeParameter::new).collect();
     for text in &args.bounds {
         let (name, lo, hi) = parse_bounds(text)?;
         let Some(p) = free.iter_mut().find(|p| p.name == name) else {
@@ -170,6 +189,24 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         if !args.json {
             println!();
             println!("estimated parameters written to {}", out.display());
+        }
+        // A parameter without a truck-file key (the truck structure's effects) is not in the
+        // file: say so rather than let a later run start from the default silently.
+        let reread = build_any_model(&args.model, &truck)?;
+        let unsaved: Vec<String> = free_names
+            .iter()
+            .filter_map(|name| {
+                let estimated = result.estimated_model.parameter(name).ok()?;
+                let saved = reread.parameter(name).ok()?;
+                (estimated != saved).then(|| format!("{name} = {estimated:e}"))
+            })
+            .collect();
+        if !unsaved.is_empty() {
+            eprintln!(
+                "warning: {} has no truck-file key for {}; they are in the printed result only",
+                args.model,
+                unsaved.join(", ")
+            );
         }
     }
     if !result.stop.is_converged() {

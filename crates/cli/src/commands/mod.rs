@@ -7,6 +7,7 @@ pub mod fmu;
 pub mod generate;
 pub mod greybox;
 pub mod ident;
+pub mod models;
 pub mod params;
 pub mod road;
 pub mod simulate;

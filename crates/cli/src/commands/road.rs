@@ -21,7 +21,7 @@ pub enum Profile {
 pub struct RoadArgs {
     #[arg(long, value_name = "T.toml")]
     pub truck: PathBuf,
-    /// m1, m2, m2x, m2xh or truck (Model 3 has no tire).
+    /// Any registered model with a tire (`airsus models`; Model 3 has none).
     #[arg(long, default_value = "m2")]
     pub model: String,
     #[arg(long, value_enum)]

@@ -49,7 +49,7 @@ impl From<MethodArg> for Method {
 /// Simulate a model over a run's inputs and write the simulated outputs in the run format.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SimulateArgs {
-    /// Model to simulate: m1, m2, m2x, m2xh, m3 or truck.
+    /// Model to simulate: any registered model (`airsus models`).
     #[arg(long)]
     pub model: String,
     /// Truck parameter file (TOML); omitted *est* keys take the reference truck's values.
@@ -102,10 +102,8 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         (None, Some(mm)) => InitialState::Equilibrium(InitialCondition::SensorHeight {
             height_m: mm * 1e-3,
         }),
-        (None, None) => match run.outputs.as_ref().and_then(|o| o.sensor_height_m.first()) {
-            Some(&height_m) => {
-                InitialState::Equilibrium(InitialCondition::SensorHeight { height_m })
-            }
+        (None, None) => match InitialState::from_run(&run) {
+            Some(initial) => initial,
             None => bail!(
                 "run {} has no measured outputs to start from: give --initial-pressure-kpa or --initial-height-mm",
                 args.run.display()

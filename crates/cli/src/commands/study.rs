@@ -8,7 +8,8 @@ use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use airsus_study::{
-    Event, Protocol, STUDY_MODELS, StudyOptions, load_study, run_builtin, run_study, summary_table,
+    Event, Protocol, StudyOptions, check_models, load_study, run_builtin, run_study, study_models,
+    summary_table,
 };
 
 /// Run the thesis pipeline: submodel fits, grey-box estimation of every model (m1, m2, m2x,
@@ -32,7 +33,7 @@ pub struct StudyArgs {
     #[arg(long, default_value_t = 1, requires = "builtin")]
     pub seed: u64,
     /// Models to estimate (comma-separated).
-    #[arg(long, value_delimiter = ',', default_values_t = STUDY_MODELS.iter().map(|m| (*m).to_owned()).collect::<Vec<_>>())]
+    #[arg(long, value_delimiter = ',', default_values_t = study_models().iter().map(|m| (*m).to_owned()).collect::<Vec<_>>())]
     pub models: Vec<String>,
     /// Iteration limit of each grey-box fit.
     #[arg(long, default_value_t = 60)]
@@ -41,14 +42,7 @@ pub struct StudyArgs {
 
 pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
     let started = Instant::now();
-    for m in &args.models {
-        if !STUDY_MODELS.contains(&m.as_str()) {
-            bail!(
-                "unknown model `{m}`; the study estimates {}",
-                STUDY_MODELS.join(", ")
-            );
-        }
-    }
+    check_models(&args.models)?;
     if args.max_iterations == 0 {
         bail!("--max-iterations must be at least 1");
     }

@@ -31,7 +31,7 @@ pub struct WeighArgs {
     pub run: PathBuf,
     #[arg(long, value_enum, default_value_t = Method::Static)]
     pub method: Method,
-    /// Model the EKF runs (m1, m2, m2x, m2xh, truck).
+    /// Model the EKF runs (`airsus models`).
     #[arg(long, default_value = "m2")]
     pub model: String,
     /// Averaging window of the static method, s.

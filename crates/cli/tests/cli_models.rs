@@ -1,0 +1,138 @@
+//! `airsus models`: the one registry every command reads, and `greybox` fitting every model
+//! the study fits (the `truck` structure included).
+
+use std::process::Command;
+
+fn airsus(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_airsus"))
+        .args(args)
+        .output()
+        .expect("the airsus binary runs")
+}
+
+fn ok(out: &std::process::Output) -> (String, String) {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{stderr}");
+    (String::from_utf8_lossy(&out.stdout).into_owned(), stderr)
+}
+
+#[test]
+fn models_json_lists_every_model_with_parameters_and_states() {
+    let (stdout, _) = ok(&airsus(&["models", "--json"]));
+    let models: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let models = models.as_array().unwrap();
+    let names: Vec<&str> = models.iter().map(|m| m["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["m1", "m2", "m2x", "m2xh", "m3", "truck"]);
+    for model in models {
+        let name = model["name"].as_str().unwrap();
+        assert!(!model["description"].as_str().unwrap().is_empty());
+        for p in model["parameters"].as_array().unwrap() {
+            let (min, max, default) = (
+                p["min"].as_f64().unwrap(),
+                p["max"].as_f64().unwrap(),
+                p["default"].as_f64().unwrap(),
+            );
+            assert!(min < max && (min..=max).contains(&default), "{name}: {p}");
+            assert!(!p["unit"].as_str().unwrap().is_empty(), "{name}: {p}");
+            assert!(
+                !p["description"].as_str().unwrap().is_empty(),
+                "{name}: {p}"
+            );
+        }
+        let params: Vec<&str> = model["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["name"].as_str().unwrap())
+            .collect();
+        for free in model["default_free"].as_array().unwrap() {
+            assert!(params.contains(&free.as_str().unwrap()), "{name}: {free}");
+        }
+        let roles: Vec<(&str, &str)> = model["states"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| (s["name"].as_str().unwrap(), s["role"].as_str().unwrap()))
+            .collect();
+        assert!(
+            roles.contains(&("n_mol", "bellow_air")),
+            "{name}: {roles:?}"
+        );
+    }
+    let truck = &models[5];
+    let states = truck["states"].as_array().unwrap();
+    let gas = states.iter().find(|s| s["name"] == "gas_t_k").unwrap();
+    assert_eq!(
+        (gas["unit"].as_str(), gas["role"].as_str()),
+        (Some("K"), Some("gas_temperature"))
+    );
+    // The reference m2 as the SPEC gives it.
+    let m2 = models[1]["parameters"].as_array().unwrap();
+    let unsprung = m2.iter().find(|p| p["name"] == "m2").unwrap();
+    assert_eq!(unsprung["default"].as_f64(), Some(520.0));
+    assert_eq!(unsprung["unit"].as_str(), Some("kg"));
+
+    let (text, _) = ok(&airsus(&["models"]));
+    for name in names {
+        assert!(
+            text.contains(&format!("{name} ")),
+            "{name} missing from:\n{text}"
+        );
+    }
+}
+
+#[test]
+fn greybox_fits_the_truck_structure_and_says_what_a_truck_file_cannot_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    ok(&airsus(&[
+        "generate",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]));
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+
+    // Without --free: the registry's default set, with the valve conductances on valve data.
+    let (_, stderr) = ok(&airsus(&[
+        "greybox",
+        "--model",
+        "truck",
+        "--truck",
+        &p("truck.toml"),
+        "--run",
+        &p("ds3.csv"),
+        "--max-iterations",
+        "1",
+        "--json",
+    ]));
+    assert!(
+        stderr.contains("freeing truck's default set with the flow parameters")
+            && stderr.contains("p0,p1,p2,p3,p4,m2,ig,kc,tc,c1,c2"),
+        "{stderr}"
+    );
+
+    // The creep element's stiffness has no truck-file key: the estimate is printed and the
+    // user is told it is not in the written file.
+    let (stdout, stderr) = ok(&airsus(&[
+        "greybox",
+        "--model",
+        "truck",
+        "--free",
+        "kc",
+        "--truck",
+        &p("truck.toml"),
+        "--run",
+        &p("ds1.csv"),
+        "--max-iterations",
+        "3",
+        "--out",
+        &p("est.toml"),
+        "--json",
+    ]));
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert!(json.to_string().contains("\"kc\""), "{json}");
+    assert!(
+        stderr.contains("truck has no truck-file key for kc ="),
+        "{stderr}"
+    );
+    assert!(airsus_data::read_truck(std::path::Path::new(&p("est.toml"))).is_ok());
+}

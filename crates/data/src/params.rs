@@ -1,0 +1,357 @@
+//! The physical parameters of a truck file, declared once (SPEC §5 `--free` names).
+//!
+//! Each [`Param`] names a value by its short name, says where it lives in the truck file
+//! (section, key, index) and in [`TruckParameters`], and gives its unit, description and
+//! admissible range. The truck-file reader checks values against these ranges, the models'
+//! parameter catalogues and the estimator's default bounds are these ranges, and `airsus
+//! models` prints them: one declaration, no copies.
+//!
+//! | name | truck-file key | unit |
+//! |---|---|---|
+//! | `p0`..`p4` | `bellow.effective_area_poly_m2[i]` (eq 5.4) | m², m, 1, 1/m, 1/m² |
+//! | `a0`, `a1` | `bellow.cross_section_m2[i]` (eq 5.1) | m², m |
+//! | `m2` | `mass.unsprung_kg` | kg |
+//! | `ig` | `mass.lever_inertia_kg_m2` | kg m² |
+//! | `kf` | `bellow.hinge_friction_n_s_per_m` | N s/m |
+//! | `kw` | `tire.stiffness_n_per_m` | N/m |
+//! | `kscl` | `geometry.lever_compliance_m_per_n` | m/N |
+//! | `rflow1`, `rflow2` | `valve.fill/exhaust_resistance_pa_s_per_mol` | Pa s/mol |
+//! | `ksd` (m2x) | `slow_dynamics.force_scale_n_per_m` | N/m |
+//! | `ksd` (m2xh) | `slow_dynamics.creep_stiffness_n_per_m` | N/m |
+//! | `tsd` (m2xh) | `slow_dynamics.creep_time_constant_s` | s |
+//!
+//! The bounds are the physically admissible ranges; they are deliberately wide — they exclude
+//! nonsense (negative masses, stiffness off by 1000, a unit slip), not unlikely values.
+
+use crate::truck::TruckParameters;
+
+/// Description of one freeable parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterInfo {
+    /// Short name used by `--free` (SPEC §5: `p0`..`p4`, `a0`, `a1`, `m2`, `ig`, `kf`, `kw`,
+    /// `kscl`, `rflow1`, `rflow2`, `ksd`; models with more document their own).
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub description: &'static str,
+    /// Physically admissible range; the estimator's default bounds.
+    pub lower: f64,
+    pub upper: f64,
+}
+
+impl ParameterInfo {
+    /// Whether `value` is inside the admissible range (NaN is not).
+    pub fn admits(&self, value: f64) -> bool {
+        value >= self.lower && value <= self.upper
+    }
+}
+
+/// Where a named parameter lives in [`TruckParameters`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Field {
+    EffectiveArea(usize),
+    CrossSection(usize),
+    Unsprung,
+    LeverInertia,
+    HingeFriction,
+    TireStiffness,
+    LeverCompliance,
+    FillResistance,
+    ExhaustResistance,
+    SlowForceScale,
+    CreepStiffness,
+    CreepTimeConstant,
+}
+
+impl Field {
+    /// Where the value sits in a truck file: section, key and, for an array, the index.
+    pub fn location(self) -> (&'static str, &'static str, Option<usize>) {
+        match self {
+            Self::EffectiveArea(i) => ("bellow", "effective_area_poly_m2", Some(i)),
+            Self::CrossSection(i) => ("bellow", "cross_section_m2", Some(i)),
+            Self::Unsprung => ("mass", "unsprung_kg", None),
+            Self::LeverInertia => ("mass", "lever_inertia_kg_m2", None),
+            Self::HingeFriction => ("bellow", "hinge_friction_n_s_per_m", None),
+            Self::TireStiffness => ("tire", "stiffness_n_per_m", None),
+            Self::LeverCompliance => ("geometry", "lever_compliance_m_per_n", None),
+            Self::FillResistance => ("valve", "fill_resistance_pa_s_per_mol", None),
+            Self::ExhaustResistance => ("valve", "exhaust_resistance_pa_s_per_mol", None),
+            Self::SlowForceScale => ("slow_dynamics", "force_scale_n_per_m", None),
+            Self::CreepStiffness => ("slow_dynamics", "creep_stiffness_n_per_m", None),
+            Self::CreepTimeConstant => ("slow_dynamics", "creep_time_constant_s", None),
+        }
+    }
+
+    /// The declaration of this value.
+    pub fn param(self) -> &'static Param {
+        CATALOG
+            .iter()
+            .find(|p| p.field == self)
+            .expect("every field is declared in CATALOG (tested)")
+    }
+}
+
+/// The SPEC parameters of every model on Model 2's lever (QCM 2 and the models built on it).
+pub const LEVER_MODEL_FIELDS: &[Field] = &[
+    Field::EffectiveArea(0),
+    Field::EffectiveArea(1),
+    Field::EffectiveArea(2),
+    Field::EffectiveArea(3),
+    Field::EffectiveArea(4),
+    Field::CrossSection(0),
+    Field::CrossSection(1),
+    Field::Unsprung,
+    Field::LeverInertia,
+    Field::HingeFriction,
+    Field::TireStiffness,
+    Field::LeverCompliance,
+    Field::FillResistance,
+    Field::ExhaustResistance,
+];
+
+/// One named parameter: its description and its home in the truck parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Param {
+    pub info: ParameterInfo,
+    pub field: Field,
+}
+
+const fn info(
+    name: &'static str,
+    unit: &'static str,
+    description: &'static str,
+    lower: f64,
+    upper: f64,
+) -> ParameterInfo {
+    ParameterInfo {
+        name,
+        unit,
+        description,
+        lower,
+        upper,
+    }
+}
+
+/// All SPEC §5 names plus the creep element's (`m2xh`). `ksd` appears twice with different
+/// meanings; a model picks one.
+pub const CATALOG: &[Param] = &[
+    Param {
+        info: info(
+            "p0",
+            "m²",
+            "effective area A_eff = p0 + p1 h + .. + p4 h⁴, constant term (eq 5.4)",
+            -1.0,
+            1.0,
+        ),
+        field: Field::EffectiveArea(0),
+    },
+    Param {
+        info: info(
+            "p1",
+            "m",
+            "effective area, linear coefficient (eq 5.4; thesis Table 5.2 misprints 0.08362 for 0.8362)",
+            -10.0,
+            10.0,
+        ),
+        field: Field::EffectiveArea(1),
+    },
+    Param {
+        info: info(
+            "p2",
+            "1",
+            "effective area, quadratic coefficient (eq 5.4)",
+            -100.0,
+            100.0,
+        ),
+        field: Field::EffectiveArea(2),
+    },
+    Param {
+        info: info(
+            "p3",
+            "1/m",
+            "effective area, cubic coefficient (eq 5.4)",
+            -100.0,
+            100.0,
+        ),
+        field: Field::EffectiveArea(3),
+    },
+    Param {
+        info: info(
+            "p4",
+            "1/m²",
+            "effective area, quartic coefficient (eq 5.4)",
+            -100.0,
+            100.0,
+        ),
+        field: Field::EffectiveArea(4),
+    },
+    Param {
+        info: info(
+            "a0",
+            "m²",
+            "gas-volume cross-section A = a0 + a1 h, constant term (eq 5.1)",
+            1e-3,
+            5.0,
+        ),
+        field: Field::CrossSection(0),
+    },
+    Param {
+        info: info(
+            "a1",
+            "m",
+            "gas-volume cross-section, slope (eq 5.1)",
+            -5.0,
+            5.0,
+        ),
+        field: Field::CrossSection(1),
+    },
+    Param {
+        info: info(
+            "m2",
+            "kg",
+            "unsprung mass m2 (axle, wheel; thesis 3.1)",
+            10.0,
+            3000.0,
+        ),
+        field: Field::Unsprung,
+    },
+    Param {
+        info: info(
+            "ig",
+            "kg m²",
+            "lever + axle inertia about the hinge I_g (eq 3.8; nominal m2 l1²)",
+            1.0,
+            1e4,
+        ),
+        field: Field::LeverInertia,
+    },
+    Param {
+        info: info(
+            "kf",
+            "N s/m",
+            "hinge friction k_f, viscous (eq 3.4)",
+            0.0,
+            1e6,
+        ),
+        field: Field::HingeFriction,
+    },
+    Param {
+        info: info("kw", "N/m", "tire stiffness k_w (eq 3.15)", 1e5, 1e8),
+        field: Field::TireStiffness,
+    },
+    Param {
+        info: info(
+            "kscl",
+            "m/N",
+            "static lever flex per newton of wheel load k_scl (eq 3.14)",
+            0.0,
+            1e-5,
+        ),
+        field: Field::LeverCompliance,
+    },
+    Param {
+        info: info(
+            "rflow1",
+            "Pa s/mol",
+            "fill-channel flow resistance R_flow1 (eq 3.19)",
+            1e3,
+            1e11,
+        ),
+        field: Field::FillResistance,
+    },
+    Param {
+        info: info(
+            "rflow2",
+            "Pa s/mol",
+            "exhaust-channel flow resistance R_flow2 (eq 3.19)",
+            1e3,
+            1e11,
+        ),
+        field: Field::ExhaustResistance,
+    },
+    Param {
+        info: info(
+            "ksd",
+            "N/m",
+            "slow-force scale k_sd: extra bellow force per metre of OE output (eq 4.4)",
+            0.0,
+            1e8,
+        ),
+        field: Field::SlowForceScale,
+    },
+    Param {
+        info: info(
+            "ksd",
+            "N/m",
+            "creep stiffness k_sd of the bellow-wall Maxwell element (m2xh)",
+            0.0,
+            1e8,
+        ),
+        field: Field::CreepStiffness,
+    },
+    Param {
+        info: info(
+            "tsd",
+            "s",
+            "creep relaxation time constant τ_sd of the Maxwell element (m2xh)",
+            0.1,
+            1e5,
+        ),
+        field: Field::CreepTimeConstant,
+    },
+];
+
+/// The catalogue entries for `fields`, in that order.
+pub fn select(fields: &[Field]) -> Vec<Param> {
+    fields
+        .iter()
+        .filter_map(|f| CATALOG.iter().find(|p| p.field == *f).cloned())
+        .collect()
+}
+
+/// The SPEC's meaning of a name (`ksd` = the OE force scale), for writing parameters back.
+pub fn spec_field(name: &str) -> Option<Field> {
+    CATALOG
+        .iter()
+        .find(|p| p.info.name == name)
+        .map(|p| p.field)
+}
+
+pub fn get(truck: &TruckParameters, field: Field) -> f64 {
+    match field {
+        Field::EffectiveArea(i) => truck.bellow.effective_area_poly_m2[i],
+        Field::CrossSection(i) => truck.bellow.cross_section_m2[i],
+        Field::Unsprung => truck.mass.unsprung_kg,
+        Field::LeverInertia => truck.mass.lever_inertia_kg_m2,
+        Field::HingeFriction => truck.bellow.hinge_friction_n_s_per_m,
+        Field::TireStiffness => truck.tire.stiffness_n_per_m,
+        Field::LeverCompliance => truck.geometry.lever_compliance_m_per_n,
+        Field::FillResistance => truck.valve.fill_resistance_pa_s_per_mol,
+        Field::ExhaustResistance => truck.valve.exhaust_resistance_pa_s_per_mol,
+        Field::SlowForceScale => truck.slow_dynamics.force_scale.unwrap_or(f64::NAN),
+        Field::CreepStiffness => truck
+            .slow_dynamics
+            .creep_stiffness_n_per_m
+            .unwrap_or(f64::NAN),
+        Field::CreepTimeConstant => truck
+            .slow_dynamics
+            .creep_time_constant_s
+            .unwrap_or(f64::NAN),
+    }
+}
+
+pub fn set(truck: &mut TruckParameters, field: Field, value: f64) {
+    match field {
+        Field::EffectiveArea(i) => truck.bellow.effective_area_poly_m2[i] = value,
+        Field::CrossSection(i) => truck.bellow.cross_section_m2[i] = value,
+        Field::Unsprung => truck.mass.unsprung_kg = value,
+        Field::LeverInertia => truck.mass.lever_inertia_kg_m2 = value,
+        Field::HingeFriction => truck.bellow.hinge_friction_n_s_per_m = value,
+        Field::TireStiffness => truck.tire.stiffness_n_per_m = value,
+        Field::LeverCompliance => truck.geometry.lever_compliance_m_per_n = value,
+        Field::FillResistance => truck.valve.fill_resistance_pa_s_per_mol = value,
+        Field::ExhaustResistance => truck.valve.exhaust_resistance_pa_s_per_mol = value,
+        Field::SlowForceScale => truck.slow_dynamics.force_scale = Some(value),
+        Field::CreepStiffness => truck.slow_dynamics.creep_stiffness_n_per_m = Some(value),
+        Field::CreepTimeConstant => truck.slow_dynamics.creep_time_constant_s = Some(value),
+    }
+}

@@ -1,0 +1,68 @@
+//! One declaration per parameter: the truck-file reader rejects a value outside the range
+//! declared in `airsus_data::params` — the same range the models and the estimator use — and
+//! names the file, line, key and bound.
+
+use std::path::Path;
+
+use airsus_data::params::{CATALOG, set};
+use airsus_data::truck::parse_truck;
+use airsus_data::{TruckParameters, truck_to_toml};
+
+fn reference_with_optional_keys() -> TruckParameters {
+    let mut truck = TruckParameters::reference();
+    truck.slow_dynamics.force_scale = Some(1000.0);
+    truck.slow_dynamics.creep_stiffness_n_per_m = Some(2.5e4);
+    truck.slow_dynamics.creep_time_constant_s = Some(33.0);
+    truck
+}
+
+#[test]
+fn every_declared_parameter_is_range_checked_at_load_with_its_declared_bounds() {
+    let path = Path::new("truck.toml");
+    let reference = reference_with_optional_keys();
+    let text = truck_to_toml(&reference);
+    let loaded = parse_truck(&text, path).expect("the reference truck loads");
+    assert_eq!(loaded.parameters, reference);
+
+    for param in CATALOG {
+        let info = &param.info;
+        let (section, key, index) = param.field.location();
+        let shown = match index {
+            Some(i) => format!("{section}.{key}[{i}]"),
+            None => format!("{section}.{key}"),
+        };
+        let below = if info.lower > 0.0 {
+            info.lower * 0.5
+        } else {
+            info.lower - 0.01 * (info.upper - info.lower)
+        };
+        let above = info.upper * 2.0;
+        for outside in [below, above] {
+            let mut truck = reference.clone();
+            set(&mut truck, param.field, outside);
+            let err = parse_truck(&truck_to_toml(&truck), path)
+                .expect_err(&format!("{shown} = {outside} must be refused"))
+                .to_string();
+            assert!(err.contains(&shown), "{shown}: {err}");
+            assert!(
+                err.contains(&format!("{} to {} {}", info.lower, info.upper, info.unit)),
+                "{shown}: the declared bounds in {err}"
+            );
+            // file:line: the error points at the key's line.
+            let line = err
+                .strip_prefix("truck.toml:")
+                .and_then(|rest| rest.split(':').next())
+                .and_then(|l| l.parse::<usize>().ok())
+                .unwrap_or_else(|| panic!("{shown}: no line in {err}"));
+            let key_line = truck_to_toml(&truck)
+                .lines()
+                .nth(line - 1)
+                .unwrap()
+                .to_owned();
+            assert!(
+                key_line.trim_start().starts_with(key),
+                "{shown}: line {line} is `{key_line}`"
+            );
+        }
+    }
+}
