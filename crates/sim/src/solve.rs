@@ -43,7 +43,8 @@ use diffsol::{
 
 use crate::error::{NamedState, SimError, SolverFailure, StateViolation};
 use crate::problem::{
-    AbsoluteTolerance, InitialState, Method, SimulationProblem, StateBounds, SupplyRelevance,
+    AbsoluteTolerance, DEFAULT_SUPPLY_DEADBAND_PA, InitialState, Method, SimulationProblem,
+    StateBounds, SupplyRelevance,
 };
 use crate::response::{SimulationResponse, SolverStatistics};
 
@@ -230,6 +231,10 @@ pub fn input_change_matters(
     match supply {
         SupplyRelevance::Always => true,
         SupplyRelevance::WhileFilling => next.valve == airsus_data::ValveState::Fill,
+        SupplyRelevance::Beyond { deadband_pa } => {
+            next.valve == airsus_data::ValveState::Fill
+                || (next.supply_gauge_pa - held.supply_gauge_pa).abs() >= deadband_pa
+        }
     }
 }
 
@@ -515,10 +520,13 @@ where
     ) -> Result<SolverStatistics, SimError> {
         let inputs = &self.problem.inputs;
         let options = &self.problem.options;
-        let supply_relevance = if self.problem.model.uses_supply_while_valve_shut() {
-            SupplyRelevance::Always
-        } else {
-            options.supply
+        let supply_relevance = match options.supply {
+            SupplyRelevance::WhileFilling if self.problem.model.uses_supply_while_valve_shut() => {
+                SupplyRelevance::Beyond {
+                    deadband_pa: DEFAULT_SUPPLY_DEADBAND_PA,
+                }
+            }
+            chosen => chosen,
         };
         let times = inputs.time_s();
         let len = times.len();
@@ -683,6 +691,24 @@ mod tests {
             &held,
             &sample(3000.0, Closed, 851e3, 0.0),
             SupplyRelevance::Always
+        ));
+        // A supply line: noise inside the deadband is held, a real swing restarts, and every
+        // change counts while filling.
+        let line = SupplyRelevance::Beyond { deadband_pa: 5e3 };
+        assert!(!input_change_matters(
+            &held,
+            &sample(3000.0, Closed, 854e3, 0.0),
+            line
+        ));
+        assert!(input_change_matters(
+            &held,
+            &sample(3000.0, Closed, 845e3, 0.0),
+            line
+        ));
+        assert!(input_change_matters(
+            &filling,
+            &sample(3000.0, Fill, 849e3, 0.0),
+            line
         ));
     }
 

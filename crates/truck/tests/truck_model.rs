@@ -282,3 +282,40 @@ fn the_supply_line_follows_the_logged_tank_pressure_while_the_valve_is_shut() {
         rise(&steady)
     );
 }
+
+#[test]
+fn supply_sensor_noise_does_not_restart_the_solver_at_every_sample() {
+    // A logged supply moves by its 1 kPa resolution at nearly every sample; restarting on each
+    // change made the truck structure 20x slower. Inside the deadband it is held.
+    let model = TruckModel::reference();
+    let n = 601;
+    let time: Vec<f64> = (0..n).map(|i| i as f64 * 0.1).collect();
+    let load = vec![3390.0; n];
+    let valve = vec![ValveState::Closed; n];
+    let road = vec![0.0; n];
+    let noisy: Vec<f64> = (0..n)
+        .map(|i| 850e3 + [0.0, 1e3, -1e3, 2e3][i % 4])
+        .collect();
+    let inputs = InputSeries::new(&time, &load, &valve, &noisy, &road).unwrap();
+    let problem = SimulationProblem::new(
+        &model as &dyn SuspensionModel,
+        inputs,
+        InitialState::Equilibrium(InitialCondition::SensorHeight { height_m: 0.235 }),
+    );
+    let r = simulate(&problem).unwrap();
+    assert_eq!(r.statistics.restarts, 0, "{:?}", r.statistics);
+    // A real droop beyond the deadband is followed.
+    let drooping: Vec<f64> = (0..n).map(|i| 850e3 - 100.0 * i as f64).collect();
+    let inputs = InputSeries::new(&time, &load, &valve, &drooping, &road).unwrap();
+    let r = simulate(&SimulationProblem::new(
+        &model as &dyn SuspensionModel,
+        inputs,
+        InitialState::Equilibrium(InitialCondition::SensorHeight { height_m: 0.235 }),
+    ))
+    .unwrap();
+    assert!(
+        (10..=13).contains(&r.statistics.restarts),
+        "60 kPa of droop in 5 kPa steps: {:?}",
+        r.statistics
+    );
+}
