@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use crate::chart::{Chart, write_chart};
-use crate::results::{ModelResult, OutputFit, ProtocolResult, StudyResults};
+use crate::results::{ProtocolResult, StudyResults};
 use crate::thesis;
 
 #[derive(Debug, thiserror::Error)]
@@ -127,7 +127,7 @@ fn render_html(results: &StudyResults, charts: &[(&Chart, Result<String, String>
     recommendations(&mut h, results);
     submodels(&mut h, results);
     for protocol in &results.protocols {
-        protocol_section(&mut h, protocol);
+        protocol_section(&mut h, results, protocol);
     }
     figures(&mut h, charts);
     h.push_str("</body></html>\n");
@@ -188,143 +188,75 @@ fn summary(h: &mut String, results: &StudyResults) {
     }
 }
 
-/// Mean of height and pressure NRMSE over the runs a predicate selects; `None` if none.
-fn mean_fit(model: &ModelResult, select: impl Fn(&str) -> bool) -> Option<f64> {
-    let fits: Vec<OutputFit> = model
-        .runs
-        .iter()
-        .filter(|r| select(&r.run))
-        .filter_map(|r| r.estimated)
-        .collect();
-    if fits.is_empty() {
-        return None;
-    }
-    Some(
-        fits.iter()
-            .map(|f| 0.5 * (f.height_percent + f.pressure_percent))
-            .sum::<f64>()
-            / fits.len() as f64,
-    )
-}
-
-/// Which model to use for what, in words, from the numbers: the best model on validation
-/// runs without valve action (loading: weighing) and with it (valve: level control).
+/// Which model to use for what: the study's findings, in words.
 fn recommendations(h: &mut String, results: &StudyResults) {
     h.push_str("<h2>Which model for what</h2>");
-    let valve_runs: Vec<&str> = results
-        .runs
-        .iter()
-        .filter(|r| r.valve_action)
-        .map(|r| r.name.as_str())
-        .collect();
-    let load_runs: Vec<&str> = results
-        .runs
-        .iter()
-        .filter(|r| !r.valve_action)
-        .map(|r| r.name.as_str())
-        .collect();
-    let Some(best_protocol) = results.protocols.last() else {
+    let findings = &results.findings;
+    if findings.uses.is_empty() && findings.valve_data.is_none() {
         h.push_str(
             "<p class=\"note\">No grey-box protocol ran, so there is nothing to compare.</p>",
         );
         return;
-    };
-    let validation = |p: &ProtocolResult, runs: &[&str]| -> Vec<(String, f64)> {
-        let mut v: Vec<(String, f64)> = p
-            .models
-            .iter()
-            .filter_map(|m| {
-                mean_fit(m, |r| {
-                    runs.contains(&r) && !p.estimation_runs.iter().any(|e| e == r)
-                })
-                .map(|f| (m.model.clone(), f))
-            })
-            .collect();
-        v.sort_by(|a, b| b.1.total_cmp(&a.1));
-        v
-    };
-    let describe = |v: &[(String, f64)]| -> String {
-        v.iter()
-            .map(|(m, f)| format!("{} {:.1} %", esc(m), f))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    }
     h.push_str("<ul>");
-    // The virtual truck's own structure (`truck`) wins on data it generated; name the best
-    // thesis model too, which is what a user of real data would choose among.
-    let best = |ranked: &[(String, f64)]| -> Option<String> {
-        let (model, fit) = ranked.first()?;
-        let mut text = format!("<code>{}</code> ({:.1} %)", esc(model), fit);
-        if let Some((m, f)) = ranked.iter().find(|(m, _)| m != "truck")
-            && model == "truck"
-        {
+    for use_ in &findings.uses {
+        let Some(first) = use_.ranking.first() else {
+            continue;
+        };
+        let mut best = format!(
+            "<code>{}</code> ({:.1} %)",
+            esc(&first.model),
+            first.mean_nrmse_percent
+        );
+        if let Some(other) = &use_.best_other_than_truck {
             let _ = write!(
-                text,
+                best,
                 ", the virtual truck's own structure; among the thesis models <code>{}</code> ({:.1} %)",
-                esc(m),
-                f
+                esc(&other.model),
+                other.mean_nrmse_percent
             );
         }
-        Some(text)
-    };
-    let load = validation(best_protocol, &load_runs);
-    if let Some(text) = best(&load) {
-        let _ = write!(
-            h,
-            "<li><b>Axle-load estimation and loading simulations:</b> {text} reproduces the loading runs best (mean NRMSE of height and pressure; all: {}). Weighing reads the static balance, so what matters is the pressure level after each step.</li>",
-            describe(&load)
-        );
-    }
-    let valve = validation(best_protocol, &valve_runs);
-    if let Some(text) = best(&valve) {
-        let _ = write!(
-            h,
-            "<li><b>Level-controller design:</b> {text} follows the valve runs best (all: {}). A level controller acts only through the valve, so fill and exhaust dynamics must be right.</li>",
-            describe(&valve)
-        );
-    }
-    if results.protocols.len() >= 2 {
-        let first = &results.protocols[0];
-        let runs: Vec<&str> = valve_runs
+        let all = use_
+            .ranking
             .iter()
-            .copied()
-            .filter(|r| !best_protocol.estimation_runs.iter().any(|e| e == r))
-            .collect();
-        // Per output, before → after, averaged over the valve runs neither protocol estimated on.
-        let output_mean = |m: &ModelResult, pick: fn(&OutputFit) -> f64| -> Option<f64> {
-            let v: Vec<f64> = m
-                .runs
-                .iter()
-                .filter(|r| runs.contains(&r.run.as_str()))
-                .filter_map(|r| r.estimated.as_ref().map(pick))
-                .collect();
-            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+            .map(|m| format!("{} {:.1} %", esc(&m.model), m.mean_nrmse_percent))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let _ = match use_.purpose.as_str() {
+            "axle_load" => write!(
+                h,
+                "<li><b>Axle-load estimation and loading simulations:</b> {best} reproduces the loading runs best (mean NRMSE of height and pressure; all: {all}). Weighing reads the static balance, so what matters is the pressure level after each step.</li>"
+            ),
+            "level_control" => write!(
+                h,
+                "<li><b>Level-controller design:</b> {best} follows the valve runs best (all: {all}). A level controller acts only through the valve, so fill and exhaust dynamics must be right.</li>"
+            ),
+            other => write!(h, "<li><b>{}:</b> {best} (all: {all}).</li>", esc(other)),
         };
-        let gain: Vec<String> = best_protocol
+    }
+    if let Some(gain) = &findings.valve_data {
+        let per_model: Vec<String> = gain
             .models
             .iter()
-            .filter_map(|m| {
-                let before = first.models.iter().find(|f| f.model == m.model)?;
-                Some(format!(
+            .map(|m| {
+                format!(
                     "{}: height {:.1} → {:.1} %, pressure {:.1} → {:.1} %",
                     esc(&m.model),
-                    output_mean(before, |f| f.height_percent)?,
-                    output_mean(m, |f| f.height_percent)?,
-                    output_mean(before, |f| f.pressure_percent)?,
-                    output_mean(m, |f| f.pressure_percent)?
-                ))
+                    m.height_before_percent,
+                    m.height_after_percent,
+                    m.pressure_before_percent,
+                    m.pressure_after_percent
+                )
             })
             .collect();
-        if !gain.is_empty() {
-            let _ = write!(
-                h,
-                "<li><b>What valve-action data buys</b> on the valve runs not used for estimation ({}), estimating on “{}” instead of “{}”: {}. A closed-valve run cannot determine the gas volume's scale or the flow resistances (SPEC §4).</li>",
-                esc(&runs.join(", ")),
-                esc(&best_protocol.name),
-                esc(&first.name),
-                gain.join("; ")
-            );
-        }
+        let _ = write!(
+            h,
+            "<li><b>What valve-action data buys</b> on the valve runs not used for estimation ({}), estimating on “{}” instead of “{}”: {}. A closed-valve run cannot determine the gas volume's scale or the flow resistances (SPEC §4).</li>",
+            esc(&gain.runs.join(", ")),
+            esc(&gain.after_protocol),
+            esc(&gain.before_protocol),
+            per_model.join("; ")
+        );
     }
     h.push_str("</ul>");
 }
@@ -381,7 +313,7 @@ fn submodels(h: &mut String, results: &StudyResults) {
     h.push_str("</table>");
 }
 
-fn protocol_section(h: &mut String, p: &ProtocolResult) {
+fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) {
     let _ = write!(
         h,
         "<h2>Grey-box estimation, protocol “{}”</h2><p>{} Estimation runs: {}.</p>",
@@ -436,9 +368,13 @@ fn protocol_section(h: &mut String, p: &ProtocolResult) {
             .iter()
             .filter(|r| !p.estimation_runs.contains(&r.run))
         {
-            let data_set = r.run.trim_start_matches("data-set ").parse::<usize>().ok();
+            let data_set = results
+                .runs
+                .iter()
+                .find(|info| info.name == r.run)
+                .and_then(|info| info.thesis_data_set);
             let reference = data_set
-                .and_then(|n| thesis::validation(&m.model, n))
+                .and_then(|n| thesis::validation(&m.model, n as usize))
                 .map(|(a, b)| format!("{a:.1} / {b:.1}"))
                 .unwrap_or_else(|| "–".to_owned());
             let residuals: Vec<String> = r
@@ -654,6 +590,7 @@ mod tests {
                     samples: 100,
                     duration_s: 10.0,
                     valve_action: i == 2,
+                    thesis_data_set: Some(i as u32 + 1),
                 })
                 .collect(),
             submodels: SubmodelResults {
@@ -674,6 +611,20 @@ mod tests {
                 models: vec![good, failed],
             }],
             elapsed_s: 2.0,
+            // Decided by the study; the report only renders it.
+            findings: Findings {
+                uses: vec![ModelUse {
+                    purpose: "level_control".to_owned(),
+                    protocol: "thesis".to_owned(),
+                    runs: vec!["data-set 3".to_owned()],
+                    ranking: vec![RankedModel {
+                        model: "m2".to_owned(),
+                        mean_nrmse_percent: 67.5,
+                    }],
+                    best_other_than_truck: None,
+                }],
+                valve_data: None,
+            },
         }
     }
 
@@ -735,8 +686,8 @@ mod tests {
         );
         assert!(html.contains("Table 5.11"));
         assert!(
-            html.contains("Level-controller design"),
-            "recommendations in words"
+            html.contains("<b>Level-controller design:</b> <code>m2</code> (67.5 %)"),
+            "the study's findings in words"
         );
         assert!(html.contains("<svg"), "figures inline");
         // Self-contained: no scripts and nothing fetched (the SVG namespace URI is a name).

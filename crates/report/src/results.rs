@@ -23,6 +23,59 @@ pub struct StudyResults {
     pub protocols: Vec<ProtocolResult>,
     /// Wall-clock time of the whole pipeline, s.
     pub elapsed_s: f64,
+    /// What the study concludes from these numbers (the report renders it, decides nothing).
+    #[serde(default)]
+    pub findings: Findings,
+}
+
+/// The study's conclusions, decided by the study from the numbers above.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Findings {
+    /// Which model to use for what, ranked on the last protocol's validation runs.
+    pub uses: Vec<ModelUse>,
+    /// What valve-action data buys: the first protocol against the last, on the valve runs
+    /// neither estimated on.
+    pub valve_data: Option<ValveDataGain>,
+}
+
+/// The models ranked for one purpose.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelUse {
+    /// `axle_load` (runs without valve action: weighing reads the static balance) or
+    /// `level_control` (runs with valve action: a level controller acts through the valve).
+    pub purpose: String,
+    pub protocol: String,
+    /// The validation runs ranked on.
+    pub runs: Vec<String>,
+    /// Best first: mean NRMSE of height and pressure over `runs`.
+    pub ranking: Vec<RankedModel>,
+    /// When the virtual truck's own structure ranks first (it generated the data), the best
+    /// of the others: what a user of real data would choose among.
+    pub best_other_than_truck: Option<RankedModel>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RankedModel {
+    pub model: String,
+    pub mean_nrmse_percent: f64,
+}
+
+/// Per model and output, mean NRMSE before (first protocol) and after (last protocol).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ValveDataGain {
+    pub runs: Vec<String>,
+    pub before_protocol: String,
+    pub after_protocol: String,
+    pub models: Vec<ModelGain>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelGain {
+    pub model: String,
+    pub height_before_percent: f64,
+    pub height_after_percent: f64,
+    pub pressure_before_percent: f64,
+    pub pressure_after_percent: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -35,6 +88,10 @@ pub struct RunInfo {
     pub duration_s: f64,
     /// Whether the valve moves during the run (what makes flow parameters identifiable).
     pub valve_action: bool,
+    /// The thesis data-set this run reproduces (the built-in study's `data-set N`), for the
+    /// thesis' numbers beside ours; `null` for other runs.
+    #[serde(default)]
+    pub thesis_data_set: Option<u32>,
 }
 
 /// A named number with its unit and, where known, its standard deviation.
@@ -171,6 +228,7 @@ mod tests {
                 samples: 15_001,
                 duration_s: 1500.0,
                 valve_action: false,
+                thesis_data_set: Some(1),
             }],
             submodels: SubmodelResults {
                 fits: vec![SubmodelFit {
@@ -217,6 +275,30 @@ mod tests {
                 }],
             }],
             elapsed_s: 1.5,
+            findings: Findings {
+                uses: vec![ModelUse {
+                    purpose: "axle_load".to_owned(),
+                    protocol: "thesis".to_owned(),
+                    runs: vec!["data-set 2".to_owned()],
+                    ranking: vec![RankedModel {
+                        model: "m2".to_owned(),
+                        mean_nrmse_percent: 80.0,
+                    }],
+                    best_other_than_truck: None,
+                }],
+                valve_data: Some(ValveDataGain {
+                    runs: vec!["data-set 4".to_owned()],
+                    before_protocol: "thesis".to_owned(),
+                    after_protocol: "valve".to_owned(),
+                    models: vec![ModelGain {
+                        model: "m2".to_owned(),
+                        height_before_percent: 5.0,
+                        height_after_percent: 85.0,
+                        pressure_before_percent: -76.0,
+                        pressure_after_percent: -48.0,
+                    }],
+                }),
+            },
         }
     }
 
@@ -286,6 +368,25 @@ mod tests {
         let expected = [
             "airsus_version",
             "elapsed_s",
+            "findings",
+            "findings.uses",
+            "findings.uses[].best_other_than_truck",
+            "findings.uses[].protocol",
+            "findings.uses[].purpose",
+            "findings.uses[].ranking",
+            "findings.uses[].ranking[].mean_nrmse_percent",
+            "findings.uses[].ranking[].model",
+            "findings.uses[].runs",
+            "findings.valve_data",
+            "findings.valve_data.after_protocol",
+            "findings.valve_data.before_protocol",
+            "findings.valve_data.models",
+            "findings.valve_data.models[].height_after_percent",
+            "findings.valve_data.models[].height_before_percent",
+            "findings.valve_data.models[].model",
+            "findings.valve_data.models[].pressure_after_percent",
+            "findings.valve_data.models[].pressure_before_percent",
+            "findings.valve_data.runs",
             "protocols",
             "protocols[].description",
             "protocols[].estimation_runs",
@@ -332,6 +433,7 @@ mod tests {
             "runs[].name",
             "runs[].role",
             "runs[].samples",
+            "runs[].thesis_data_set",
             "runs[].valve_action",
             "schema_version",
             "study",

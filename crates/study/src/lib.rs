@@ -10,6 +10,7 @@
 //! 5. figures and the report (`report.html`, `results.json`, estimated truck files).
 
 pub mod figures;
+pub mod findings;
 pub mod input;
 pub mod models;
 pub mod protocol;
@@ -224,12 +225,15 @@ pub fn run_study(
                 duration_s: r.run.time_s.last().copied().unwrap_or(0.0)
                     - r.run.time_s.first().copied().unwrap_or(0.0),
                 valve_action: r.valve_action(),
+                thesis_data_set: findings::thesis_data_set(&r.name),
             })
             .collect(),
         submodels,
         protocols,
         elapsed_s: 0.0,
+        findings: Default::default(),
     };
+    results.findings = findings::findings(&results.runs, &results.protocols);
     results.elapsed_s = started.elapsed().as_secs_f64();
     let report = write_report(out_dir, &results, &charts)?;
     Ok(StudyOutcome { results, report })
