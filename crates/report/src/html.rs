@@ -563,17 +563,9 @@ mod tests {
             error: None,
         };
         let failed = ModelResult {
-            model: "m3".to_owned(),
             description: "Model 3".to_owned(),
-            free: vec![],
-            estimates: vec![],
-            stop_reason: None,
-            simulations: 0,
-            estimation_time_s: 0.0,
-            runs: vec![],
-            truck_file: None,
-            notes: vec![],
             error: Some("no static equilibrium at 329 kPa".to_owned()),
+            ..ModelResult::new("m3")
         };
         StudyResults {
             schema_version: SCHEMA_VERSION,

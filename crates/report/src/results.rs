@@ -206,6 +206,23 @@ pub struct ModelResult {
 }
 
 impl ModelResult {
+    /// A result for `model` with nothing computed yet.
+    pub fn new(model: &str) -> Self {
+        Self {
+            model: model.to_owned(),
+            description: String::new(),
+            free: vec![],
+            estimates: vec![],
+            stop_reason: None,
+            simulations: 0,
+            estimation_time_s: 0.0,
+            runs: vec![],
+            truck_file: None,
+            notes: vec![],
+            error: None,
+        }
+    }
+
     pub fn run(&self, name: &str) -> Option<&RunFit> {
         self.runs.iter().find(|r| r.run == name)
     }

@@ -150,32 +150,22 @@ mod tests {
     use airsus_report::results::RunFit;
 
     fn model(name: &str, fits: &[(&str, f64, f64)]) -> ModelResult {
-        ModelResult {
-            model: name.to_owned(),
-            description: String::new(),
-            free: vec![],
-            estimates: vec![],
-            stop_reason: None,
-            simulations: 0,
-            estimation_time_s: 0.0,
-            runs: fits
-                .iter()
-                .map(|(run, h, p)| RunFit {
-                    run: (*run).to_owned(),
-                    role: "validation".to_owned(),
-                    nominal: None,
-                    estimated: Some(OutputFit {
-                        height_percent: *h,
-                        pressure_percent: *p,
-                    }),
-                    residuals: vec![],
-                    error: None,
-                })
-                .collect(),
-            truck_file: None,
-            notes: vec![],
-            error: None,
-        }
+        let mut result = ModelResult::new(name);
+        result.runs = fits
+            .iter()
+            .map(|(run, h, p)| RunFit {
+                run: (*run).to_owned(),
+                role: "validation".to_owned(),
+                nominal: None,
+                estimated: Some(OutputFit {
+                    height_percent: *h,
+                    pressure_percent: *p,
+                }),
+                residuals: vec![],
+                error: None,
+            })
+            .collect();
+        result
     }
 
     fn run(name: &str, valve: bool) -> RunInfo {

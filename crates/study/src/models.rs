@@ -169,19 +169,7 @@ pub fn fit_and_validate(
     max_iterations: usize,
 ) -> ModelOutcome {
     let started = Instant::now();
-    let mut result = ModelResult {
-        model: model_name.to_owned(),
-        description: String::new(),
-        free: vec![],
-        estimates: vec![],
-        stop_reason: None,
-        simulations: 0,
-        estimation_time_s: 0.0,
-        runs: vec![],
-        truck_file: None,
-        notes: vec![],
-        error: None,
-    };
+    let mut result = ModelResult::new(model_name);
     let nominal = match build_any_model(model_name, start) {
         Ok(m) => m,
         Err(e) => {
