@@ -53,6 +53,10 @@ pub struct StudyRun {
     /// Absolute, or relative to the working directory when the study path was.
     pub file: PathBuf,
     pub role: Role,
+    /// The run's noise-free outputs, when known (optional key `truth`, ours: a generated
+    /// run's truth file). The study reports the noise ceiling from it: the NRMSE of the
+    /// truth against the measurements, the best any model can score.
+    pub truth: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -78,6 +82,7 @@ impl Study {
     pub fn files(&self) -> Vec<&Path> {
         std::iter::once(self.truck.as_path())
             .chain(self.runs.iter().map(|r| r.file.as_path()))
+            .chain(self.runs.iter().filter_map(|r| r.truth.as_deref()))
             .chain(self.force_map.as_deref())
             .chain(self.discharges.iter().map(|d| d.file.as_path()))
             .collect()
@@ -91,7 +96,7 @@ const SCHEMA: &[TableSchema] = &[
     },
     TableSchema {
         name: "run",
-        keys: &["name", "file", "role"],
+        keys: &["name", "file", "role", "truth"],
     },
     TableSchema {
         name: "force_map",
@@ -108,6 +113,7 @@ struct FileRun {
     name: String,
     file: String,
     role: Role,
+    truth: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -216,6 +222,7 @@ pub fn parse_study(text: &str, path: &Path) -> Result<Study, DataError> {
                 file: resolve(&r.file),
                 name: r.name,
                 role: r.role,
+                truth: r.truth.as_deref().map(resolve),
             })
             .collect(),
         force_map: file.force_map.map(|f| resolve(&f.file)),
@@ -249,6 +256,9 @@ pub fn study_to_toml(study: &Study, base: &Path) -> String {
         let _ = writeln!(s, "name = {}", quote(&run.name));
         let _ = writeln!(s, "file = {}", quote(&rel(&run.file)));
         let _ = writeln!(s, "role = \"{}\"", run.role.as_str());
+        if let Some(truth) = &run.truth {
+            let _ = writeln!(s, "truth = {}  # noise-free outputs", quote(&rel(truth)));
+        }
     }
     if let Some(map) = &study.force_map {
         let _ = writeln!(s, "\n[force_map]");

@@ -184,7 +184,37 @@ fn summary(h: &mut String, results: &StudyResults) {
             }
             h.push_str("</tr>");
         }
-        h.push_str("</table>");
+        h.push_str("<tr class=\"ceiling\"><td><i>noise ceiling</i></td>");
+        for r in &results.runs {
+            match &r.ceiling {
+                Some(c) => {
+                    let mark = if c.source == "truth" { "" } else { "~" };
+                    for v in [c.height_percent, c.pressure_percent] {
+                        let _ = write!(h, "<td><i>{v:.1}{mark}</i></td>");
+                    }
+                }
+                None => h.push_str("<td>–</td><td>–</td>"),
+            }
+        }
+        h.push_str("</tr></table>");
+    }
+    if results.runs.iter().any(|r| r.ceiling.is_some()) {
+        h.push_str("<p class=\"note\">Noise ceiling: the NRMSE of the noise-free outputs against the measurements, the best any model can score; ~ marks a ceiling estimated from the measurements' own noise (no truth file). Noise std per run: ");
+        let noise: Vec<String> = results
+            .runs
+            .iter()
+            .filter_map(|r| {
+                let c = r.ceiling.as_ref()?;
+                Some(format!(
+                    "{} {:.3} mm / {:.3} kPa",
+                    esc(&r.name),
+                    c.height_noise_std_mm,
+                    c.pressure_noise_std_kpa
+                ))
+            })
+            .collect();
+        h.push_str(&noise.join(", "));
+        h.push_str(".</p>");
     }
 }
 
@@ -583,6 +613,13 @@ mod tests {
                     duration_s: 10.0,
                     valve_action: i == 2,
                     thesis_data_set: Some(i as u32 + 1),
+                    ceiling: Some(NoiseCeiling {
+                        source: if i == 0 { "truth" } else { "estimated" }.to_owned(),
+                        height_percent: 98.9,
+                        pressure_percent: 99.4,
+                        height_noise_std_mm: 0.15,
+                        pressure_noise_std_kpa: 0.2,
+                    }),
                 })
                 .collect(),
             submodels: SubmodelResults {
@@ -677,6 +714,11 @@ mod tests {
             "thesis validation numbers shown"
         );
         assert!(html.contains("Table 5.11"));
+        // Every fit beside the noise ceiling; an estimated one is marked.
+        assert!(
+            html.contains("<td><i>noise ceiling</i></td><td><i>98.9</i></td><td><i>99.4</i></td><td><i>98.9~</i></td>"),
+            "ceiling row"
+        );
         assert!(
             html.contains("<b>Level-controller design:</b> <code>m2</code> (67.5 %)"),
             "the study's findings in words"

@@ -92,6 +92,24 @@ pub struct RunInfo {
     /// thesis' numbers beside ours; `null` for other runs.
     #[serde(default)]
     pub thesis_data_set: Option<u32>,
+    /// The noise floor: the best NRMSE any model can reach on this run.
+    #[serde(default)]
+    pub ceiling: Option<NoiseCeiling>,
+}
+
+/// The best NRMSE any model can reach on a run: its noise-free outputs against the
+/// measurements (`source` = `truth`), or, without truth, the fit of an error of the size of
+/// the noise estimated from the measurements themselves (`estimated`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NoiseCeiling {
+    /// `truth` or `estimated`.
+    pub source: String,
+    pub height_percent: f64,
+    pub pressure_percent: f64,
+    /// The measurement noise's standard deviation (from the truth, or estimated), mm.
+    pub height_noise_std_mm: f64,
+    /// Likewise, kPa.
+    pub pressure_noise_std_kpa: f64,
 }
 
 /// A named number with its unit and, where known, its standard deviation.
@@ -246,6 +264,13 @@ mod tests {
                 duration_s: 1500.0,
                 valve_action: false,
                 thesis_data_set: Some(1),
+                ceiling: Some(NoiseCeiling {
+                    source: "truth".to_owned(),
+                    height_percent: 98.9,
+                    pressure_percent: 99.4,
+                    height_noise_std_mm: 0.15,
+                    pressure_noise_std_kpa: 0.2,
+                }),
             }],
             submodels: SubmodelResults {
                 fits: vec![SubmodelFit {
@@ -445,6 +470,12 @@ mod tests {
             "protocols[].models[].truck_file",
             "protocols[].name",
             "runs",
+            "runs[].ceiling",
+            "runs[].ceiling.height_noise_std_mm",
+            "runs[].ceiling.height_percent",
+            "runs[].ceiling.pressure_noise_std_kpa",
+            "runs[].ceiling.pressure_percent",
+            "runs[].ceiling.source",
             "runs[].duration_s",
             "runs[].file",
             "runs[].name",

@@ -177,6 +177,7 @@ mod tests {
             duration_s: 0.0,
             valve_action: valve,
             thesis_data_set: thesis_data_set(name),
+            ceiling: None,
         }
     }
 

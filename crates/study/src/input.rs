@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use airsus_data::{
-    Channel, ForceMap, Role, Run, Study, TankDischarge, TruckParameters, read_discharge,
-    read_force_map, read_run, read_study, read_truck,
+    Channel, ForceMap, Role, Run, RunOutputs, Study, TankDischarge, TruckParameters,
+    read_discharge, read_force_map, read_run, read_study, read_truck,
 };
 
 use crate::StudyError;
@@ -17,6 +17,8 @@ pub struct StudyRunData {
     pub file: PathBuf,
     pub role: Role,
     pub run: Run,
+    /// The noise-free outputs on the run's time axis, when the study names a truth file.
+    pub truth: Option<RunOutputs>,
 }
 
 impl StudyRunData {
@@ -76,6 +78,32 @@ pub fn load_study(path: &Path) -> Result<StudyInput, StudyError> {
     Ok(input)
 }
 
+/// A run's truth file: its outputs, on exactly the run's time axis.
+pub fn read_truth(path: &Path, run: &Run) -> Result<RunOutputs, StudyError> {
+    let truth = read_run(path)?;
+    let same_axis = truth.time_s.len() == run.time_s.len()
+        && truth
+            .time_s
+            .iter()
+            .zip(&run.time_s)
+            .all(|(a, b)| (a - b).abs() <= 1e-9 * (1.0 + b.abs()));
+    if !same_axis {
+        return Err(StudyError::Truth {
+            truth: path.to_path_buf(),
+            reason: format!(
+                "its time axis ({} samples) is not that of run `{}` ({} samples)",
+                truth.time_s.len(),
+                run.name,
+                run.time_s.len()
+            ),
+        });
+    }
+    truth.outputs.ok_or_else(|| StudyError::Truth {
+        truth: path.to_path_buf(),
+        reason: "it has no height_mm and pressure_kpa columns".to_owned(),
+    })
+}
+
 /// Loads the files a parsed study names; `label` names it in the report.
 pub fn load_parts(label: String, study: &Study) -> Result<StudyInput, StudyError> {
     let loaded = read_truck(&study.truck)?;
@@ -85,11 +113,17 @@ pub fn load_parts(label: String, study: &Study) -> Result<StudyInput, StudyError
         .map(|r| {
             let mut run = read_run(&r.file)?;
             run.name = r.name.clone();
+            let truth = r
+                .truth
+                .as_deref()
+                .map(|path| read_truth(path, &run))
+                .transpose()?;
             Ok(StudyRunData {
                 name: r.name.clone(),
                 file: r.file.clone(),
                 role: r.role,
                 run,
+                truth,
             })
         })
         .collect::<Result<Vec<_>, StudyError>>()?;

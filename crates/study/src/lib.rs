@@ -9,6 +9,7 @@
 //! 4. simulation and residual analysis of every model on every run;
 //! 5. figures and the report (`report.html`, `results.json`, estimated truck files).
 
+pub mod ceiling;
 pub mod figures;
 pub mod findings;
 pub mod input;
@@ -44,6 +45,8 @@ pub enum StudyError {
         input.display()
     )]
     OutputOverInput { out_dir: PathBuf, input: PathBuf },
+    #[error("truth file {}: {reason}", truth.display())]
+    Truth { truth: PathBuf, reason: String },
     #[error("cannot create the output folder {path}: {source}")]
     OutputFolder {
         path: PathBuf,
@@ -226,6 +229,7 @@ pub fn run_study(
                     - r.run.time_s.first().copied().unwrap_or(0.0),
                 valve_action: r.valve_action(),
                 thesis_data_set: findings::thesis_data_set(&r.name),
+                ceiling: ceiling::noise_ceiling(r),
             })
             .collect(),
         submodels,
@@ -336,7 +340,30 @@ pub fn summary_table(results: &StudyResults) -> String {
             }
             let _ = writeln!(s);
         }
+        // The noise floor: what a model that explained everything but the noise would score.
+        let _ = write!(s, "{:<7}", "ceiling");
+        for r in &results.runs {
+            let cell = |v: Option<f64>| {
+                v.map_or_else(
+                    || "–".to_owned(),
+                    |v| {
+                        let estimated = r.ceiling.as_ref().is_some_and(|c| c.source != "truth");
+                        format!("{v:.1}{}", if estimated { "~" } else { "" })
+                    },
+                )
+            };
+            let _ = write!(
+                s,
+                " {:>9} {:>9}",
+                cell(r.ceiling.as_ref().map(|c| c.height_percent)),
+                cell(r.ceiling.as_ref().map(|c| c.pressure_percent))
+            );
+        }
+        let _ = writeln!(s);
     }
-    let _ = writeln!(s, "(* estimation run)");
+    let _ = writeln!(
+        s,
+        "(* estimation run; ceiling: the noise-free truth against the measurements, ~ estimated from the measurements' noise)"
+    );
     s
 }

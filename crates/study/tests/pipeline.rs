@@ -192,3 +192,51 @@ fn a_protocol_without_estimation_runs_is_a_clear_error() {
         "{err}"
     );
 }
+
+#[test]
+fn every_run_has_its_noise_ceiling_from_the_truth_and_the_estimate_agrees() {
+    use airsus_study::ceiling::noise_ceiling;
+    let dir = tempfile::tempdir().unwrap();
+    let generated = airsus_truck::experiments::generate(dir.path(), 3, &mut |_| {}).unwrap();
+    let mut input = load_study(&generated.study).unwrap();
+    for run in &mut input.runs {
+        let truth = noise_ceiling(run).expect("a generated run has a truth file");
+        assert_eq!(truth.source, "truth");
+        // The sensors of the virtual truck (SensorSpec): 0.15 mm and 0.2 kPa of noise.
+        assert!((truth.height_noise_std_mm - 0.15).abs() < 0.01, "{truth:?}");
+        assert!(
+            (truth.pressure_noise_std_kpa - 0.2).abs() < 0.015,
+            "{truth:?}"
+        );
+        // Without the truth file: the ceiling estimated from the measurements alone.
+        run.truth = None;
+        let estimated = noise_ceiling(run).unwrap();
+        assert_eq!(estimated.source, "estimated");
+        for (t, e) in [
+            (truth.height_percent, estimated.height_percent),
+            (truth.pressure_percent, estimated.pressure_percent),
+        ] {
+            assert!(
+                (t - e).abs() < 0.3,
+                "{}: truth {t} %, estimated {e} %",
+                run.name
+            );
+        }
+    }
+}
+
+#[test]
+fn a_truth_file_on_another_time_axis_is_refused_with_its_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let generated = airsus_truck::experiments::generate(dir.path(), 1, &mut |_| {}).unwrap();
+    let text = std::fs::read_to_string(&generated.study)
+        .unwrap()
+        .replace("truth/ds2.csv", "truth/ds3.csv");
+    let study = dir.path().join("swapped.toml");
+    std::fs::write(&study, text).unwrap();
+    let err = load_study(&study).unwrap_err().to_string();
+    assert!(
+        err.contains("truth/ds3.csv") && err.contains("data-set 2"),
+        "{err}"
+    );
+}

@@ -291,8 +291,8 @@ pub fn generate(
         let truth_file = truth_dir.join(format!("{}.csv", run.truth.name));
         write_run(&truth_file, &run.truth)?;
         files.push(file.clone());
-        files.push(truth_file);
-        runs.push((i, file));
+        files.push(truth_file.clone());
+        runs.push((i, file, truth_file));
     }
 
     progress("bellow force map");
@@ -323,7 +323,7 @@ pub fn generate(
         truck: truck_path.clone(),
         runs: runs
             .iter()
-            .map(|(i, file)| StudyRun {
+            .map(|(i, file, truth)| StudyRun {
                 name: names[*i].to_owned(),
                 file: file.clone(),
                 role: if estimation.contains(i) {
@@ -331,6 +331,7 @@ pub fn generate(
                 } else {
                     Role::Validation
                 },
+                truth: Some(truth.clone()),
             })
             .collect(),
         force_map: Some(map_path.clone()),

@@ -93,7 +93,10 @@ fn check_study(path: &Path) -> anyhow::Result<String> {
     let study = read_study(path)?;
     read_truck(&study.truck)?;
     for run in &study.runs {
-        read_run_with(&run.file, Outputs::Required)?;
+        let data = read_run_with(&run.file, Outputs::Required)?;
+        if let Some(truth) = &run.truth {
+            airsus_study::input::read_truth(truth, &data)?;
+        }
     }
     if let Some(map) = &study.force_map {
         read_force_map(map)?;
@@ -102,8 +105,9 @@ fn check_study(path: &Path) -> anyhow::Result<String> {
         read_discharge(&d.file)?;
     }
     Ok(format!(
-        "study: truck file, {} run(s), {} force map, {} tank discharge(s), all valid",
+        "study: truck file, {} run(s) ({} with a truth file), {} force map, {} tank discharge(s), all valid",
         study.runs.len(),
+        study.runs.iter().filter(|r| r.truth.is_some()).count(),
         if study.force_map.is_some() { "a" } else { "no" },
         study.discharges.len()
     ))
