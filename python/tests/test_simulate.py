@@ -88,3 +88,24 @@ def test_states_and_initial_conditions(reference: Path, short_run: Path) -> None
 def test_unknown_model_gets_a_suggestion(reference: Path, short_run: Path) -> None:
     with pytest.raises(airsus.AirsusError, match=r"unknown model `m22` \(did you mean"):
         airsus.simulate("m22", reference / "truck.toml", short_run)
+
+
+def test_the_prefix_start_fits_the_history_states_as_the_command_does(
+    reference: Path, tmp_path: Path, cli
+) -> None:
+    # The virtual truck's true parameters on data-set 3: only the start differs.
+    truck = reference / "truth" / "truck.toml"
+    run = reference / "ds3.csv"
+    out = tmp_path / "prefix.csv"
+    cli(
+        "simulate", "--model", "truck", "--truck", truck, "--run", run, "--out", out,
+        "--initial-state", "prefix",
+    )  # fmt: skip
+    expected = read_csv_exact(out)
+    sim = airsus.simulate("truck", truck, run, initial_state="prefix")
+    assert sim["pressure_kpa"].to_numpy().tobytes() == np.array(expected["pressure_kpa"]).tobytes()
+    assert "fitted to the first seconds" in sim.attrs["initial"]
+    equilibrium = airsus.simulate("truck", truck, run, initial_state="equilibrium")
+    assert sim.attrs["nrmse"]["pressure_kpa"] > 90.0 > equilibrium.attrs["nrmse"]["pressure_kpa"]
+    with pytest.raises(airsus.AirsusError, match="unknown start `prefx`"):
+        airsus.simulate("truck", truck, run, initial_state="prefx")

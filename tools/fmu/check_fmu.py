@@ -207,6 +207,9 @@ def check_model(
             str(run_path),
             "--out",
             str(out),
+            # The FMU starts in static equilibrium at the run's first height; so does this.
+            "--initial-state",
+            "equilibrium",
         )
         return read_run(out)
 

@@ -104,6 +104,8 @@ def test_load_steps_differ_only_by_the_feed_through_at_the_step(
         str(run_path),
         "--out",
         str(sim_path),
+        "--initial-state",
+        "equilibrium",
     )
     sim = check_fmu.read_run(sim_path)
     height, pressure = check_fmu.simulate_fmu(fmus[model], run, {})

@@ -208,3 +208,58 @@ fn no_command_writes_over_its_input() {
         "{stderr}"
     );
 }
+
+#[test]
+fn simulate_can_fit_the_start_to_the_first_seconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    assert!(airsus(&["generate", "--out", &p("")]).status.success());
+    let pressure_fit = |start: &str| -> f64 {
+        let out = airsus(&[
+            "simulate",
+            "--model",
+            "truck",
+            "--truck",
+            &p("truth/truck.toml"),
+            "--run",
+            &p("ds3.csv"),
+            "--out",
+            &p(&format!("sim_{start}.csv")),
+            "--initial-state",
+            start,
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{stderr}");
+        if start == "prefix" {
+            assert!(stderr.contains("fitted to the first seconds"), "{stderr}");
+        }
+        let tail = stderr.split("pressure ").last().unwrap();
+        tail.split(' ').next().unwrap().parse().unwrap()
+    };
+    // The virtual truck's true parameters: only the start differs (ceiling 90.8 %).
+    let (equilibrium, prefix) = (pressure_fit("equilibrium"), pressure_fit("prefix"));
+    assert!(
+        prefix > 90.0 && equilibrium < 80.0,
+        "{equilibrium} → {prefix}"
+    );
+
+    let out = airsus(&[
+        "simulate",
+        "--model",
+        "m2",
+        "--truck",
+        &p("truck.toml"),
+        "--run",
+        &p("ds3.csv"),
+        "--out",
+        &p("bad.csv"),
+        "--initial-state",
+        "prefix",
+        "--prefix-s=-1",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("prefix"),
+        "{stderr}"
+    );
+}

@@ -26,6 +26,7 @@
 
 pub mod error;
 pub mod greybox;
+pub mod initial_state;
 pub mod progress;
 pub mod submodel;
 
@@ -33,5 +34,8 @@ pub use error::EstimateError;
 pub use greybox::{
     FreeParameter, GreyboxEstimate, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
     InitialChoice, OutputWeights, StopReason, estimate,
+};
+pub use initial_state::{
+    EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,
 };
 pub use progress::{IterationInfo, NoProgress, Observer, TerminalProgress};

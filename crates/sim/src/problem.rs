@@ -111,8 +111,8 @@ impl<'a> InputSeries<'a> {
         (k < self.len()).then(|| self.sample(k))
     }
 
-    /// The inputs held from sample `k`; `k < len()` is the engine's loop invariant.
-    pub(crate) fn sample(&self, k: usize) -> InputSample {
+    /// The inputs held from sample `k`, which must be below [`Self::len`].
+    pub fn sample(&self, k: usize) -> InputSample {
         InputSample {
             wheel_load_kg: self.wheel_load_kg[k],
             valve: self.valve[k],

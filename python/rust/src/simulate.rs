@@ -7,8 +7,8 @@ use pyo3::types::PyDict;
 
 use airsus_data::units::{PA_PER_KPA, mm_from_m};
 use airsus_data::{Outputs, TruckParameters};
-use airsus_model::InitialCondition;
-use airsus_sim::{InitialState, InputSeries, Method, SimulationProblem, SolverOptions};
+use airsus_estimate::{PrefixOptions, StartChoice, StartMethod, resolve_start};
+use airsus_sim::{InputSeries, Method, SimulationProblem, SolverOptions};
 use airsus_truck::models::build_any_model;
 
 use crate::error::OrPy;
@@ -26,16 +26,6 @@ pub fn parse_method(name: &str) -> anyhow::Result<Method> {
     })
 }
 
-/// Where the state starts (the command's `--initial-*` flags, or an explicit state).
-#[derive(Debug, Clone)]
-enum Initial {
-    /// The run's first measured sensor height (the command's default).
-    FromRun,
-    PressureKpa(f64),
-    HeightMm(f64),
-    State(Vec<f64>),
-}
-
 struct Simulated {
     model: &'static str,
     what: String,
@@ -51,7 +41,7 @@ fn run_simulation(
     model_name: &str,
     truck: &TruckParameters,
     source: &RunSource,
-    initial: Initial,
+    initial: StartChoice,
     rtol: f64,
     method: Method,
     record_states: bool,
@@ -62,23 +52,8 @@ fn run_simulation(
     let run = source.load(Outputs::IfPresent)?;
     let model = build_any_model(model_name, truck)?;
 
-    let initial = match initial {
-        Initial::PressureKpa(kpa) => InitialState::Equilibrium(InitialCondition::BellowPressure {
-            gauge_pa: kpa * 1e3,
-        }),
-        Initial::HeightMm(mm) => InitialState::Equilibrium(InitialCondition::SensorHeight {
-            height_m: mm * 1e-3,
-        }),
-        Initial::State(x) => InitialState::State(x),
-        Initial::FromRun => match InitialState::from_run(&run) {
-            Some(initial) => initial,
-            None => bail!(
-                "run {} has no measured outputs to start from: give initial_state={{\"pressure_kpa\": ...}} or {{\"height_mm\": ...}}",
-                source.label()
-            ),
-        },
-    };
-    let what = initial.describe();
+    let (initial, what) = resolve_start(&*model, &run, &initial)
+        .with_context(|| format!("the start of run {}", source.label()))?;
 
     let inputs = InputSeries::from_run(&run)?;
     let options = SolverOptions::default()
@@ -159,7 +134,10 @@ pub fn simulate<'py>(
     drop(truck);
     let source = RunSource::from_spec(run)?;
     let initial = match initial_kind.as_deref() {
-        None => Initial::FromRun,
+        Some("prefix") => StartChoice::FromRun(StartMethod::Prefix, PrefixOptions::default()),
+        None | Some("equilibrium") => {
+            StartChoice::FromRun(StartMethod::Equilibrium, PrefixOptions::default())
+        }
         Some(kind @ ("pressure_kpa" | "height_mm")) => {
             let Some(value) = initial_value else {
                 return Err(crate::error::to_py(anyhow::anyhow!(
@@ -167,13 +145,13 @@ pub fn simulate<'py>(
                 )));
             };
             if kind == "pressure_kpa" {
-                Initial::PressureKpa(value)
+                StartChoice::PressureKpa(value)
             } else {
-                Initial::HeightMm(value)
+                StartChoice::HeightMm(value)
             }
         }
         Some("state") => match &initial_state {
-            Some(x) => Initial::State(x.as_slice()?.to_vec()),
+            Some(x) => StartChoice::State(x.as_slice()?.to_vec()),
             None => {
                 return Err(crate::error::to_py(anyhow::anyhow!(
                     "initial_state: no state vector given"
@@ -182,7 +160,7 @@ pub fn simulate<'py>(
         },
         Some(other) => {
             return Err(crate::error::to_py(anyhow::anyhow!(
-                "initial_state: unknown key `{other}`; give pressure_kpa, height_mm or a state vector"
+                "initial_state: unknown key `{other}`; give \"prefix\", \"equilibrium\", pressure_kpa, height_mm or a state vector"
             )));
         }
     };

@@ -357,7 +357,7 @@ def simulate(
     model: str,
     truck: TruckLike,
     run: RunLike,
-    initial_state: Union[None, Mapping[str, float], Sequence[float], np.ndarray] = None,
+    initial_state: Union[None, str, Mapping[str, float], Sequence[float], np.ndarray] = None,
     states: bool = False,
     *,
     rtol: float = 1e-6,
@@ -370,10 +370,13 @@ def simulate(
         truck: a :class:`Truck` or the path of a truck file.
         run: a run file path, a DataFrame or a dict of arrays (file units); only the inputs
             are used, the measured outputs (if any) fix the start.
-        initial_state: where the state starts. ``None``: static equilibrium at the run's first
-            measured sensor height (the command's default; an inputs-only run then needs one
-            of the others). ``{"height_mm": h}`` or ``{"pressure_kpa": p}``: static
-            equilibrium at that sensor height or bellow gauge pressure (the command's
+        initial_state: where the state starts. ``None`` or ``"equilibrium"``: static
+            equilibrium at the run's first measured sensor height (the command's default; an
+            inputs-only run then needs one of the others). ``"prefix"``: that equilibrium with
+            the states that carry the run's history (friction, creep, gas temperature, air
+            amount) fitted to its first 10 s (``--initial-state prefix``).
+            ``{"height_mm": h}`` or ``{"pressure_kpa": p}``: static equilibrium at that sensor
+            height or bellow gauge pressure (the command's
             ``--initial-height-mm``/``--initial-pressure-kpa``). A sequence of floats: the
             state vector itself (SI units, the model's state order, see :func:`models`).
         states: also return the model's states (SI units) as columns.
@@ -392,6 +395,13 @@ def simulate(
     vector: Optional[np.ndarray] = None
     if initial_state is None:
         pass
+    elif isinstance(initial_state, str):
+        if initial_state not in ("prefix", "equilibrium"):
+            raise AirsusError(
+                f"initial_state: unknown start `{initial_state}`; give 'prefix', "
+                "'equilibrium', {'height_mm': ...}, {'pressure_kpa': ...} or a state vector"
+            )
+        kind = initial_state
     elif isinstance(initial_state, Mapping):
         if len(initial_state) != 1:
             raise AirsusError(

@@ -30,7 +30,7 @@ RunLike = Union[PathLike, pd.DataFrame, Mapping[str, Any]]
 TruckLike = Union[Truck, PathLike]
 Progress = Optional[Callable[[Dict[str, Any]], Any]]
 _ArrayLike = Union[npt.ArrayLike, pd.Series]
-_InitialState = Union[None, Mapping[str, float], Sequence[float], npt.NDArray[np.float64]]
+_InitialState = Union[None, str, Mapping[str, float], Sequence[float], npt.NDArray[np.float64]]
 
 def read_run(path: PathLike) -> pd.DataFrame: ...
 def write_run(run: Union[pd.DataFrame, Mapping[str, Any]], path: PathLike) -> None: ...

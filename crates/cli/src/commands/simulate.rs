@@ -17,8 +17,9 @@ use std::time::Instant;
 
 use airsus_data::atomic::refuse_overwriting_inputs;
 use airsus_data::{Outputs, RunOutputs, read_run_with, read_truck, write_run};
-use airsus_model::InitialCondition;
-use airsus_sim::{InitialState, InputSeries, Method, SimulationProblem, SolverOptions, simulate};
+use airsus_estimate::initial_state::DEFAULT_PREFIX_S;
+use airsus_estimate::{PrefixOptions, StartChoice, StartMethod, resolve_start};
+use airsus_sim::{InputSeries, Method, SimulationProblem, SolverOptions, simulate};
 use airsus_truck::models::build_any_model;
 use anyhow::{Context, bail};
 
@@ -68,12 +69,37 @@ pub struct SimulateArgs {
     #[arg(long, value_enum, default_value_t = MethodArg::Bdf)]
     pub method: MethodArg,
     /// Start in static equilibrium at this bellow gauge pressure (kPa) instead of the run's
-    /// first measured pressure.
-    #[arg(long, conflicts_with = "initial_height_mm")]
+    /// first measured height.
+    #[arg(long, conflicts_with_all = ["initial_height_mm", "initial_state"])]
     pub initial_pressure_kpa: Option<f64>,
     /// Start in static equilibrium at this sensor height (mm).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "initial_state")]
     pub initial_height_mm: Option<f64>,
+    /// How a run with measured outputs starts: `equilibrium` is static equilibrium at the
+    /// first measured height (as the grey-box estimator assumes); `prefix` also fits the
+    /// states that carry the run's history (friction, creep, gas temperature, air amount) to
+    /// its first seconds: right when the parameters are.
+    #[arg(long, value_enum, default_value_t = StartArg::Equilibrium)]
+    pub initial_state: StartArg,
+    /// Length of the prefix the start is fitted to, s.
+    #[arg(long, default_value_t = DEFAULT_PREFIX_S)]
+    pub prefix_s: f64,
+}
+
+/// `--initial-state`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum StartArg {
+    Prefix,
+    Equilibrium,
+}
+
+impl From<StartArg> for StartMethod {
+    fn from(s: StartArg) -> Self {
+        match s {
+            StartArg::Prefix => StartMethod::Prefix,
+            StartArg::Equilibrium => StartMethod::Equilibrium,
+        }
+    }
 }
 
 pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
@@ -95,22 +121,19 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let run = read_run_with(&args.run, Outputs::IfPresent)?;
     let model = build_any_model(&args.model, &loaded.parameters)?;
 
-    let initial = match (args.initial_pressure_kpa, args.initial_height_mm) {
-        (Some(kpa), _) => InitialState::Equilibrium(InitialCondition::BellowPressure {
-            gauge_pa: kpa * 1e3,
-        }),
-        (None, Some(mm)) => InitialState::Equilibrium(InitialCondition::SensorHeight {
-            height_m: mm * 1e-3,
-        }),
-        (None, None) => match InitialState::from_run(&run) {
-            Some(initial) => initial,
-            None => bail!(
-                "run {} has no measured outputs to start from: give --initial-pressure-kpa or --initial-height-mm",
-                args.run.display()
-            ),
-        },
+    let choice = match (args.initial_pressure_kpa, args.initial_height_mm) {
+        (Some(kpa), _) => StartChoice::PressureKpa(kpa),
+        (None, Some(mm)) => StartChoice::HeightMm(mm),
+        (None, None) => StartChoice::FromRun(
+            args.initial_state.into(),
+            PrefixOptions {
+                prefix_s: args.prefix_s,
+                ..PrefixOptions::default()
+            },
+        ),
     };
-    let what = initial.describe();
+    let (initial, what) = resolve_start(&*model, &run, &choice)
+        .with_context(|| format!("the start of run {}", args.run.display()))?;
 
     let inputs = InputSeries::from_run(&run)?;
     let options = SolverOptions::default()
