@@ -320,6 +320,7 @@ pub fn estimate_initial_state(
         return Ok(unchanged(rms_start));
     }
     let x = fit.state(&best);
+    let offsets: Vec<f64> = x.iter().zip(&x0).map(|(a, b)| a - b).collect();
     Ok(EstimatedStart {
         adjusted: free
             .iter()
@@ -330,7 +331,7 @@ pub fn estimate_initial_state(
                 estimated: x[i],
             })
             .collect(),
-        initial: InitialState::State(x),
+        initial: InitialState::EquilibriumOffset { condition, offsets },
         method: StartMethod::Prefix,
         prefix_rms_equilibrium: rms_start,
         prefix_rms_estimated: rms_best,

@@ -116,9 +116,14 @@ fn render_html(results: &StudyResults, charts: &[(&Chart, Result<String, String>
     );
     let _ = write!(
         h,
-        "<h1>Air suspension study</h1><p>Study: <code>{}</code> · nominal truck: <code>{}</code> · airsus {} · pipeline time {:.1} s · <a href=\"results.json\">results.json</a></p>",
+        "<h1>Air suspension study</h1><p>Study: <code>{}</code> · nominal truck: <code>{}</code> · runs start: {} · airsus {} · pipeline time {:.1} s · <a href=\"results.json\">results.json</a></p>",
         esc(&results.study),
         esc(&results.truck),
+        if results.initial_state == "prefix" {
+            "history states fitted to the first 10 s, parameters refitted from those starts"
+        } else {
+            "static equilibrium at the first measured height"
+        },
         esc(&results.airsus_version),
         results.elapsed_s
     );
@@ -602,6 +607,7 @@ mod tests {
             airsus_version: "0.1.0".to_owned(),
             study: "built-in".to_owned(),
             truck: "truck.toml".to_owned(),
+            initial_state: "equilibrium".to_owned(),
             runs: ["data-set 1", "data-set 2", "data-set 3"]
                 .iter()
                 .enumerate()

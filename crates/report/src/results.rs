@@ -17,6 +17,11 @@ pub struct StudyResults {
     pub study: String,
     /// The nominal truck file the study started from.
     pub truck: String,
+    /// How every simulation of a run starts: `equilibrium` (static, at the first measured
+    /// height) or `prefix` (history states fitted to the first 10 s; the parameters refitted
+    /// from those starts).
+    #[serde(default = "equilibrium")]
+    pub initial_state: String,
     pub runs: Vec<RunInfo>,
     pub submodels: SubmodelResults,
     /// One entry per estimation protocol (which runs the grey-box fits used).
@@ -26,6 +31,10 @@ pub struct StudyResults {
     /// What the study concludes from these numbers (the report renders it, decides nothing).
     #[serde(default)]
     pub findings: Findings,
+}
+
+fn equilibrium() -> String {
+    "equilibrium".to_owned()
 }
 
 /// The study's conclusions, decided by the study from the numbers above.
@@ -256,6 +265,7 @@ mod tests {
             airsus_version: "0.1.0".to_owned(),
             study: "study.toml".to_owned(),
             truck: "truck.toml".to_owned(),
+            initial_state: "equilibrium".to_owned(),
             runs: vec![RunInfo {
                 name: "data-set 1".to_owned(),
                 file: "ds1.csv".to_owned(),
@@ -411,6 +421,7 @@ mod tests {
             "airsus_version",
             "elapsed_s",
             "findings",
+            "initial_state",
             "findings.uses",
             "findings.uses[].best_other_than_truck",
             "findings.uses[].protocol",

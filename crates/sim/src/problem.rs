@@ -130,6 +130,13 @@ pub enum InitialState {
     Equilibrium(InitialCondition),
     /// An explicit state vector (e.g. the end state of an earlier simulation).
     State(Vec<f64>),
+    /// Static equilibrium as [`Self::Equilibrium`], plus `offsets` (one per state, SI): a
+    /// start estimated from a run's first seconds that stays relative to the equilibrium, so
+    /// it still fits when the parameters change (grey-box estimation with estimated starts).
+    EquilibriumOffset {
+        condition: InitialCondition,
+        offsets: Vec<f64>,
+    },
 }
 
 impl InitialState {
@@ -146,6 +153,10 @@ impl InitialState {
                 height_m * 1e3
             ),
             Self::State(_) => "given state".to_owned(),
+            Self::EquilibriumOffset { condition, .. } => format!(
+                "{} with its history states estimated",
+                Self::Equilibrium(*condition).describe()
+            ),
         }
     }
 

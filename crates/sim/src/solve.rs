@@ -124,6 +124,26 @@ fn simulate_with<M: SuspensionModel + ?Sized>(
                 })?
         }
         InitialState::State(x) => x.clone(),
+        InitialState::EquilibriumOffset { condition, offsets } => {
+            let mut x =
+                model
+                    .initial_state(&u0, condition)
+                    .map_err(|source| SimError::InitialState {
+                        model: model_name.to_owned(),
+                        source: Box::new(source),
+                    })?;
+            if offsets.len() != x.len() {
+                return Err(invalid(format!(
+                    "{} start offsets for {} states",
+                    offsets.len(),
+                    x.len()
+                )));
+            }
+            for (xi, d) in x.iter_mut().zip(offsets) {
+                *xi += d;
+            }
+            x
+        }
     };
     if x0.len() != n {
         return Err(invalid(format!(

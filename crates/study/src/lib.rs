@@ -72,6 +72,9 @@ pub struct StudyOptions {
     pub models: Vec<String>,
     pub protocols: Vec<Protocol>,
     pub max_iterations: usize,
+    /// How runs start: static equilibrium (default), or with their history states fitted to
+    /// the first seconds, estimated jointly with the parameters by alternation.
+    pub initial: airsus_estimate::StartMethod,
 }
 
 /// What the pipeline reports while it works.
@@ -157,6 +160,7 @@ pub fn run_study(
                     m,
                     out_dir,
                     options.max_iterations,
+                    options.initial,
                 );
                 progress(Event::ModelDone {
                     protocol: &protocol.name,
@@ -217,6 +221,7 @@ pub fn run_study(
         airsus_version: env!("CARGO_PKG_VERSION").to_owned(),
         study: input.label.clone(),
         truck: input.truck_file.display().to_string(),
+        initial_state: options.initial.as_str().to_owned(),
         runs: input
             .runs
             .iter()
@@ -279,6 +284,7 @@ pub fn run_builtin(
     seed: u64,
     models: &[String],
     max_iterations: usize,
+    initial: airsus_estimate::StartMethod,
     progress: &(dyn Fn(Event) + Sync),
 ) -> Result<StudyOutcome, StudyError> {
     progress(Event::Stage(
@@ -295,6 +301,7 @@ pub fn run_builtin(
         models: models.to_vec(),
         protocols: Protocol::builtin_pair(),
         max_iterations,
+        initial,
     };
     run_study(&input, &options, out_dir, progress)
 }

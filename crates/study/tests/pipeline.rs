@@ -14,6 +14,7 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         models: vec!["m2".to_owned(), "m3".to_owned()],
         protocols: vec![Protocol::from_roles(&input)],
         max_iterations: 8,
+        initial: airsus_estimate::StartMethod::Equilibrium,
     };
     let out = dir.path().join("out");
     let events = std::sync::Mutex::new(Vec::new());
@@ -183,6 +184,7 @@ fn a_protocol_without_estimation_runs_is_a_clear_error() {
             estimation: vec!["data-set 9".to_owned()],
         }],
         max_iterations: 5,
+        initial: airsus_estimate::StartMethod::Equilibrium,
     };
     let err = run_study(&input, &options, &dir.path().join("out"), &|_| {})
         .err()
@@ -239,4 +241,34 @@ fn a_truth_file_on_another_time_axis_is_refused_with_its_name() {
         err.contains("truth/ds3.csv") && err.contains("data-set 2"),
         "{err}"
     );
+}
+
+#[test]
+fn a_study_can_start_its_runs_from_the_first_seconds_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let generated = airsus_truck::experiments::generate(&data, 4, &mut |_| {}).unwrap();
+    let input = load_study(&generated.study_valve).unwrap();
+    let options = StudyOptions {
+        models: vec!["m2".to_owned()],
+        protocols: vec![Protocol::from_roles(&input)],
+        max_iterations: 5,
+        initial: airsus_estimate::StartMethod::Prefix,
+    };
+    let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
+    let r = &outcome.results;
+    assert_eq!(r.initial_state, "prefix");
+    let m2 = &r.protocols[0].models[0];
+    assert!(m2.error.is_none(), "{:?}", m2.error);
+    // The refit from estimated starts is either kept or declined, and the notes say which.
+    assert!(
+        m2.notes.iter().any(|n| n.contains("refit")),
+        "{:?}",
+        m2.notes
+    );
+    for run in &m2.runs {
+        assert!(run.estimated.is_some(), "{}: {:?}", run.run, run.error);
+    }
+    let html = std::fs::read_to_string(dir.path().join("out/report.html")).unwrap();
+    assert!(html.contains("history states fitted to the first 10 s"));
 }

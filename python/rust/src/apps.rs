@@ -222,10 +222,18 @@ fn run_the_study(
                 models: models.to_vec(),
                 protocols: vec![Protocol::from_roles(&input)],
                 max_iterations,
+                initial: airsus_estimate::StartMethod::Equilibrium,
             };
             run_study(&input, &options, out, &on_event)
         }
-        None => run_builtin(out, seed, models, max_iterations, &on_event),
+        None => run_builtin(
+            out,
+            seed,
+            models,
+            max_iterations,
+            airsus_estimate::StartMethod::Equilibrium,
+            &on_event,
+        ),
     }
     .with_context(|| format!("running the study into {}", out.display()))?;
     Ok(Studied {

@@ -35,6 +35,11 @@ pub struct StudyArgs {
     /// Models to estimate (comma-separated).
     #[arg(long, value_delimiter = ',', default_values_t = study_models().iter().map(|m| (*m).to_owned()).collect::<Vec<_>>())]
     pub models: Vec<String>,
+    /// How runs start: `equilibrium` (static, at the first measured height) or `prefix`
+    /// (history states fitted to the first seconds; estimation refits the parameters from
+    /// those starts).
+    #[arg(long, value_enum, default_value_t = crate::commands::simulate::StartArg::Equilibrium)]
+    pub initial_state: crate::commands::simulate::StartArg,
     /// Iteration limit of each grey-box fit.
     #[arg(long, default_value_t = 60)]
     pub max_iterations: usize,
@@ -82,6 +87,7 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
                 models: args.models.clone(),
                 protocols: vec![Protocol::from_roles(&input)],
                 max_iterations: args.max_iterations,
+                initial: args.initial_state.into(),
             };
             run_study(&input, &options, &args.out, &progress)
         }
@@ -90,6 +96,7 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
             args.seed,
             &args.models,
             args.max_iterations,
+            args.initial_state.into(),
             &progress,
         ),
     }

@@ -162,8 +162,9 @@ impl<'a> Evaluator<'a> {
             });
         }
         let mut runs = Vec::with_capacity(problem.runs.len());
-        for run in &problem.runs {
-            runs.push(run_data(run, problem, w)?);
+        for (i, run) in problem.runs.iter().enumerate() {
+            let offsets = problem.start_offsets.get(i).cloned().flatten();
+            runs.push(run_data(run, problem, w, offsets)?);
         }
         // One scale per output, pooled over the runs (see GreyboxProblem): a per-run scale
         // would give a run in which an output hardly moves (the pressure at constant load
@@ -327,6 +328,7 @@ fn run_data<'a>(
     run: &'a Run,
     problem: &GreyboxProblem<'a>,
     w: super::problem::OutputWeights,
+    offsets: Option<Vec<f64>>,
 ) -> Result<RunData<'a>, EstimateError> {
     let invalid = |reason: String| EstimateError::InvalidRun {
         run: run.name.clone(),
@@ -370,7 +372,13 @@ fn run_data<'a>(
     Ok(RunData {
         name: run.name.clone(),
         inputs,
-        initial: InitialState::Equilibrium(ic),
+        initial: match offsets {
+            Some(offsets) => InitialState::EquilibriumOffset {
+                condition: ic,
+                offsets,
+            },
+            None => InitialState::Equilibrium(ic),
+        },
         height: &outputs.sensor_height_m,
         pressure: &outputs.bellow_gauge_pa,
         height_factor: w.height,

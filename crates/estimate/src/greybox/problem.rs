@@ -89,6 +89,9 @@ pub struct GreyboxProblem<'a> {
     pub free: Vec<FreeParameter>,
     pub weights: OutputWeights,
     pub initial: InitialChoice,
+    /// Per run (in `runs` order), offsets from that equilibrium to start from: the history
+    /// states a prefix fit estimated ([`crate::estimate_initial_state`]). Empty: none.
+    pub start_offsets: Vec<Option<Vec<f64>>>,
     /// ODE solver options of every simulation (default: BDF, rtol 1e-6, as `airsus-sim`).
     pub solver: SolverOptions,
 }
@@ -102,8 +105,15 @@ impl<'a> GreyboxProblem<'a> {
             free: free.iter().map(|n| FreeParameter::new(*n)).collect(),
             weights: OutputWeights::default(),
             initial: InitialChoice::default(),
+            start_offsets: Vec::new(),
             solver: SolverOptions::default(),
         }
+    }
+
+    /// Starts run `i` from its equilibrium plus `offsets[i]` (when `Some`).
+    pub fn with_start_offsets(mut self, offsets: Vec<Option<Vec<f64>>>) -> Self {
+        self.start_offsets = offsets;
+        self
     }
 
     /// Narrows the bounds of a freed parameter (no effect if `name` is not freed; the
