@@ -162,3 +162,59 @@ fn greybox_names_an_unknown_parameter() {
     assert!(stderr.contains("mass2"), "{stderr}");
     assert!(!dir.path().join("est.toml").exists());
 }
+
+#[test]
+fn noise_level_weighting_lets_the_valve_run_count() {
+    // Pooled spreads let the 1500-s loading run outweigh the valve run's small pressure
+    // swings; weighting each run and output by its own noise does not. Judged on data-set 4,
+    // a valve run neither fit saw. Seed 1: −143.6 → −83.7 %. (Not on every seed: seed 5 goes
+    // −65.5 → −77.3 %, which is why noise-level weighting is not the default yet.)
+    let dir = generated();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let held_out_pressure = |normalisation: &str| -> f64 {
+        let est = p(&format!("est_{normalisation}.toml"));
+        let out = airsus(&[
+            "greybox",
+            "--model",
+            "m2",
+            "--truck",
+            &p("truck.toml"),
+            "--run",
+            &p("ds1.csv"),
+            "--run",
+            &p("ds3.csv"),
+            "--normalisation",
+            normalisation,
+            "--out",
+            &est,
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let out = airsus(&[
+            "simulate",
+            "--model",
+            "m2",
+            "--truck",
+            &est,
+            "--run",
+            &p("ds4.csv"),
+            "--out",
+            &p(&format!("sim_{normalisation}.csv")),
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{stderr}");
+        let tail = stderr.split("pressure ").last().unwrap();
+        tail.split(' ').next().unwrap().parse().unwrap()
+    };
+    let (pooled, noise) = (
+        held_out_pressure("pooled-spread"),
+        held_out_pressure("noise-level"),
+    );
+    assert!(
+        noise > pooled + 5.0,
+        "data-set 4 pressure: pooled {pooled} %, noise-level {noise} %"
+    );
+}

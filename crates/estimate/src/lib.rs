@@ -33,7 +33,7 @@ pub mod submodel;
 pub use error::EstimateError;
 pub use greybox::{
     FreeParameter, GreyboxEstimate, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
-    InitialChoice, OutputWeights, StopReason, estimate,
+    InitialChoice, Normalisation, OutputWeights, StopReason, estimate,
 };
 pub use initial_state::{
     EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,

@@ -75,6 +75,22 @@ pub struct StudyOptions {
     /// How runs start: static equilibrium (default), or with their history states fitted to
     /// the first seconds, estimated jointly with the parameters by alternation.
     pub initial: airsus_estimate::StartMethod,
+    /// How the grey-box loss weighs runs and outputs.
+    pub normalisation: airsus_estimate::Normalisation,
+}
+
+impl StudyOptions {
+    /// Every registered model, the given protocols, 60 iterations, equilibrium starts and
+    /// the default loss normalisation.
+    pub fn new(protocols: Vec<Protocol>) -> Self {
+        Self {
+            models: study_models().iter().map(|m| (*m).to_owned()).collect(),
+            protocols,
+            max_iterations: 60,
+            initial: airsus_estimate::StartMethod::default(),
+            normalisation: airsus_estimate::Normalisation::default(),
+        }
+    }
 }
 
 /// What the pipeline reports while it works.
@@ -153,15 +169,8 @@ pub fn run_study(
             .par_iter()
             .map(|m| {
                 let t = Instant::now();
-                let outcome = models::fit_and_validate(
-                    input,
-                    &start,
-                    protocol,
-                    m,
-                    out_dir,
-                    options.max_iterations,
-                    options.initial,
-                );
+                let outcome =
+                    models::fit_and_validate(input, &start, protocol, m, out_dir, options);
                 progress(Event::ModelDone {
                     protocol: &protocol.name,
                     model: m,
@@ -278,13 +287,11 @@ fn refuse_writing_over_inputs(input: &StudyInput, out_dir: &Path) -> Result<(), 
 }
 
 /// The virtual truck's reference study: generates it into `out_dir/data` (seed `seed`) and
-/// runs both protocols on it.
+/// runs both protocols on it (the built-in pair; `options.protocols` is not used).
 pub fn run_builtin(
     out_dir: &Path,
     seed: u64,
-    models: &[String],
-    max_iterations: usize,
-    initial: airsus_estimate::StartMethod,
+    options: StudyOptions,
     progress: &(dyn Fn(Event) + Sync),
 ) -> Result<StudyOutcome, StudyError> {
     progress(Event::Stage(
@@ -298,10 +305,8 @@ pub fn run_builtin(
         generated.study.display()
     );
     let options = StudyOptions {
-        models: models.to_vec(),
         protocols: Protocol::builtin_pair(),
-        max_iterations,
-        initial,
+        ..options
     };
     run_study(&input, &options, out_dir, progress)
 }

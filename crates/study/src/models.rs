@@ -83,7 +83,8 @@ fn refit_from_estimated_starts(
     let mut refit = GreyboxProblem::new(&*first.estimated_model, estimation, &[])
         .with_start_offsets(offsets.clone())
         .with_initial(problem.initial)
-        .with_weights(problem.weights);
+        .with_weights(problem.weights)
+        .with_normalisation(problem.normalisation);
     refit.free = problem.free.clone();
     refit.solver = problem.solver.clone();
     // The first fit's point from the same starts: what the refit must beat.
@@ -234,10 +235,10 @@ pub fn fit_and_validate(
     protocol: &Protocol,
     model_name: &str,
     out_dir: &std::path::Path,
-    max_iterations: usize,
-    initial: StartMethod,
+    options: &crate::StudyOptions,
 ) -> ModelOutcome {
     let started = Instant::now();
+    let (initial, normalisation) = (options.initial, options.normalisation);
     let mut result = ModelResult::new(model_name);
     let nominal = match build_any_model(model_name, start) {
         Ok(m) => m,
@@ -268,77 +269,79 @@ pub fn fit_and_validate(
         .map(|entry| entry.free_parameters(valve_action))
         .unwrap_or_default();
     result.free = free.iter().map(|s| (*s).to_owned()).collect();
-    let mut problem = GreyboxProblem::new(&*nominal, &estimation, &free);
+    let mut problem =
+        GreyboxProblem::new(&*nominal, &estimation, &free).with_normalisation(normalisation);
     for name in &free {
         if let Some((lo, hi)) = bounds(&*nominal, name) {
             problem = problem.with_bounds(name, lo, hi);
         }
     }
-    let options = GreyboxOptions::default().with_max_iterations(max_iterations);
-    let estimated: Box<dyn SuspensionModel> = match estimate(&problem, &options, &mut NoProgress) {
-        Err(e) => {
-            result.error = Some(format!(
-                "grey-box estimation failed: {e}; validated with the start values"
-            ));
-            nominal.clone()
-        }
-        Ok(est) => {
-            result.stop_reason = Some(est.stop.to_string());
-            result.simulations = est.simulations;
-            if !est.stop.is_converged() {
-                result.notes.push(format!(
-                    "the fit did not converge ({}); the best point found is used",
-                    est.stop
+    let fit_options = GreyboxOptions::default().with_max_iterations(options.max_iterations);
+    let estimated: Box<dyn SuspensionModel> =
+        match estimate(&problem, &fit_options, &mut NoProgress) {
+            Err(e) => {
+                result.error = Some(format!(
+                    "grey-box estimation failed: {e}; validated with the start values"
                 ));
+                nominal.clone()
             }
-            if est.failed_simulations > 0 {
-                result.notes.push(format!(
-                    "{} of {} trial simulations failed and counted as large losses",
-                    est.failed_simulations, est.simulations
-                ));
-            }
-            for n in &est.identifiability.not_identifiable {
-                let with: Vec<String> = n
-                    .correlated_with
+            Ok(est) => {
+                result.stop_reason = Some(est.stop.to_string());
+                result.simulations = est.simulations;
+                if !est.stop.is_converged() {
+                    result.notes.push(format!(
+                        "the fit did not converge ({}); the best point found is used",
+                        est.stop
+                    ));
+                }
+                if est.failed_simulations > 0 {
+                    result.notes.push(format!(
+                        "{} of {} trial simulations failed and counted as large losses",
+                        est.failed_simulations, est.simulations
+                    ));
+                }
+                for n in &est.identifiability.not_identifiable {
+                    let with: Vec<String> = n
+                        .correlated_with
+                        .iter()
+                        .map(|(p, c)| format!("{p} ({c:+.3})"))
+                        .collect();
+                    result.notes.push(format!(
+                        "{} is not determined by {}: kept at its start value{}",
+                        n.name,
+                        protocol.estimation.join(" + "),
+                        if with.is_empty() {
+                            String::new()
+                        } else {
+                            format!("; correlated with {}", with.join(", "))
+                        }
+                    ));
+                }
+                let est = match initial {
+                    StartMethod::Equilibrium => est,
+                    StartMethod::Prefix => refit_from_estimated_starts(
+                        est,
+                        &estimation,
+                        &problem,
+                        &fit_options,
+                        &mut result.notes,
+                    ),
+                };
+                result.estimates = est
+                    .parameters
                     .iter()
-                    .map(|(p, c)| format!("{p} ({c:+.3})"))
+                    .map(|p| ParameterEstimate {
+                        name: p.name.clone(),
+                        unit: p.unit.clone(),
+                        nominal: p.nominal,
+                        estimate: p.estimate,
+                        std: p.std,
+                        identifiable: !est.is_not_identifiable(&p.name),
+                    })
                     .collect();
-                result.notes.push(format!(
-                    "{} is not determined by {}: kept at its start value{}",
-                    n.name,
-                    protocol.estimation.join(" + "),
-                    if with.is_empty() {
-                        String::new()
-                    } else {
-                        format!("; correlated with {}", with.join(", "))
-                    }
-                ));
+                est.estimated_model
             }
-            let est = match initial {
-                StartMethod::Equilibrium => est,
-                StartMethod::Prefix => refit_from_estimated_starts(
-                    est,
-                    &estimation,
-                    &problem,
-                    &options,
-                    &mut result.notes,
-                ),
-            };
-            result.estimates = est
-                .parameters
-                .iter()
-                .map(|p| ParameterEstimate {
-                    name: p.name.clone(),
-                    unit: p.unit.clone(),
-                    nominal: p.nominal,
-                    estimate: p.estimate,
-                    std: p.std,
-                    identifiable: !est.is_not_identifiable(&p.name),
-                })
-                .collect();
-            est.estimated_model
-        }
-    };
+        };
     result.estimation_time_s = started.elapsed().as_secs_f64();
 
     let mut truck = start.clone();

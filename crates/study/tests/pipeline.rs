@@ -15,6 +15,7 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         protocols: vec![Protocol::from_roles(&input)],
         max_iterations: 8,
         initial: airsus_estimate::StartMethod::Equilibrium,
+        normalisation: airsus_estimate::Normalisation::PooledSpread,
     };
     let out = dir.path().join("out");
     let events = std::sync::Mutex::new(Vec::new());
@@ -185,6 +186,7 @@ fn a_protocol_without_estimation_runs_is_a_clear_error() {
         }],
         max_iterations: 5,
         initial: airsus_estimate::StartMethod::Equilibrium,
+        normalisation: airsus_estimate::Normalisation::PooledSpread,
     };
     let err = run_study(&input, &options, &dir.path().join("out"), &|_| {})
         .err()
@@ -254,6 +256,7 @@ fn a_study_can_start_its_runs_from_the_first_seconds_and_says_so() {
         protocols: vec![Protocol::from_roles(&input)],
         max_iterations: 5,
         initial: airsus_estimate::StartMethod::Prefix,
+        normalisation: airsus_estimate::Normalisation::PooledSpread,
     };
     let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
     let r = &outcome.results;

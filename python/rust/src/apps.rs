@@ -220,20 +220,19 @@ fn run_the_study(
             }
             let options = StudyOptions {
                 models: models.to_vec(),
-                protocols: vec![Protocol::from_roles(&input)],
                 max_iterations,
-                initial: airsus_estimate::StartMethod::Equilibrium,
+                ..StudyOptions::new(vec![Protocol::from_roles(&input)])
             };
             run_study(&input, &options, out, &on_event)
         }
-        None => run_builtin(
-            out,
-            seed,
-            models,
-            max_iterations,
-            airsus_estimate::StartMethod::Equilibrium,
-            &on_event,
-        ),
+        None => {
+            let options = StudyOptions {
+                models: models.to_vec(),
+                max_iterations,
+                ..StudyOptions::new(vec![])
+            };
+            run_builtin(out, seed, options, &on_event)
+        }
     }
     .with_context(|| format!("running the study into {}", out.display()))?;
     Ok(Studied {

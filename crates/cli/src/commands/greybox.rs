@@ -17,7 +17,7 @@ use std::path::PathBuf;
 use airsus_data::{read_run, read_truck, write_truck};
 use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
-    NoProgress, Observer, OutputWeights, TerminalProgress, estimate,
+    NoProgress, Normalisation, Observer, OutputWeights, TerminalProgress, estimate,
 };
 use airsus_truck::models::{build_any_model, model_entry};
 use anyhow::{Context, bail};
@@ -65,6 +65,11 @@ pub struct GreyboxArgs {
     /// What fixes each run's initial equilibrium.
     #[arg(long, value_enum, default_value_t = InitialArg::Height)]
     pub initial: InitialArg,
+    /// How the loss weighs runs and outputs: `pooled-spread` (each output by its spread over
+    /// all runs; long runs count more) or `noise-level` (each run and output by its own
+    /// measurement noise, every run equally).
+    #[arg(long, value_enum, default_value_t = NormalisationArg::PooledSpread)]
+    pub normalisation: NormalisationArg,
     /// Weight of the height error (after normalisation; 0 leaves it out).
     #[arg(long, default_value_t = 1.0)]
     pub height_weight: f64,
@@ -81,6 +86,22 @@ pub struct GreyboxArgs {
     /// Print the result as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--normalisation`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum NormalisationArg {
+    PooledSpread,
+    NoiseLevel,
+}
+
+impl From<NormalisationArg> for Normalisation {
+    fn from(n: NormalisationArg) -> Self {
+        match n {
+            NormalisationArg::PooledSpread => Normalisation::PooledSpread,
+            NormalisationArg::NoiseLevel => Normalisation::NoiseLevel,
+        }
+    }
 }
 
 fn parse_bounds(text: &str) -> anyhow::Result<(String, f64, f64)> {
@@ -160,7 +181,8 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         .with_initial(match args.initial {
             InitialArg::Height => InitialChoice::SensorHeight,
             InitialArg::Pressure => InitialChoice::BellowPressure,
-        });
+        })
+        .with_normalisation(args.normalisation.into());
     problem.free = free;
     let options = GreyboxOptions {
         max_iterations: args.max_iterations,

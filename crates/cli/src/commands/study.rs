@@ -40,6 +40,11 @@ pub struct StudyArgs {
     /// those starts).
     #[arg(long, value_enum, default_value_t = crate::commands::simulate::StartArg::Equilibrium)]
     pub initial_state: crate::commands::simulate::StartArg,
+    /// How the grey-box loss weighs runs and outputs: `pooled-spread` (each output by its
+    /// spread over all runs; long runs count more) or `noise-level` (each run and output by
+    /// its own measurement noise, every run equally).
+    #[arg(long, value_enum, default_value_t = crate::commands::greybox::NormalisationArg::PooledSpread)]
+    pub normalisation: crate::commands::greybox::NormalisationArg,
     /// Iteration limit of each grey-box fit.
     #[arg(long, default_value_t = 60)]
     pub max_iterations: usize,
@@ -77,6 +82,13 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
             }
         }
     };
+    let options = StudyOptions {
+        models: args.models.clone(),
+        max_iterations: args.max_iterations,
+        initial: args.initial_state.into(),
+        normalisation: args.normalisation.into(),
+        ..StudyOptions::new(vec![])
+    };
     let outcome = match &args.study {
         Some(path) => {
             let input = load_study(path)?;
@@ -84,21 +96,12 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
                 eprintln!("note: {} omits {}", input.truck_file.display(), d);
             }
             let options = StudyOptions {
-                models: args.models.clone(),
                 protocols: vec![Protocol::from_roles(&input)],
-                max_iterations: args.max_iterations,
-                initial: args.initial_state.into(),
+                ..options
             };
             run_study(&input, &options, &args.out, &progress)
         }
-        None => run_builtin(
-            &args.out,
-            args.seed,
-            &args.models,
-            args.max_iterations,
-            args.initial_state.into(),
-            &progress,
-        ),
+        None => run_builtin(&args.out, args.seed, options, &progress),
     }
     .with_context(|| format!("running the study into {}", args.out.display()))?;
     if let Ok(bar) = bar.lock() {

@@ -22,7 +22,7 @@ use airsus_sim::{
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use super::problem::{GreyboxProblem, InitialChoice};
+use super::problem::{GreyboxProblem, InitialChoice, Normalisation};
 use crate::error::EstimateError;
 
 /// Sensor resolutions (SPEC §1), the floors of the normalisation: a run whose height or
@@ -166,16 +166,30 @@ impl<'a> Evaluator<'a> {
             let offsets = problem.start_offsets.get(i).cloned().flatten();
             runs.push(run_data(run, problem, w, offsets)?);
         }
-        // One scale per output, pooled over the runs (see GreyboxProblem): a per-run scale
-        // would give a run in which an output hardly moves (the pressure at constant load
-        // during valve pulses) an enormous weight on that output.
-        let heights: Vec<&[f64]> = runs.iter().map(|r| r.height).collect();
-        let pressures: Vec<&[f64]> = runs.iter().map(|r| r.pressure).collect();
-        let sigma_h = pooled_spread(&heights, HEIGHT_RESOLUTION_M);
-        let sigma_p = pooled_spread(&pressures, PRESSURE_RESOLUTION_PA);
-        for r in &mut runs {
-            r.height_factor /= sigma_h;
-            r.pressure_factor /= sigma_p;
+        match problem.normalisation {
+            Normalisation::PooledSpread => {
+                // One scale per output, pooled over the runs (see GreyboxProblem): a per-run
+                // scale would give a run in which an output hardly moves (the pressure at
+                // constant load during valve pulses) an enormous weight on that output.
+                let heights: Vec<&[f64]> = runs.iter().map(|r| r.height).collect();
+                let pressures: Vec<&[f64]> = runs.iter().map(|r| r.pressure).collect();
+                let sigma_h = pooled_spread(&heights, HEIGHT_RESOLUTION_M);
+                let sigma_p = pooled_spread(&pressures, PRESSURE_RESOLUTION_PA);
+                for r in &mut runs {
+                    r.height_factor /= sigma_h;
+                    r.pressure_factor /= sigma_p;
+                }
+            }
+            Normalisation::NoiseLevel => {
+                // Each output of each run in units of its own measurement noise, and each run
+                // scaled by 1/√N so that every run weighs the same whatever its length.
+                for r in &mut runs {
+                    let per_run = 1.0 / (r.len() as f64).sqrt();
+                    r.height_factor *= per_run / measurement_noise(r.height, HEIGHT_RESOLUTION_M);
+                    r.pressure_factor *=
+                        per_run / measurement_noise(r.pressure, PRESSURE_RESOLUTION_PA);
+                }
+            }
         }
         Ok(Self {
             base: model.box_clone(),
@@ -398,12 +412,17 @@ fn pooled_spread(signals: &[&[f64]], floor: f64) -> f64 {
     (squares / count.max(1) as f64).sqrt().max(floor)
 }
 
+/// The measurement noise std of `signal` ([`airsus_validate::estimate_noise_std`]: trimmed
+/// second differences), floored at the quantisation noise `q/√12` of resolution `q`.
+fn measurement_noise(signal: &[f64], q: f64) -> f64 {
+    airsus_validate::estimate_noise_std(signal)
+        .unwrap_or(0.0)
+        .max(q / 12f64.sqrt())
+}
+
 /// A model-free estimate of the white measurement-noise variance of each (run, output) block
 /// in normalised units, for the identifiability check *before* the fit (when the residuals
-/// still carry the start's model error): the robust second-difference estimator
-/// `σ ≈ median|Δ²y| / (0.6745 √6)` (for white noise `Var Δ²y = 6σ²`; the median ignores the
-/// few samples at load steps), floored at the sensor resolution's quantisation noise
-/// `q/√12`.
+/// still carry the start's model error): [`measurement_noise`].
 pub(crate) fn noise_variance_from_data(ev: &Evaluator<'_>) -> Vec<f64> {
     let mut out = Vec::with_capacity(2 * ev.runs.len());
     for run in &ev.runs {
@@ -411,18 +430,7 @@ pub(crate) fn noise_variance_from_data(ev: &Evaluator<'_>) -> Vec<f64> {
             (run.height, run.height_factor, HEIGHT_RESOLUTION_M),
             (run.pressure, run.pressure_factor, PRESSURE_RESOLUTION_PA),
         ] {
-            let mut d2: Vec<f64> = signal
-                .windows(3)
-                .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
-                .collect();
-            let sigma = if d2.is_empty() {
-                0.0
-            } else {
-                let mid = d2.len() / 2;
-                let (_, median, _) = d2.select_nth_unstable_by(mid, f64::total_cmp);
-                *median / (0.6745 * 6f64.sqrt())
-            };
-            let sigma = sigma.max(q / 12f64.sqrt());
+            let sigma = measurement_noise(signal, q);
             // A zero weight leaves the block out: its "noise" is irrelevant, keep it finite.
             let s = (sigma * factor).max(f64::MIN_POSITIVE);
             out.push(s * s);

@@ -35,7 +35,7 @@ pub use identifiability::{
 };
 pub use problem::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
-    OutputWeights,
+    Normalisation, OutputWeights,
 };
 pub use result::{
     Correlation, EstimatedParameter, GreyboxEstimate, IdentifiabilityReport, ParameterStatus,
