@@ -218,3 +218,39 @@ fn noise_level_weighting_lets_the_valve_run_count() {
         "data-set 4 pressure: pooled {pooled} %, noise-level {noise} %"
     );
 }
+
+#[test]
+fn a_fit_whose_every_parameter_was_reset_is_not_called_converged() {
+    // The tire stiffness does not show in a loading run's height and pressure at 10 Hz: the
+    // identifiability screen resets it after the fit, so the result is the start.
+    let dir = generated();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let out = airsus(&[
+        "greybox",
+        "--model",
+        "m1",
+        "--free",
+        "kw",
+        "--truck",
+        &p("truck.toml"),
+        "--run",
+        &p("ds1.csv"),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        json["stop"]["kind"], "no_parameter_moved",
+        "{}",
+        json["stop"]
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("no parameter moved from its start"),
+        "{stderr}"
+    );
+}

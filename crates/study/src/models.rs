@@ -6,7 +6,7 @@ use std::time::Instant;
 use airsus_data::{Run, TruckParameters, ValveState, write_truck};
 use airsus_estimate::{
     GreyboxEstimate, GreyboxOptions, GreyboxProblem, NoProgress, PrefixOptions, StartChoice,
-    StartMethod, estimate, estimate_initial_state, resolve_start,
+    StartMethod, StopReason, estimate, estimate_initial_state, resolve_start,
 };
 use airsus_model::SuspensionModel;
 use airsus_report::results::{ModelResult, OutputFit, ParameterEstimate, ResidualSummary, RunFit};
@@ -288,7 +288,9 @@ pub fn fit_and_validate(
             Ok(est) => {
                 result.stop_reason = Some(est.stop.to_string());
                 result.simulations = est.simulations;
-                if !est.stop.is_converged() {
+                if matches!(est.stop, StopReason::NoParameterMoved { .. }) {
+                    result.notes.push(est.stop.to_string());
+                } else if !est.stop.is_converged() {
                     result.notes.push(format!(
                         "the fit did not converge ({}); the best point found is used",
                         est.stop

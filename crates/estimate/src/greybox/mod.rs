@@ -295,6 +295,13 @@ pub fn estimate(
             }
         }
     }
+    // A fit whose every parameter went back to its start is not "converged": say so.
+    if n > 0 && z == z0 && stop.is_converged() {
+        stop = StopReason::NoParameterMoved {
+            fixed: not_identifiable.len(),
+            freed: n,
+        };
+    }
     if ev.residuals_at(&z).is_none() {
         // The optimiser's best point always simulated; this guards the contract anyway.
         stop = StopReason::NotConverging {

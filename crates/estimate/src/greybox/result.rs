@@ -26,6 +26,9 @@ pub enum StopReason {
     NotConverging { reason: String },
     /// Nothing was freed, or no freed parameter is identifiable from the runs.
     NothingToEstimate,
+    /// Parameters were fitted, but the identifiability screen sent every one of them back to
+    /// its start: the result equals the start. Never reported as converged.
+    NoParameterMoved { fixed: usize, freed: usize },
 }
 
 impl StopReason {
@@ -60,6 +63,10 @@ impl fmt::Display for StopReason {
             Self::NothingToEstimate => {
                 write!(f, "nothing to estimate: no identifiable parameter is free")
             }
+            Self::NoParameterMoved { fixed, freed } => write!(
+                f,
+                "NOT estimated: no parameter moved from its start ({fixed} of {freed} found not identifiable and reset); the result is the start"
+            ),
         }
     }
 }
