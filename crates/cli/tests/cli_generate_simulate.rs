@@ -1,13 +1,8 @@
 //! The virtual truck's study end to end through the binary: generate, check, simulate.
 
-use std::process::Command;
+mod common;
 
-fn airsus(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_airsus"))
-        .args(args)
-        .output()
-        .expect("the airsus binary runs")
-}
+use common::{airsus, generated, path, printed_nrmse};
 
 #[test]
 fn generate_then_check_then_simulate_every_model() {
@@ -211,30 +206,24 @@ fn no_command_writes_over_its_input() {
 
 #[test]
 fn simulate_can_fit_the_start_to_the_first_seconds() {
-    let dir = tempfile::tempdir().unwrap();
-    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
-    assert!(airsus(&["generate", "--out", &p("")]).status.success());
+    let dir = generated();
+    let p = |name: &str| path(&dir, name);
+    let simulate = |extra: &[&str]| {
+        let (truck, run, out) = (p("truth/truck.toml"), p("ds3.csv"), p("sim.csv"));
+        let mut args = vec![
+            "simulate", "--model", "truck", "--truck", &truck, "--run", &run, "--out", &out,
+        ];
+        args.extend_from_slice(extra);
+        airsus(&args)
+    };
     let pressure_fit = |start: &str| -> f64 {
-        let out = airsus(&[
-            "simulate",
-            "--model",
-            "truck",
-            "--truck",
-            &p("truth/truck.toml"),
-            "--run",
-            &p("ds3.csv"),
-            "--out",
-            &p(&format!("sim_{start}.csv")),
-            "--initial-state",
-            start,
-        ]);
+        let out = simulate(&["--initial-state", start]);
         let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
         assert!(out.status.success(), "{stderr}");
         if start == "prefix" {
             assert!(stderr.contains("fitted to the first seconds"), "{stderr}");
         }
-        let tail = stderr.split("pressure ").last().unwrap();
-        tail.split(' ').next().unwrap().parse().unwrap()
+        printed_nrmse(&stderr, "pressure")
     };
     // The virtual truck's true parameters: only the start differs (ceiling 90.8 %).
     let (equilibrium, prefix) = (pressure_fit("equilibrium"), pressure_fit("prefix"));
@@ -243,20 +232,7 @@ fn simulate_can_fit_the_start_to_the_first_seconds() {
         "{equilibrium} → {prefix}"
     );
 
-    let out = airsus(&[
-        "simulate",
-        "--model",
-        "m2",
-        "--truck",
-        &p("truck.toml"),
-        "--run",
-        &p("ds3.csv"),
-        "--out",
-        &p("bad.csv"),
-        "--initial-state",
-        "prefix",
-        "--prefix-s=-1",
-    ]);
+    let out = simulate(&["--initial-state", "prefix", "--prefix-s=-1"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         !out.status.success() && stderr.contains("prefix"),

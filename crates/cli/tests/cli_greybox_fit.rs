@@ -1,23 +1,8 @@
 //! `airsus greybox` and `airsus fit` on the virtual truck's study.
 
-use std::process::Command;
+mod common;
 
-fn airsus(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_airsus"))
-        .args(args)
-        .output()
-        .expect("the airsus binary runs")
-}
-
-fn generated() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    assert!(
-        airsus(&["generate", "--out", dir.path().to_str().unwrap()])
-            .status
-            .success()
-    );
-    dir
-}
+use common::{airsus, generated, ok, path, printed_nrmse};
 
 #[test]
 fn greybox_improves_the_fit_and_writes_a_truck_file_that_loads_back() {
@@ -170,30 +155,27 @@ fn noise_level_weighting_lets_the_valve_run_count() {
     // a valve run neither fit saw. Seed 1: −143.6 → −83.7 %. (Not on every seed: seed 5 goes
     // −65.5 → −77.3 %, which is why noise-level weighting is not the default yet.)
     let dir = generated();
-    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let p = |name: &str| path(&dir, name);
     let held_out_pressure = |normalisation: &str| -> f64 {
         let est = p(&format!("est_{normalisation}.toml"));
-        let out = airsus(&[
+        let (truck, ds1, ds3) = (p("truck.toml"), p("ds1.csv"), p("ds3.csv"));
+        ok(&[
             "greybox",
             "--model",
             "m2",
             "--truck",
-            &p("truck.toml"),
+            &truck,
             "--run",
-            &p("ds1.csv"),
+            &ds1,
             "--run",
-            &p("ds3.csv"),
+            &ds3,
             "--normalisation",
             normalisation,
             "--out",
             &est,
         ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let out = airsus(&[
+        let sim = p(&format!("sim_{normalisation}.csv"));
+        let (_, stderr) = ok(&[
             "simulate",
             "--model",
             "m2",
@@ -202,12 +184,9 @@ fn noise_level_weighting_lets_the_valve_run_count() {
             "--run",
             &p("ds4.csv"),
             "--out",
-            &p(&format!("sim_{normalisation}.csv")),
+            &sim,
         ]);
-        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-        assert!(out.status.success(), "{stderr}");
-        let tail = stderr.split("pressure ").last().unwrap();
-        tail.split(' ').next().unwrap().parse().unwrap()
+        printed_nrmse(&stderr, "pressure")
     };
     let (pooled, noise) = (
         held_out_pressure("pooled-spread"),
@@ -224,31 +203,16 @@ fn a_fit_whose_every_parameter_was_reset_is_not_called_converged() {
     // The tire stiffness does not show in a loading run's height and pressure at 10 Hz: the
     // identifiability screen resets it after the fit, so the result is the start.
     let dir = generated();
-    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
-    let out = airsus(&[
-        "greybox",
-        "--model",
-        "m1",
-        "--free",
-        "kw",
-        "--truck",
-        &p("truck.toml"),
-        "--run",
-        &p("ds1.csv"),
-        "--json",
+    let (truck, ds1) = (path(&dir, "truck.toml"), path(&dir, "ds1.csv"));
+    let (stdout, stderr) = ok(&[
+        "greybox", "--model", "m1", "--free", "kw", "--truck", &truck, "--run", &ds1, "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(
         json["stop"]["kind"], "no_parameter_moved",
         "{}",
         json["stop"]
     );
-    let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("no parameter moved from its start"),
         "{stderr}"
