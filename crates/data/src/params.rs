@@ -36,9 +36,29 @@ pub struct ParameterInfo {
     /// Physically admissible range; the estimator's default bounds.
     pub lower: f64,
     pub upper: f64,
+    /// Where the value lives in a truck file; `None` for a parameter without a truck-file
+    /// key (the `truck` structure's effects, test models).
+    pub field: Option<Field>,
 }
 
 impl ParameterInfo {
+    pub const fn new(
+        name: &'static str,
+        unit: &'static str,
+        description: &'static str,
+        (lower, upper): (f64, f64),
+        field: Option<Field>,
+    ) -> Self {
+        Self {
+            name,
+            unit,
+            description,
+            lower,
+            upper,
+            field,
+        }
+    }
+
     /// Whether `value` is inside the admissible range (NaN is not).
     pub fn admits(&self, value: f64) -> bool {
         value >= self.lower && value <= self.upper
@@ -115,189 +135,160 @@ pub struct Param {
     pub field: Field,
 }
 
-const fn info(
+/// One declaration: the field (truck-file home) once, the description beside it.
+const fn param(
+    field: Field,
     name: &'static str,
     unit: &'static str,
     description: &'static str,
     lower: f64,
     upper: f64,
-) -> ParameterInfo {
-    ParameterInfo {
-        name,
-        unit,
-        description,
-        lower,
-        upper,
+) -> Param {
+    Param {
+        info: ParameterInfo::new(name, unit, description, (lower, upper), Some(field)),
+        field,
     }
 }
 
 /// All SPEC §5 names plus the creep element's (`m2xh`). `ksd` appears twice with different
 /// meanings; a model picks one.
 pub const CATALOG: &[Param] = &[
-    Param {
-        info: info(
-            "p0",
-            "m²",
-            "effective area A_eff = p0 + p1 h + .. + p4 h⁴, constant term (eq 5.4)",
-            -1.0,
-            1.0,
-        ),
-        field: Field::EffectiveArea(0),
-    },
-    Param {
-        info: info(
-            "p1",
-            "m",
-            "effective area, linear coefficient (eq 5.4; thesis Table 5.2 misprints 0.08362 for 0.8362)",
-            -10.0,
-            10.0,
-        ),
-        field: Field::EffectiveArea(1),
-    },
-    Param {
-        info: info(
-            "p2",
-            "1",
-            "effective area, quadratic coefficient (eq 5.4)",
-            -100.0,
-            100.0,
-        ),
-        field: Field::EffectiveArea(2),
-    },
-    Param {
-        info: info(
-            "p3",
-            "1/m",
-            "effective area, cubic coefficient (eq 5.4)",
-            -100.0,
-            100.0,
-        ),
-        field: Field::EffectiveArea(3),
-    },
-    Param {
-        info: info(
-            "p4",
-            "1/m²",
-            "effective area, quartic coefficient (eq 5.4)",
-            -100.0,
-            100.0,
-        ),
-        field: Field::EffectiveArea(4),
-    },
-    Param {
-        info: info(
-            "a0",
-            "m²",
-            "gas-volume cross-section A = a0 + a1 h, constant term (eq 5.1)",
-            1e-3,
-            5.0,
-        ),
-        field: Field::CrossSection(0),
-    },
-    Param {
-        info: info(
-            "a1",
-            "m",
-            "gas-volume cross-section, slope (eq 5.1)",
-            -5.0,
-            5.0,
-        ),
-        field: Field::CrossSection(1),
-    },
-    Param {
-        info: info(
-            "m2",
-            "kg",
-            "unsprung mass m2 (axle, wheel; thesis 3.1)",
-            10.0,
-            3000.0,
-        ),
-        field: Field::Unsprung,
-    },
-    Param {
-        info: info(
-            "ig",
-            "kg m²",
-            "lever + axle inertia about the hinge I_g (eq 3.8; nominal m2 l1²)",
-            1.0,
-            1e4,
-        ),
-        field: Field::LeverInertia,
-    },
-    Param {
-        info: info(
-            "kf",
-            "N s/m",
-            "hinge friction k_f, viscous (eq 3.4)",
-            0.0,
-            1e6,
-        ),
-        field: Field::HingeFriction,
-    },
-    Param {
-        info: info("kw", "N/m", "tire stiffness k_w (eq 3.15)", 1e5, 1e8),
-        field: Field::TireStiffness,
-    },
-    Param {
-        info: info(
-            "kscl",
-            "m/N",
-            "static lever flex per newton of wheel load k_scl (eq 3.14)",
-            0.0,
-            1e-5,
-        ),
-        field: Field::LeverCompliance,
-    },
-    Param {
-        info: info(
-            "rflow1",
-            "Pa s/mol",
-            "fill-channel flow resistance R_flow1 (eq 3.19)",
-            1e3,
-            1e11,
-        ),
-        field: Field::FillResistance,
-    },
-    Param {
-        info: info(
-            "rflow2",
-            "Pa s/mol",
-            "exhaust-channel flow resistance R_flow2 (eq 3.19)",
-            1e3,
-            1e11,
-        ),
-        field: Field::ExhaustResistance,
-    },
-    Param {
-        info: info(
-            "ksd",
-            "N/m",
-            "slow-force scale k_sd: extra bellow force per metre of OE output (eq 4.4)",
-            0.0,
-            1e8,
-        ),
-        field: Field::SlowForceScale,
-    },
-    Param {
-        info: info(
-            "ksd",
-            "N/m",
-            "creep stiffness k_sd of the bellow-wall Maxwell element (m2xh)",
-            0.0,
-            1e8,
-        ),
-        field: Field::CreepStiffness,
-    },
-    Param {
-        info: info(
-            "tsd",
-            "s",
-            "creep relaxation time constant τ_sd of the Maxwell element (m2xh)",
-            0.1,
-            1e5,
-        ),
-        field: Field::CreepTimeConstant,
-    },
+    param(
+        Field::EffectiveArea(0),
+        "p0",
+        "m²",
+        "effective area A_eff = p0 + p1 h + .. + p4 h⁴, constant term (eq 5.4)",
+        -1.0,
+        1.0,
+    ),
+    param(
+        Field::EffectiveArea(1),
+        "p1",
+        "m",
+        "effective area, linear coefficient (eq 5.4; thesis Table 5.2 misprints 0.08362 for 0.8362)",
+        -10.0,
+        10.0,
+    ),
+    param(
+        Field::EffectiveArea(2),
+        "p2",
+        "1",
+        "effective area, quadratic coefficient (eq 5.4)",
+        -100.0,
+        100.0,
+    ),
+    param(
+        Field::EffectiveArea(3),
+        "p3",
+        "1/m",
+        "effective area, cubic coefficient (eq 5.4)",
+        -100.0,
+        100.0,
+    ),
+    param(
+        Field::EffectiveArea(4),
+        "p4",
+        "1/m²",
+        "effective area, quartic coefficient (eq 5.4)",
+        -100.0,
+        100.0,
+    ),
+    param(
+        Field::CrossSection(0),
+        "a0",
+        "m²",
+        "gas-volume cross-section A = a0 + a1 h, constant term (eq 5.1)",
+        1e-3,
+        5.0,
+    ),
+    param(
+        Field::CrossSection(1),
+        "a1",
+        "m",
+        "gas-volume cross-section, slope (eq 5.1)",
+        -5.0,
+        5.0,
+    ),
+    param(
+        Field::Unsprung,
+        "m2",
+        "kg",
+        "unsprung mass m2 (axle, wheel; thesis 3.1)",
+        10.0,
+        3000.0,
+    ),
+    param(
+        Field::LeverInertia,
+        "ig",
+        "kg m²",
+        "lever + axle inertia about the hinge I_g (eq 3.8; nominal m2 l1²)",
+        1.0,
+        1e4,
+    ),
+    param(
+        Field::HingeFriction,
+        "kf",
+        "N s/m",
+        "hinge friction k_f, viscous (eq 3.4)",
+        0.0,
+        1e6,
+    ),
+    param(
+        Field::TireStiffness,
+        "kw",
+        "N/m",
+        "tire stiffness k_w (eq 3.15)",
+        1e5,
+        1e8,
+    ),
+    param(
+        Field::LeverCompliance,
+        "kscl",
+        "m/N",
+        "static lever flex per newton of wheel load k_scl (eq 3.14)",
+        0.0,
+        1e-5,
+    ),
+    param(
+        Field::FillResistance,
+        "rflow1",
+        "Pa s/mol",
+        "fill-channel flow resistance R_flow1 (eq 3.19)",
+        1e3,
+        1e11,
+    ),
+    param(
+        Field::ExhaustResistance,
+        "rflow2",
+        "Pa s/mol",
+        "exhaust-channel flow resistance R_flow2 (eq 3.19)",
+        1e3,
+        1e11,
+    ),
+    param(
+        Field::SlowForceScale,
+        "ksd",
+        "N/m",
+        "slow-force scale k_sd: extra bellow force per metre of OE output (eq 4.4)",
+        0.0,
+        1e8,
+    ),
+    param(
+        Field::CreepStiffness,
+        "ksd",
+        "N/m",
+        "creep stiffness k_sd of the bellow-wall Maxwell element (m2xh)",
+        0.0,
+        1e8,
+    ),
+    param(
+        Field::CreepTimeConstant,
+        "tsd",
+        "s",
+        "creep relaxation time constant τ_sd of the Maxwell element (m2xh)",
+        0.1,
+        1e5,
+    ),
 ];
 
 /// The catalogue entries for `fields`, in that order.

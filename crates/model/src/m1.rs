@@ -155,12 +155,4 @@ impl SuspensionModel for Model1 {
         let h_axle = c.h0_m + (eq.bellow_height_m - c.h0_m) / c.lever_gain;
         Ok(vec![x2 + h_axle, x2, 0.0, 0.0, eq.amount_mol])
     }
-
-    fn box_clone(&self) -> Box<dyn SuspensionModel> {
-        Box::new(self.clone())
-    }
-
-    fn write_parameters(&self, truck: &mut TruckParameters) {
-        self.params.write(&self.truck, truck);
-    }
 }

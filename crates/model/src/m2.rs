@@ -409,12 +409,4 @@ impl SuspensionModel for Model2 {
         }
         Ok(x)
     }
-
-    fn box_clone(&self) -> Box<dyn SuspensionModel> {
-        Box::new(self.clone())
-    }
-
-    fn write_parameters(&self, truck: &mut TruckParameters) {
-        self.params.write(&self.truck, truck);
-    }
 }

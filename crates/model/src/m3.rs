@@ -198,12 +198,4 @@ impl SuspensionModel for Model3 {
         x.extend([u.wheel_load_kg, eq.bellow_gauge_pa, eq.bellow_height_m]);
         Ok(x)
     }
-
-    fn box_clone(&self) -> Box<dyn SuspensionModel> {
-        Box::new(self.clone())
-    }
-
-    fn write_parameters(&self, truck: &mut TruckParameters) {
-        self.params.write(&self.truck, truck);
-    }
 }

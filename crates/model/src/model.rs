@@ -148,7 +148,7 @@ pub enum ModelError {
 }
 
 /// A full suspension model: state layout, named parameters, dynamics and output map.
-pub trait SuspensionModel: Send + Sync + std::fmt::Debug {
+pub trait SuspensionModel: BoxClone + Send + Sync + std::fmt::Debug {
     /// Short name as used on the command line (`m1`, `m2`, `m2x`, `m2xh`, `m3`, `truck`).
     fn name(&self) -> &'static str;
 
@@ -199,25 +199,32 @@ pub trait SuspensionModel: Send + Sync + std::fmt::Debug {
     fn initial_state(&self, u: &InputSample, ic: &InitialCondition)
     -> Result<Vec<f64>, ModelError>;
 
-    /// A boxed copy, for "same model, new parameters" loops over trait objects.
-    fn box_clone(&self) -> Box<dyn SuspensionModel>;
-
     /// Writes this model's parameters into `truck`, so that grey-box results can be saved as a
     /// truck file (`airsus_data::write_truck`). Parameters the model does not have are left
     /// untouched.
     ///
-    /// The default maps every SPEC §5 short name to its truck-file key (`ksd` to
-    /// `slow_dynamics.force_scale_n_per_m`) and skips names it does not know; a model whose
-    /// names mean something else overrides it.
+    /// Written once: every parameter goes to its declared truck-file home
+    /// ([`ParameterInfo::field`]); parameters without one are skipped.
     fn write_parameters(&self, truck: &mut TruckParameters) {
+        // Each parameter's own truck-file home (`ksd` is the OE force scale in `m2x`, the
+        // creep stiffness in `m2xh`): never looked up by name.
         for info in self.parameter_info() {
-            if let (Ok(value), Some(field)) = (
-                self.parameter(info.name),
-                crate::params::spec_field(info.name),
-            ) {
+            if let (Ok(value), Some(field)) = (self.parameter(info.name), info.field) {
                 crate::params::set(truck, field, value);
             }
         }
+    }
+}
+
+/// A boxed copy of a model, for "same model, new parameters" loops over trait objects:
+/// implemented once, for every model that is `Clone`.
+pub trait BoxClone {
+    fn box_clone(&self) -> Box<dyn SuspensionModel>;
+}
+
+impl<T: SuspensionModel + Clone + 'static> BoxClone for T {
+    fn box_clone(&self) -> Box<dyn SuspensionModel> {
+        Box::new(self.clone())
     }
 }
 

@@ -75,13 +75,6 @@ impl ParamSet {
         set(truck, p.field, value);
         Ok(())
     }
-
-    /// Copies this model's parameters from `from` into `to`.
-    pub fn write(&self, from: &TruckParameters, to: &mut TruckParameters) {
-        for p in &self.params {
-            set(to, p.field, get(from, p.field));
-        }
-    }
 }
 
 #[cfg(test)]

@@ -61,13 +61,7 @@ const fn param(
     lower: f64,
     upper: f64,
 ) -> ParameterInfo {
-    ParameterInfo {
-        name,
-        unit,
-        description,
-        lower,
-        upper,
-    }
+    ParameterInfo::new(name, unit, description, (lower, upper), None)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -198,9 +192,6 @@ impl SuspensionModel for DampedOscillator {
         };
         Ok(vec![x0, 0.0])
     }
-    fn box_clone(&self) -> Box<dyn SuspensionModel> {
-        Box::new(self.clone())
-    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -279,9 +270,6 @@ impl SuspensionModel for FirstOrderLag {
     ) -> Result<Vec<f64>, ModelError> {
         let _ = ic;
         Ok(vec![self.gain_m_per_kg * u.wheel_load_kg])
-    }
-    fn box_clone(&self) -> Box<dyn SuspensionModel> {
-        Box::new(self.clone())
     }
 }
 
@@ -413,9 +401,6 @@ impl SuspensionModel for GasVolume {
             }),
         }
     }
-    fn box_clone(&self) -> Box<dyn SuspensionModel> {
-        Box::new(self.clone())
-    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -484,9 +469,6 @@ impl SuspensionModel for Runaway {
         _ic: &InitialCondition,
     ) -> Result<Vec<f64>, ModelError> {
         Ok(vec![self.n0_mol, self.x0_m])
-    }
-    fn box_clone(&self) -> Box<dyn SuspensionModel> {
-        Box::new(self.clone())
     }
 }
 
@@ -644,9 +626,6 @@ impl SuspensionModel for ToyQuarterCar {
         let n = (p_gauge + self.ambient_pa) * self.gas_area_m2 * h
             / (GasVolume::R * self.temperature_k);
         Ok(vec![x2 + h, x2, 0.0, 0.0, n])
-    }
-    fn box_clone(&self) -> Box<dyn SuspensionModel> {
-        Box::new(self.clone())
     }
 }
 

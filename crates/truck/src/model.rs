@@ -80,13 +80,7 @@ const fn effect(
     set: fn(&mut EffectParameters, f64),
 ) -> EffectParam {
     EffectParam {
-        info: ParameterInfo {
-            name,
-            unit,
-            description,
-            lower,
-            upper,
-        },
+        info: ParameterInfo::new(name, unit, description, (lower, upper), None),
         get,
         set,
     }
@@ -664,14 +658,6 @@ impl SuspensionModel for TruckModel {
         ic: &InitialCondition,
     ) -> Result<Vec<f64>, ModelError> {
         self.equilibrium_with_friction(u, ic, 0.0)
-    }
-
-    fn box_clone(&self) -> Box<dyn SuspensionModel> {
-        Box::new(self.clone())
-    }
-
-    fn write_parameters(&self, truck: &mut TruckParameters) {
-        self.spec_params.write(&self.truth.physical, truck);
     }
 }
 
