@@ -58,7 +58,9 @@ fn linearised_model_2_matches_for_a_small_bump_and_not_for_a_large_one() {
     let truck = symmetric_damper_truck();
     let (h_small, f_small, loss_small) = linear_error(&truck, 0.002);
     println!("2 mm bump: height error {h_small:.4}, tire force error {f_small:.4}");
-    assert!(h_small < 0.02 && f_small < 0.02);
+    // The simulator and the linear model both follow the road linearly between samples
+    // (first-order hold); with a held road on one side this was 0.032 / 0.043.
+    assert!(h_small < 0.01 && f_small < 0.01);
     assert_eq!(loss_small, 0.0);
     let (h_large, f_large, loss_large) = linear_error(&truck, 0.10);
     println!(

@@ -29,7 +29,7 @@ pub mod solve;
 
 pub use error::{NamedState, SimError, SolverFailure, StateViolation};
 pub use problem::{
-    AbsoluteTolerance, DEFAULT_SUPPLY_DEADBAND_PA, InitialState, InputSeries, Method,
+    AbsoluteTolerance, DEFAULT_SUPPLY_DEADBAND_PA, InitialState, InputSeries, Method, RoadInput,
     SimulationProblem, SolverOptions, StateBounds, SupplyRelevance,
 };
 pub use response::{SimulationResponse, SolverStatistics, StateHistory};

@@ -106,6 +106,11 @@ impl<'a> InputSeries<'a> {
         self.time_s
     }
 
+    /// The road height at every sample, m.
+    pub fn road_height_m(&self) -> &'a [f64] {
+        self.road_height_m
+    }
+
     /// The inputs held from sample `k` on, `None` past the end.
     pub fn get(&self, k: usize) -> Option<InputSample> {
         (k < self.len()).then(|| self.sample(k))
@@ -259,6 +264,19 @@ pub enum StateBounds {
     PerState(Vec<(f64, f64)>),
 }
 
+/// How the road height acts between samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RoadInput {
+    /// Linear between samples (first-order hold, the default): a road surface is continuous,
+    /// so a sampled profile is a polyline, not a staircase of steps into the tire; and the
+    /// solver need not restart at every road sample.
+    #[default]
+    Linear,
+    /// Held constant between samples, restarting where it changes (zero-order hold, like
+    /// every other input).
+    Hold,
+}
+
 /// How to integrate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolverOptions {
@@ -272,6 +290,7 @@ pub struct SolverOptions {
     pub record_states: bool,
     pub supply: SupplyRelevance,
     pub bounds: StateBounds,
+    pub road: RoadInput,
 }
 
 impl Default for SolverOptions {
@@ -284,6 +303,7 @@ impl Default for SolverOptions {
             record_states: false,
             supply: SupplyRelevance::default(),
             bounds: StateBounds::default(),
+            road: RoadInput::default(),
         }
     }
 }
@@ -306,6 +326,11 @@ impl SolverOptions {
 
     pub fn with_states(mut self, record_states: bool) -> Self {
         self.record_states = record_states;
+        self
+    }
+
+    pub fn with_road(mut self, road: RoadInput) -> Self {
+        self.road = road;
         self
     }
 

@@ -15,6 +15,12 @@
 //! 5. Output `k` is `output(x(t_k), u_k)`: the sample's own inputs (the ZOH value on
 //!    `[t_k, t_{k+1})`), which matters for direct feed-through (lever flex under load, eq 3.14).
 //!
+//! The road is the exception to the hold ([`RoadInput::Linear`], the default): a surface is
+//! continuous, so the rhs sees the road interpolated linearly between samples and a road
+//! sample ends no segment. On a 20 s ISO 8608 road at 2 ms (Model 2) that is 0 restarts
+//! instead of 9,999, 161 k rhs calls instead of 261 k, and no artificial steps into the tire
+//! force (its extremes 8.6–55.2 kN instead of 7.8–55.9 kN).
+//!
 //! After every accepted step the state is checked (finite, inside [`StateBounds`]); every
 //! output must be finite. A violation is a typed [`SimError`] naming model, time and state.
 //!
@@ -43,8 +49,8 @@ use diffsol::{
 
 use crate::error::{NamedState, SimError, SolverFailure, StateViolation};
 use crate::problem::{
-    AbsoluteTolerance, DEFAULT_SUPPLY_DEADBAND_PA, InitialState, Method, SimulationProblem,
-    StateBounds, SupplyRelevance,
+    AbsoluteTolerance, DEFAULT_SUPPLY_DEADBAND_PA, InitialState, Method, RoadInput,
+    SimulationProblem, StateBounds, SupplyRelevance,
 };
 use crate::response::{SimulationResponse, SolverStatistics};
 
@@ -190,9 +196,16 @@ fn simulate_with<M: SuspensionModel + ?Sized>(
 
     // Finite-difference increments: relative to the state's magnitude scale.
     let scales: Vec<f64> = atol.iter().map(|a| a / options.rtol).collect();
+    // A road that never moves needs no interpolation.
+    let road_moves = inputs.road_height_m().windows(2).any(|w| w[0] != w[1]);
     let shared = Shared {
         model,
         input: Cell::new(u0),
+        road: (options.road == RoadInput::Linear && road_moves).then(|| RoadPath {
+            time_s: inputs.time_s(),
+            height_m: inputs.road_height_m(),
+            cursor: Cell::new(0),
+        }),
         epoch: Cell::new(0),
         rhs_calls: Cell::new(0),
         jacobian: RefCell::new(FdJacobian::new(n, scales)),
@@ -233,14 +246,16 @@ fn simulate_with<M: SuspensionModel + ?Sized>(
     Ok(())
 }
 
-/// Whether the inputs at a new sample end the current segment (see [`SupplyRelevance`]).
+/// Whether the inputs at a new sample end the current segment (see [`SupplyRelevance`];
+/// a road followed linearly between samples, [`RoadInput::Linear`], never does).
 pub fn input_change_matters(
     held: &InputSample,
     next: &InputSample,
     supply: SupplyRelevance,
+    road: RoadInput,
 ) -> bool {
     if held.wheel_load_kg != next.wheel_load_kg
-        || held.road_height_m != next.road_height_m
+        || (road == RoadInput::Hold && held.road_height_m != next.road_height_m)
         || held.valve != next.valve
     {
         return true;
@@ -351,16 +366,54 @@ fn check_state(
 struct Shared<'m, M: SuspensionModel + ?Sized> {
     model: &'m M,
     input: Cell<InputSample>,
+    /// The road followed linearly between samples ([`RoadInput::Linear`]).
+    road: Option<RoadPath<'m>>,
     /// Bumped at each restart so that the Jacobian cache never mixes inputs.
     epoch: Cell<u64>,
     rhs_calls: Cell<usize>,
     jacobian: RefCell<FdJacobian>,
 }
 
+/// A sampled road as a polyline: linear between samples, constant beyond the ends.
+struct RoadPath<'a> {
+    time_s: &'a [f64],
+    height_m: &'a [f64],
+    /// The interval of the last lookup: the solver asks for nearby times, so the search
+    /// starts there.
+    cursor: Cell<usize>,
+}
+
+impl RoadPath<'_> {
+    fn height_at(&self, t: f64) -> f64 {
+        let (ts, hs) = (self.time_s, self.height_m);
+        let last = ts.len() - 1;
+        if t <= ts[0] {
+            return hs[0];
+        }
+        if t >= ts[last] {
+            return hs[last];
+        }
+        let mut k = self.cursor.get().min(last - 1);
+        while k > 0 && ts[k] > t {
+            k -= 1;
+        }
+        while k + 1 < last && ts[k + 1] <= t {
+            k += 1;
+        }
+        self.cursor.set(k);
+        let w = (t - ts[k]) / (ts[k + 1] - ts[k]);
+        hs[k] + w * (hs[k + 1] - hs[k])
+    }
+}
+
 impl<M: SuspensionModel + ?Sized> Shared<'_, M> {
     fn rhs(&self, t: f64, x: &[f64], dx: &mut [f64]) {
         self.rhs_calls.set(self.rhs_calls.get() + 1);
-        self.model.rhs(t, x, &self.input.get(), dx);
+        let mut input = self.input.get();
+        if let Some(road) = &self.road {
+            input.road_height_m = road.height_at(t);
+        }
+        self.model.rhs(t, x, &input, dx);
     }
 
     fn hold(&self, input: InputSample) {
@@ -561,7 +614,9 @@ where
         while next < len {
             // The segment ends at the first sample whose inputs matter and differ, or at the end.
             let mut r = next;
-            while r < len && !input_change_matters(&held, &inputs.sample(r), supply_relevance) {
+            while r < len
+                && !input_change_matters(&held, &inputs.sample(r), supply_relevance, options.road)
+            {
                 r += 1;
             }
             let last = r.min(len - 1);
@@ -671,65 +726,68 @@ mod tests {
     #[test]
     fn restart_policy() {
         use ValveState::*;
+        let matters = |held: &InputSample, next: InputSample, supply| {
+            input_change_matters(held, &next, supply, RoadInput::Hold)
+        };
         let held = sample(3000.0, Closed, 850e3, 0.0);
         let w = SupplyRelevance::WhileFilling;
-        assert!(!input_change_matters(&held, &held, w));
-        assert!(input_change_matters(
-            &held,
-            &sample(3001.0, Closed, 850e3, 0.0),
-            w
-        ));
-        assert!(input_change_matters(
-            &held,
-            &sample(3000.0, Closed, 850e3, 0.01),
-            w
-        ));
-        assert!(input_change_matters(
-            &held,
-            &sample(3000.0, Exhaust, 850e3, 0.0),
-            w
-        ));
+        assert!(!matters(&held, held, w));
+        assert!(matters(&held, sample(3001.0, Closed, 850e3, 0.0), w));
+        assert!(matters(&held, sample(3000.0, Closed, 850e3, 0.01), w));
+        assert!(matters(&held, sample(3000.0, Exhaust, 850e3, 0.0), w));
         // supply noise: irrelevant while closed or exhausting, relevant while filling
-        assert!(!input_change_matters(
-            &held,
-            &sample(3000.0, Closed, 851e3, 0.0),
-            w
-        ));
+        assert!(!matters(&held, sample(3000.0, Closed, 851e3, 0.0), w));
         let exhausting = sample(3000.0, Exhaust, 850e3, 0.0);
-        assert!(!input_change_matters(
+        assert!(!matters(
             &exhausting,
-            &sample(3000.0, Exhaust, 849e3, 0.0),
+            sample(3000.0, Exhaust, 849e3, 0.0),
             w
         ));
         let filling = sample(3000.0, Fill, 850e3, 0.0);
-        assert!(input_change_matters(
-            &filling,
-            &sample(3000.0, Fill, 849e3, 0.0),
-            w
-        ));
-        assert!(input_change_matters(
+        assert!(matters(&filling, sample(3000.0, Fill, 849e3, 0.0), w));
+        assert!(matters(
             &held,
-            &sample(3000.0, Closed, 851e3, 0.0),
+            sample(3000.0, Closed, 851e3, 0.0),
             SupplyRelevance::Always
         ));
         // A supply line: noise inside the deadband is held, a real swing restarts, and every
         // change counts while filling.
         let line = SupplyRelevance::Beyond { deadband_pa: 5e3 };
+        assert!(!matters(&held, sample(3000.0, Closed, 854e3, 0.0), line));
+        assert!(matters(&held, sample(3000.0, Closed, 845e3, 0.0), line));
+        assert!(matters(&filling, sample(3000.0, Fill, 849e3, 0.0), line));
+        // A road followed linearly between samples never ends a segment.
         assert!(!input_change_matters(
             &held,
-            &sample(3000.0, Closed, 854e3, 0.0),
-            line
+            &sample(3000.0, Closed, 850e3, 0.01),
+            w,
+            RoadInput::Linear
         ));
-        assert!(input_change_matters(
-            &held,
-            &sample(3000.0, Closed, 845e3, 0.0),
-            line
-        ));
-        assert!(input_change_matters(
-            &filling,
-            &sample(3000.0, Fill, 849e3, 0.0),
-            line
-        ));
+    }
+
+    #[test]
+    fn a_sampled_road_is_a_polyline() {
+        let (t, h) = ([0.0, 0.1, 0.2, 0.3], [0.0, 0.01, -0.01, 0.0]);
+        let road = RoadPath {
+            time_s: &t,
+            height_m: &h,
+            cursor: Cell::new(0),
+        };
+        for (at, want) in [
+            (-1.0, 0.0),
+            (0.05, 0.005),
+            (0.15, 0.0),
+            (0.25, -0.005),
+            (0.1, 0.01),
+            (0.02, 0.002),
+            (9.0, 0.0),
+        ] {
+            assert!(
+                (road.height_at(at) - want).abs() < 1e-15,
+                "{at}: {}",
+                road.height_at(at)
+            );
+        }
     }
 
     #[test]

@@ -6,7 +6,7 @@ use airsus_sim::reference::{
     DampedOscillator, FirstOrderLag, GasVolume, Runaway, ToyQuarterCar, load_step_run,
 };
 use airsus_sim::{
-    AbsoluteTolerance, InitialState, InputSeries, Method, SimError, SimulationProblem,
+    AbsoluteTolerance, InitialState, InputSeries, Method, RoadInput, SimError, SimulationProblem,
     SimulationResponse, SolverFailure, SolverOptions, StateViolation, SupplyRelevance, simulate,
     simulate_into,
 };
@@ -354,7 +354,12 @@ fn tire_lift_off_over_a_road_drop() {
         inputs,
         InitialState::Equilibrium(InitialCondition::BellowPressure { gauge_pa: 350e3 }),
     )
-    .with_options(SolverOptions::default().with_states(true));
+    // A drop is a step, not a ramp between samples: the road is held (zero-order).
+    .with_options(
+        SolverOptions::default()
+            .with_states(true)
+            .with_road(RoadInput::Hold),
+    );
     let r = simulate(&problem).expect("lift-off must not break the solver");
     assert_eq!(r.statistics.restarts, 2);
     let states = r.states.as_ref().expect("recorded");
@@ -368,9 +373,11 @@ fn tire_lift_off_over_a_road_drop() {
     );
 
     let fine = simulate(
-        &problem
-            .clone()
-            .with_options(SolverOptions::default().with_rtol(1e-10)),
+        &problem.clone().with_options(
+            SolverOptions::default()
+                .with_rtol(1e-10)
+                .with_road(RoadInput::Hold),
+        ),
     )
     .expect("simulates at rtol 1e-10");
     let err = max_abs_diff(&r.sensor_height_m, &fine.sensor_height_m);

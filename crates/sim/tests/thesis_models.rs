@@ -3,7 +3,9 @@
 use airsus_data::{TruckParameters, ValveState};
 use airsus_model::{InitialCondition, THESIS_MODELS, build_model};
 use airsus_sim::reference::load_step_run;
-use airsus_sim::{InitialState, InputSeries, SimulationProblem, SolverOptions, simulate};
+use airsus_sim::{
+    InitialState, InputSeries, RoadInput, SimulationProblem, SolverOptions, simulate,
+};
 
 const AT_350_KPA: InitialState =
     InitialState::Equilibrium(InitialCondition::BellowPressure { gauge_pa: 350e3 });
@@ -100,14 +102,20 @@ fn wheel_lift_off_over_a_road_drop() {
     let inputs = InputSeries::new(&time, &load, &valve, &supply, &road).expect("valid");
     for name in ["m1", "m2"] {
         let model = build_model(name, &truck).expect("builds");
-        let problem = SimulationProblem::new(&*model, inputs, AT_350_KPA)
-            .with_options(SolverOptions::default().with_states(true));
+        // A drop is a step: the road is held between samples (zero-order).
+        let problem = SimulationProblem::new(&*model, inputs, AT_350_KPA).with_options(
+            SolverOptions::default()
+                .with_states(true)
+                .with_road(RoadInput::Hold),
+        );
         let r = simulate(&problem).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(r.statistics.restarts, 1, "{name}");
         let fine = simulate(
-            &problem
-                .clone()
-                .with_options(SolverOptions::default().with_rtol(1e-10)),
+            &problem.clone().with_options(
+                SolverOptions::default()
+                    .with_rtol(1e-10)
+                    .with_road(RoadInput::Hold),
+            ),
         )
         .unwrap_or_else(|e| panic!("{name} at rtol 1e-10: {e}"));
         let dh = max_abs_diff(&r.sensor_height_m, &fine.sensor_height_m);

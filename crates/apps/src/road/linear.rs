@@ -115,8 +115,13 @@ pub fn linearize(
     })
 }
 
-/// Outputs `[sensor height, tire force]` of the linear model over a road held between the
-/// uniformly spaced samples `time_s` (exact ZOH discretisation), absolute (`y0 + δy`).
+/// Outputs `[sensor height, tire force]` of the linear model over a road linear between the
+/// uniformly spaced samples `time_s` (exact first-order-hold discretisation, as the simulator
+/// follows a road, `airsus_sim::RoadInput::Linear`), absolute (`y0 + δy`).
+///
+/// With `u(τ) = u_k + δ τ/Δt`, δ = `u_{k+1} − u_k`, the augmented system `[x; u; δ]` in
+/// normalised time has the matrix `[[A Δt, B Δt, 0], [0, 0, 1], [0, 0, 0]]`; its exponential
+/// gives `x_{k+1} = Φ x_k + Γ1 u_k + Γ2 δ`.
 pub fn simulate_linear(
     lin: &LinearModel,
     time_s: &[f64],
@@ -130,18 +135,21 @@ pub fn simulate_linear(
         ));
     }
     let dt = time_s[1] - time_s[0];
-    let mut m = DMatrix::zeros(n + 1, n + 1);
+    let mut m = DMatrix::zeros(n + 2, n + 2);
     m.view_mut((0, 0), (n, n)).copy_from(&(&lin.a * dt));
     m.view_mut((0, n), (n, 1)).copy_from(&(&lin.b * dt));
+    m[(n, n + 1)] = 1.0;
     let e = m.exp();
     let phi = e.view((0, 0), (n, n)).into_owned();
-    let gamma = e.view((0, n), (n, 1)).into_owned();
+    let gamma_level = e.view((0, n), (n, 1)).into_owned();
+    let gamma_slope = e.view((0, n + 1), (n, 1)).into_owned();
     let mut dx = DVector::zeros(n);
     let mut out = Vec::with_capacity(time_s.len());
-    for &z in road_m {
+    for (k, &z) in road_m.iter().enumerate() {
         let dy = &lin.c * &dx + &lin.d * z;
         out.push([lin.y0[0] + dy[0], lin.y0[1] + dy[1]]);
-        dx = &phi * dx + &gamma * z;
+        let slope = road_m.get(k + 1).map_or(0.0, |next| next - z);
+        dx = &phi * dx + &gamma_level * z + &gamma_slope * slope;
     }
     Ok(out)
 }
