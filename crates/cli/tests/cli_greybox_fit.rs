@@ -217,4 +217,13 @@ fn a_fit_whose_every_parameter_was_reset_is_not_called_converged() {
         stderr.contains("no parameter moved from its start"),
         "{stderr}"
     );
+    // And it says what data would determine the parameter.
+    let frozen = &json["identifiability"]["not_identifiable"][0];
+    assert_eq!(frozen["name"], "kw");
+    assert!(
+        frozen["determined_by"]
+            .as_str()
+            .is_some_and(|s| s.contains("road input")),
+        "{frozen}"
+    );
 }

@@ -38,6 +38,8 @@ fn models_json_lists_every_model_with_parameters_and_states() {
                 !p["description"].as_str().unwrap().is_empty(),
                 "{name}: {p}"
             );
+            // Every parameter says what data determine it (the identifiability message).
+            assert!(!p["needs"].as_str().unwrap().is_empty(), "{name}: {p}");
         }
         let params: Vec<&str> = model["parameters"]
             .as_array()

@@ -39,6 +39,8 @@ pub struct ParameterInfo {
     /// Where the value lives in a truck file; `None` for a parameter without a truck-file
     /// key (the `truck` structure's effects, test models).
     pub field: Option<Field>,
+    /// What data determine it, for the message when a run set does not (empty: not said).
+    pub needs: &'static str,
 }
 
 impl ParameterInfo {
@@ -56,7 +58,14 @@ impl ParameterInfo {
             lower,
             upper,
             field,
+            needs: "",
         }
+    }
+
+    /// The same, saying what data determine it.
+    pub const fn needing(mut self, needs: &'static str) -> Self {
+        self.needs = needs;
+        self
     }
 
     /// Whether `value` is inside the admissible range (NaN is not).
@@ -135,6 +144,14 @@ pub struct Param {
     pub field: Field,
 }
 
+impl Param {
+    /// The same, saying what data determine it.
+    pub const fn needing(mut self, needs: &'static str) -> Self {
+        self.info.needs = needs;
+        self
+    }
+}
+
 /// One declaration: the field (truck-file home) once, the description beside it.
 const fn param(
     field: Field,
@@ -160,7 +177,8 @@ pub const CATALOG: &[Param] = &[
         "effective area A_eff = p0 + p1 h + .. + p4 h⁴, constant term (eq 5.4)",
         -1.0,
         1.0,
-    ),
+    )
+    .needing("loads over a range of heights (loading runs), or the bellow force map"),
     param(
         Field::EffectiveArea(1),
         "p1",
@@ -168,7 +186,8 @@ pub const CATALOG: &[Param] = &[
         "effective area, linear coefficient (eq 5.4; thesis Table 5.2 misprints 0.08362 for 0.8362)",
         -10.0,
         10.0,
-    ),
+    )
+    .needing("loads over a range of heights (loading runs), or the bellow force map"),
     param(
         Field::EffectiveArea(2),
         "p2",
@@ -176,7 +195,8 @@ pub const CATALOG: &[Param] = &[
         "effective area, quadratic coefficient (eq 5.4)",
         -100.0,
         100.0,
-    ),
+    )
+    .needing("loads over a range of heights (loading runs), or the bellow force map"),
     param(
         Field::EffectiveArea(3),
         "p3",
@@ -184,7 +204,8 @@ pub const CATALOG: &[Param] = &[
         "effective area, cubic coefficient (eq 5.4)",
         -100.0,
         100.0,
-    ),
+    )
+    .needing("loads over a range of heights (loading runs), or the bellow force map"),
     param(
         Field::EffectiveArea(4),
         "p4",
@@ -192,7 +213,8 @@ pub const CATALOG: &[Param] = &[
         "effective area, quartic coefficient (eq 5.4)",
         -100.0,
         100.0,
-    ),
+    )
+    .needing("loads over a range of heights (loading runs), or the bellow force map"),
     param(
         Field::CrossSection(0),
         "a0",
@@ -200,7 +222,8 @@ pub const CATALOG: &[Param] = &[
         "gas-volume cross-section A = a0 + a1 h, constant term (eq 5.1)",
         1e-3,
         5.0,
-    ),
+    )
+    .needing("valve action: the gas volume's scale shows only when air flows in or out"),
     param(
         Field::CrossSection(1),
         "a1",
@@ -208,7 +231,8 @@ pub const CATALOG: &[Param] = &[
         "gas-volume cross-section, slope (eq 5.1)",
         -5.0,
         5.0,
-    ),
+    )
+    .needing("valve action at different heights"),
     param(
         Field::Unsprung,
         "m2",
@@ -216,7 +240,8 @@ pub const CATALOG: &[Param] = &[
         "unsprung mass m2 (axle, wheel; thesis 3.1)",
         10.0,
         3000.0,
-    ),
+    )
+    .needing("fast changes: load steps or road input (the wheel's own dynamics)"),
     param(
         Field::LeverInertia,
         "ig",
@@ -224,7 +249,8 @@ pub const CATALOG: &[Param] = &[
         "lever + axle inertia about the hinge I_g (eq 3.8; nominal m2 l1²)",
         1.0,
         1e4,
-    ),
+    )
+    .needing("fast changes: load steps or road input (the lever's rotation)"),
     param(
         Field::HingeFriction,
         "kf",
@@ -232,7 +258,8 @@ pub const CATALOG: &[Param] = &[
         "hinge friction k_f, viscous (eq 3.4)",
         0.0,
         1e6,
-    ),
+    )
+    .needing("fast motion: load steps or road input"),
     param(
         Field::TireStiffness,
         "kw",
@@ -240,7 +267,8 @@ pub const CATALOG: &[Param] = &[
         "tire stiffness k_w (eq 3.15)",
         1e5,
         1e8,
-    ),
+    )
+    .needing("road input (the tire compresses)"),
     param(
         Field::LeverCompliance,
         "kscl",
@@ -248,7 +276,8 @@ pub const CATALOG: &[Param] = &[
         "static lever flex per newton of wheel load k_scl (eq 3.14)",
         0.0,
         1e-5,
-    ),
+    )
+    .needing("load steps (the lever's flex is the instant height jump)"),
     param(
         Field::FillResistance,
         "rflow1",
@@ -256,7 +285,8 @@ pub const CATALOG: &[Param] = &[
         "fill-channel flow resistance R_flow1 (eq 3.19)",
         1e3,
         1e11,
-    ),
+    )
+    .needing("fill pulses (valve 1)"),
     param(
         Field::ExhaustResistance,
         "rflow2",
@@ -264,7 +294,8 @@ pub const CATALOG: &[Param] = &[
         "exhaust-channel flow resistance R_flow2 (eq 3.19)",
         1e3,
         1e11,
-    ),
+    )
+    .needing("exhaust pulses (valve 2)"),
     param(
         Field::SlowForceScale,
         "ksd",
@@ -272,7 +303,8 @@ pub const CATALOG: &[Param] = &[
         "slow-force scale k_sd: extra bellow force per metre of OE output (eq 4.4)",
         0.0,
         1e8,
-    ),
+    )
+    .needing("long standstills after load changes (the slow settling)"),
     param(
         Field::CreepStiffness,
         "ksd",
@@ -280,7 +312,8 @@ pub const CATALOG: &[Param] = &[
         "creep stiffness k_sd of the bellow-wall Maxwell element (m2xh)",
         0.0,
         1e8,
-    ),
+    )
+    .needing("long standstills after load changes (the slow settling)"),
     param(
         Field::CreepTimeConstant,
         "tsd",
@@ -288,7 +321,8 @@ pub const CATALOG: &[Param] = &[
         "creep relaxation time constant τ_sd of the Maxwell element (m2xh)",
         0.1,
         1e5,
-    ),
+    )
+    .needing("long standstills after load changes (the slow settling)"),
 ];
 
 /// The catalogue entries for `fields`, in that order.

@@ -309,13 +309,18 @@ pub fn fit_and_validate(
                         .map(|(p, c)| format!("{p} ({c:+.3})"))
                         .collect();
                     result.notes.push(format!(
-                        "{} is not determined by {}: kept at its start value{}",
+                        "{} is not determined by {}: kept at its start value{}{}",
                         n.name,
                         protocol.estimation.join(" + "),
                         if with.is_empty() {
                             String::new()
                         } else {
                             format!("; correlated with {}", with.join(", "))
+                        },
+                        if n.determined_by.is_empty() {
+                            String::new()
+                        } else {
+                            format!("; it needs {}", n.determined_by)
                         }
                     ));
                 }

@@ -70,6 +70,14 @@ struct EffectParam {
     set: fn(&mut EffectParameters, f64),
 }
 
+impl EffectParam {
+    /// The same, saying what data determine it.
+    const fn needing(mut self, needs: &'static str) -> Self {
+        self.info.needs = needs;
+        self
+    }
+}
+
 const fn effect(
     name: &'static str,
     unit: &'static str,
@@ -96,7 +104,8 @@ const EFFECT_PARAMS: &[EffectParam] = &[
         1e6,
         |e| e.creep_stiffness_n_per_m,
         |e, v| e.creep_stiffness_n_per_m = v,
-    ),
+    )
+    .needing("long standstills after load changes (the creep)"),
     effect(
         "tc",
         "s",
@@ -105,7 +114,8 @@ const EFFECT_PARAMS: &[EffectParam] = &[
         1e4,
         |e| e.creep_time_constant_s,
         |e, v| e.creep_time_constant_s = v,
-    ),
+    )
+    .needing("long standstills after load changes (the creep)"),
     effect(
         "fc",
         "N",
@@ -114,7 +124,8 @@ const EFFECT_PARAMS: &[EffectParam] = &[
         1e4,
         |e| e.friction_force_n,
         |e, v| e.friction_force_n = v,
-    ),
+    )
+    .needing("load reversals: a fill then an exhaust, or a load on then off (the hysteresis)"),
     effect(
         "kdahl",
         "N/m",
@@ -123,7 +134,8 @@ const EFFECT_PARAMS: &[EffectParam] = &[
         1e8,
         |e| e.friction_stiffness_n_per_m,
         |e, v| e.friction_stiffness_n_per_m = v,
-    ),
+    )
+    .needing("small reversals (the pre-sliding hysteresis)"),
     effect(
         "tth",
         "s",
@@ -132,7 +144,8 @@ const EFFECT_PARAMS: &[EffectParam] = &[
         1e4,
         |e| e.thermal_time_constant_s,
         |e, v| e.thermal_time_constant_s = v,
-    ),
+    )
+    .needing("valve pulses (the gas heats while filling and cools after)"),
     effect(
         "c1",
         "m3/(s Pa)",
@@ -141,7 +154,8 @@ const EFFECT_PARAMS: &[EffectParam] = &[
         1e-6,
         |e| e.fill_conductance_m3_s_pa,
         |e, v| e.fill_conductance_m3_s_pa = v,
-    ),
+    )
+    .needing("fill pulses at several supply pressures"),
     effect(
         "c2",
         "m3/(s Pa)",
@@ -150,7 +164,8 @@ const EFFECT_PARAMS: &[EffectParam] = &[
         1e-6,
         |e| e.exhaust_conductance_m3_s_pa,
         |e, v| e.exhaust_conductance_m3_s_pa = v,
-    ),
+    )
+    .needing("exhaust pulses at several bellow pressures"),
     effect(
         "bcr",
         "1",
@@ -159,7 +174,8 @@ const EFFECT_PARAMS: &[EffectParam] = &[
         0.9,
         |e| e.critical_pressure_ratio,
         |e, v| e.critical_pressure_ratio = v,
-    ),
+    )
+    .needing("fill and exhaust pulses over a range of pressure ratios"),
     effect(
         "rline",
         "Pa s/mol",
@@ -168,7 +184,8 @@ const EFFECT_PARAMS: &[EffectParam] = &[
         1e9,
         |e| e.line_resistance_pa_s_per_mol,
         |e, v| e.line_resistance_pa_s_per_mol = v,
-    ),
+    )
+    .needing("long fill pulses (the supply line drains)"),
     effect(
         "kap",
         "1/(100 kPa)",
@@ -177,7 +194,8 @@ const EFFECT_PARAMS: &[EffectParam] = &[
         0.1,
         |e| e.area_pressure_coefficient,
         |e, v| e.area_pressure_coefficient = v,
-    ),
+    )
+    .needing("loads over a range of pressures"),
 ];
 
 /// The virtual truck behind the model trait.

@@ -7,8 +7,8 @@ use airsus_truck::models::describe_models;
 #[derive(Debug, Clone, clap::Args)]
 pub struct ModelsArgs {
     /// Print a JSON array, one object per model: name, description, parameters (name, unit,
-    /// min, max, default, description), states (name, unit, role) and the default free
-    /// parameters of a grey-box fit.
+    /// min, max, default, description, needs: what data determine it), states (name, unit,
+    /// role) and the default free parameters of a grey-box fit.
     #[arg(long)]
     pub json: bool,
 }
@@ -30,6 +30,7 @@ pub fn run(args: &ModelsArgs) -> anyhow::Result<()> {
                         "max": p.info.upper,
                         "default": p.default,
                         "description": p.info.description,
+                        "needs": p.info.needs,
                     })).collect::<Vec<_>>(),
                     "states": m.states.iter().map(|s| serde_json::json!({
                         "name": s.name,

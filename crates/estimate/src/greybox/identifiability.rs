@@ -72,6 +72,8 @@ pub struct NotIdentifiable {
     pub stage: Stage,
     /// Parameters it is strongly correlated with at that stage (name, correlation).
     pub correlated_with: Vec<(String, f64)>,
+    /// What data would determine it (from the parameter's declaration; empty if not said).
+    pub determined_by: String,
 }
 
 /// A strongly correlated pair of estimated parameters.
@@ -276,6 +278,7 @@ pub(crate) fn select_identifiable(
                 reason: Unidentifiable::NoSensitivity,
                 stage: screen.stage,
                 correlated_with: Vec::new(),
+                determined_by: String::new(),
             });
         }
         !zero
@@ -344,6 +347,7 @@ pub(crate) fn select_identifiable(
             reason,
             stage: screen.stage,
             correlated_with,
+            determined_by: String::new(),
         });
         keep.remove(pick);
     }

@@ -390,6 +390,11 @@ pub fn estimate(
         },
     };
     let estimated_model = ev.model_at(&theta)?;
+    for n in &mut not_identifiable {
+        if let Some(info) = ev.base.parameter_info().iter().find(|i| i.name == n.name) {
+            n.determined_by = info.needs.to_owned();
+        }
+    }
     let estimated = ev.simulate(&theta)?;
     let mut r_final = vec![0.0; n_data];
     ev.residuals_into(&estimated, fail_value, &mut r_final);

@@ -266,6 +266,9 @@ impl fmt::Display for GreyboxEstimate {
                     super::identifiability::Stage::AfterFit => "after the fit",
                 };
                 write!(f, "  {} ({stage}): {}", n.name, reason_text(&n.reason))?;
+                if !n.determined_by.is_empty() {
+                    write!(f, "; it needs {}", n.determined_by)?;
+                }
                 if !n.correlated_with.is_empty() {
                     write!(
                         f,
