@@ -89,3 +89,24 @@ def test_greybox_equals_the_command(reference: Path, short_run: Path, tmp_path: 
         assert got["estimate"] == want["estimate"], got["name"]
     assert fit.report["stop"] == expected["stop"]
     assert fit.truck == airsus.Truck.load(out)
+
+
+def test_default_free_set_and_noise_weighting_equal_the_command(
+    reference: Path, short_run: Path, cli
+) -> None:
+    import json
+
+    truck = reference / "truck.toml"
+    printed = cli(
+        "greybox", "--model", "m2", "--truck", truck, "--run", short_run,
+        "--normalisation", "noise-level", "--max-iterations", "3", "--json",
+    ).stdout  # fmt: skip
+    expected = json.loads(printed)
+    fit = airsus.greybox("m2", truck, short_run, normalisation="noise-level", max_iterations=3)
+    # No `free`: the registry's default set for m2 (no valve action in this run).
+    names = [p["name"] for p in fit.report["parameters"]]
+    assert names == airsus.models().set_index("name").loc["m2"]["default_free"]
+    for got, want in zip(fit.report["parameters"], expected["parameters"]):
+        assert (got["name"], got["estimate"]) == (want["name"], want["estimate"])
+    with pytest.raises(airsus.AirsusError, match="normalisation `noise`"):
+        airsus.greybox("m2", truck, short_run, normalisation="noise")

@@ -46,6 +46,20 @@ pub fn all_model_names() -> Vec<(&'static str, &'static str)> {
     MODELS.iter().map(|e| (e.name, e.summary)).collect()
 }
 
+/// What a grey-box fit of `model` frees by default on `runs`: the registry's set, plus the
+/// flow parameters when a run has valve action (only then can the data determine them). The
+/// flag says whether they were added.
+pub fn default_free(
+    model: &str,
+    runs: &[&airsus_data::Run],
+) -> Result<(Vec<&'static str>, bool), ModelError> {
+    let valve_action = runs.iter().any(|r| r.valve_action());
+    Ok((
+        model_entry(model)?.free_parameters(valve_action),
+        valve_action,
+    ))
+}
+
 /// Builds any registered model by name with `truck`'s parameters; `truck` starts from the
 /// file's nominal values with the extra effects at their built-in defaults.
 pub fn build_any_model(

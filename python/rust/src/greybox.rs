@@ -7,9 +7,9 @@ use pyo3::types::PyDict;
 use airsus_data::{Outputs, TruckParameters};
 use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
-    OutputWeights, estimate,
+    Normalisation, OutputWeights, estimate,
 };
-use airsus_truck::models::build_any_model;
+use airsus_truck::models::{build_any_model, default_free};
 
 use crate::error::OrPy;
 use crate::progress::{Progress, ProgressObserver};
@@ -27,6 +27,7 @@ struct Settings {
     pressure_weight: f64,
     max_relative_std: f64,
     keep_unidentifiable: bool,
+    normalisation: Normalisation,
 }
 
 struct Estimated {
@@ -54,7 +55,13 @@ fn run_greybox(
         .collect::<anyhow::Result<Vec<_>>>()?;
     let run_refs: Vec<&_> = runs.iter().collect();
 
-    let mut free: Vec<FreeParameter> = settings.free.iter().map(FreeParameter::new).collect();
+    let free_names: Vec<String> = if settings.free.is_empty() {
+        let (names, _) = default_free(model_name, &run_refs)?;
+        names.iter().map(|n| (*n).to_owned()).collect()
+    } else {
+        settings.free.clone()
+    };
+    let mut free: Vec<FreeParameter> = free_names.iter().map(FreeParameter::new).collect();
     for (name, lo, hi) in &settings.bounds {
         let Some(p) = free.iter_mut().find(|p| p.name == *name) else {
             bail!("bounds {name}: `{name}` is not in free");
@@ -66,7 +73,8 @@ fn run_greybox(
             height: settings.height_weight,
             pressure: settings.pressure_weight,
         })
-        .with_initial(settings.initial);
+        .with_initial(settings.initial)
+        .with_normalisation(settings.normalisation);
     problem.free = free;
     let options = GreyboxOptions {
         max_iterations: settings.max_iterations,
@@ -102,7 +110,7 @@ fn run_greybox(
 /// Returns `{"report": JSON text of `--json`, "text": the command's printout, "stop_reason",
 /// "converged", "truck": the truck with the estimates written back (as `--out`)}`.
 #[pyfunction]
-#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None))]
+#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None, normalisation=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn greybox<'py>(
     py: Python<'py>,
@@ -119,6 +127,7 @@ pub fn greybox<'py>(
     max_relative_std: Option<f64>,
     keep_unidentifiable: bool,
     progress: Option<Py<PyAny>>,
+    normalisation: Option<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = truck.params.clone();
     drop(truck);
@@ -126,11 +135,6 @@ pub fn greybox<'py>(
         .into_iter()
         .map(RunSource::from_spec)
         .collect::<PyResult<Vec<_>>>()?;
-    if free.is_empty() {
-        return Err(crate::error::to_py(anyhow::anyhow!(
-            "free: name at least one parameter to estimate"
-        )));
-    }
     let initial = match initial.as_deref().unwrap_or("height") {
         "height" => InitialChoice::SensorHeight,
         "pressure" => InitialChoice::BellowPressure,
@@ -153,6 +157,15 @@ pub fn greybox<'py>(
         pressure_weight: pressure_weight.unwrap_or(1.0),
         max_relative_std: max_relative_std.unwrap_or(0.5),
         keep_unidentifiable,
+        normalisation: match normalisation.as_deref().unwrap_or("pooled-spread") {
+            "pooled-spread" => Normalisation::PooledSpread,
+            "noise-level" => Normalisation::NoiseLevel,
+            other => {
+                return Err(crate::error::to_py(anyhow::anyhow!(
+                    "normalisation `{other}`: expected `pooled-spread` or `noise-level`"
+                )));
+            }
+        },
     };
     let progress = Progress::new(progress);
     let result = py.detach(|| run_greybox(&model, params, &sources, &settings, &progress));

@@ -517,7 +517,7 @@ def greybox(
     model: str,
     truck: TruckLike,
     runs: Union[RunLike, Sequence[RunLike]],
-    free: Union[str, Sequence[str]],
+    free: Union[None, str, Sequence[str]] = None,
     bounds: Optional[Mapping[str, Tuple[float, float]]] = None,
     *,
     max_iterations: Optional[int] = None,
@@ -527,25 +527,31 @@ def greybox(
     pressure_weight: float = 1.0,
     max_relative_std: float = 0.5,
     keep_unidentifiable: bool = False,
+    normalisation: str = "pooled-spread",
     progress: Progress = None,
 ) -> GreyboxResult:
     """Estimate named physical parameters of a model from one or more runs at once, as
     ``airsus greybox`` does (thesis 5.2.6; MATLAB ``nlgreyest`` with simulation focus).
 
-    The loss is the simulation error of height and pressure, each normalised by its spread,
-    over all runs; each run starts in static equilibrium at its first measured height (or
-    pressure, with ``initial="pressure"``). Freed parameters the runs cannot determine are
-    kept at their nominal values and reported (unless ``keep_unidentifiable``).
+    The loss is the simulation error of height and pressure, each normalised by its spread
+    pooled over all runs (or, with ``normalisation="noise-level"``, each run and output by
+    its own measurement noise, every run weighing the same); each run starts in static
+    equilibrium at its first measured height (or pressure, with ``initial="pressure"``).
+    Freed parameters the runs cannot determine are kept at their nominal values and reported
+    (unless ``keep_unidentifiable``).
 
     Args:
-        model: ``m1``, ``m2``, ``m2x``, ``m2xh`` or ``m3``.
+        model: any model of :func:`models` (``m1``, ``m2``, ``m2x``, ``m2xh``, ``m3``,
+            ``truck``).
         truck: the nominal (start) parameters: a :class:`Truck` or a truck file path.
         runs: one run or a list of runs (paths, DataFrames or dicts) with measured height and
             pressure. A DataFrame's run is named by ``df.attrs["name"]`` (set by
             :func:`read_run`), else ``run1``, ``run2``, ...
         free: the short names to estimate, a list or a comma-separated string (``p0``..``p4``,
             ``a0``, ``a1``, ``m2``, ``ig``, ``kf``, ``kw``, ``kscl``, ``rflow1``, ``rflow2``,
-            ``ksd``; ``tsd`` for ``m2xh``).
+            ``ksd``; ``tsd`` for ``m2xh``). ``None``: the model's default set (the
+            ``default_free`` column of :func:`models`), plus the flow parameters when a run
+            has valve action.
         bounds: ``{name: (lower, upper)}`` narrowing a freed parameter's admissible range.
         max_iterations: Levenberg-Marquardt iterations per fit round (default 100).
         tolerance: relative tolerance on loss decrease and scaled step (default 1e-8).
@@ -554,6 +560,7 @@ def greybox(
         max_relative_std: relative standard deviation above which a parameter counts as not
             determined by the runs.
         keep_unidentifiable: estimate parameters found not identifiable anyway.
+        normalisation: ``"pooled-spread"`` or ``"noise-level"`` (see above).
         progress: called with a dict per event while the fit runs (the GIL is released):
             ``{"event": "stage", "message": ...}`` or ``{"event": "iteration", "round",
             "iteration", "loss", "simulations", "failed_simulations"}``.
@@ -570,7 +577,7 @@ def greybox(
         model,
         _as_truck(truck)._native,
         specs,
-        _names(free),
+        _names(free) if free is not None else [],
         bounds=bound_list,
         max_iterations=max_iterations,
         tolerance=tolerance,
@@ -580,6 +587,7 @@ def greybox(
         max_relative_std=float(max_relative_std),
         keep_unidentifiable=bool(keep_unidentifiable),
         progress=progress,
+        normalisation=normalisation,
     )
     return GreyboxResult(native)
 

@@ -83,7 +83,7 @@ def greybox(
     model: str,
     truck: TruckLike,
     runs: Union[RunLike, Sequence[RunLike]],
-    free: Union[str, Sequence[str]],
+    free: Union[None, str, Sequence[str]] = None,
     bounds: Optional[Mapping[str, Tuple[float, float]]] = None,
     *,
     max_iterations: Optional[int] = None,
@@ -93,6 +93,7 @@ def greybox(
     pressure_weight: float = 1.0,
     max_relative_std: float = 0.5,
     keep_unidentifiable: bool = False,
+    normalisation: str = "pooled-spread",
     progress: Progress = None,
 ) -> GreyboxResult: ...
 

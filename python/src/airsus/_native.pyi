@@ -65,6 +65,7 @@ def greybox(
     max_relative_std: Optional[float] = None,
     keep_unidentifiable: bool = False,
     progress: _Progress = None,
+    normalisation: Optional[str] = None,
 ) -> Dict[str, Any]: ...
 def ident(
     data: _RunSpec,

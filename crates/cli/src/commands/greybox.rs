@@ -19,7 +19,7 @@ use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
     NoProgress, Normalisation, Observer, OutputWeights, TerminalProgress, estimate,
 };
-use airsus_truck::models::{build_any_model, model_entry};
+use airsus_truck::models::{build_any_model, default_free};
 use anyhow::{Context, bail};
 
 /// What fixes each run's initial equilibrium.
@@ -148,12 +148,10 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     let run_refs: Vec<&_> = runs.iter().collect();
 
     let free_names: Vec<String> = if args.free.is_empty() {
-        let entry = model_entry(&args.model)?;
-        let valve_action = runs.iter().any(|r| r.valve_action());
-        let names = entry.free_parameters(valve_action);
+        let (names, valve_action) = default_free(&args.model, &run_refs)?;
         eprintln!(
             "freeing {}'s default set{}: {}",
-            entry.name,
+            args.model,
             if valve_action {
                 " with the flow parameters (the runs have valve action)"
             } else {
