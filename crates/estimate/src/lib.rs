@@ -33,7 +33,8 @@ pub mod submodel;
 pub use error::EstimateError;
 pub use greybox::{
     FreeParameter, GreyboxEstimate, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
-    InitialChoice, Normalisation, OutputWeights, StopReason, estimate,
+    InitialChoice, MultiStart, MultiStartSummary, Normalisation, OutputWeights, StopReason,
+    estimate, estimate_multistart,
 };
 pub use initial_state::{
     EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,

@@ -390,7 +390,16 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
             reference,
             m.simulations,
             m.estimation_time_s,
-            esc(m.stop_reason.as_deref().unwrap_or("–"))
+            esc(&{
+                let stop = m.stop_reason.as_deref().unwrap_or("–").to_owned();
+                match m.local_optima_losses.as_slice() {
+                    [best, .., worst] if m.starts > 1 => format!(
+                        "{stop}; {} starts, local optima's losses {best:.3e} to {worst:.3e}",
+                        m.starts
+                    ),
+                    _ => stop,
+                }
+            })
         );
     }
     h.push_str("</table>");
@@ -587,6 +596,8 @@ mod tests {
             ],
             stop_reason: Some("converged".to_owned()),
             simulations: 57,
+            starts: 4,
+            local_optima_losses: vec![0.012, 0.013, 0.2, 1.5],
             estimation_time_s: 0.3,
             runs: vec![
                 run("data-set 1", "estimation", fit(95.0, 93.0)),
@@ -720,6 +731,10 @@ mod tests {
             "thesis validation numbers shown"
         );
         assert!(html.contains("Table 5.11"));
+        assert!(
+            html.contains("4 starts, local optima's losses 1.200e-2 to 1.500e0"),
+            "the global stage's spread"
+        );
         // Every fit beside the noise ceiling; an estimated one is marked.
         assert!(
             html.contains("<td><i>noise ceiling</i></td><td><i>98.9</i></td><td><i>99.4</i></td><td><i>98.9~</i></td>"),

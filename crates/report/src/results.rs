@@ -33,6 +33,10 @@ pub struct StudyResults {
     pub findings: Findings,
 }
 
+fn one() -> usize {
+    1
+}
+
 fn equilibrium() -> String {
     "equilibrium".to_owned()
 }
@@ -223,6 +227,13 @@ pub struct ModelResult {
     /// The optimiser's stop reason (`converged`, `max_iterations`, ...).
     pub stop_reason: Option<String>,
     pub simulations: usize,
+    /// Starts of the global stage (1: the plain local fit).
+    #[serde(default = "one")]
+    pub starts: usize,
+    /// The loss (mean squared normalised residual) of every start's local optimum, best
+    /// first: their spread says how many optima the fit has.
+    #[serde(default)]
+    pub local_optima_losses: Vec<f64>,
     pub estimation_time_s: f64,
     pub runs: Vec<RunFit>,
     /// The estimated truck file, relative to the output folder.
@@ -242,6 +253,8 @@ impl ModelResult {
             estimates: vec![],
             stop_reason: None,
             simulations: 0,
+            starts: 1,
+            local_optima_losses: vec![],
             estimation_time_s: 0.0,
             runs: vec![],
             truck_file: None,
@@ -309,6 +322,8 @@ mod tests {
                     estimates: vec![],
                     stop_reason: Some("converged".to_owned()),
                     simulations: 42,
+                    starts: 3,
+                    local_optima_losses: vec![0.01, 0.01, 0.5],
                     estimation_time_s: 0.2,
                     runs: vec![RunFit {
                         run: "data-set 1".to_owned(),
@@ -455,6 +470,7 @@ mod tests {
             "protocols[].models[].estimates[].unit",
             "protocols[].models[].estimation_time_s",
             "protocols[].models[].free",
+            "protocols[].models[].local_optima_losses",
             "protocols[].models[].model",
             "protocols[].models[].notes",
             "protocols[].models[].runs",
@@ -477,6 +493,7 @@ mod tests {
             "protocols[].models[].runs[].role",
             "protocols[].models[].runs[].run",
             "protocols[].models[].simulations",
+            "protocols[].models[].starts",
             "protocols[].models[].stop_reason",
             "protocols[].models[].truck_file",
             "protocols[].name",

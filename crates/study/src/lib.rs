@@ -77,6 +77,8 @@ pub struct StudyOptions {
     pub initial: airsus_estimate::StartMethod,
     /// How the grey-box loss weighs runs and outputs.
     pub normalisation: airsus_estimate::Normalisation,
+    /// Starts of the grey-box fits' global stage (1: the plain local fit).
+    pub starts: usize,
 }
 
 impl StudyOptions {
@@ -89,6 +91,7 @@ impl StudyOptions {
             max_iterations: 60,
             initial: airsus_estimate::StartMethod::default(),
             normalisation: airsus_estimate::Normalisation::default(),
+            starts: 1,
         }
     }
 }

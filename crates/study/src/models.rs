@@ -5,8 +5,9 @@ use std::time::Instant;
 
 use airsus_data::{Run, TruckParameters, ValveState, write_truck};
 use airsus_estimate::{
-    GreyboxEstimate, GreyboxOptions, GreyboxProblem, NoProgress, PrefixOptions, StartChoice,
-    StartMethod, StopReason, estimate, estimate_initial_state, resolve_start,
+    GreyboxEstimate, GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, PrefixOptions,
+    StartChoice, StartMethod, StopReason, estimate, estimate_initial_state, estimate_multistart,
+    resolve_start,
 };
 use airsus_model::SuspensionModel;
 use airsus_report::results::{ModelResult, OutputFit, ParameterEstimate, ResidualSummary, RunFit};
@@ -277,17 +278,23 @@ pub fn fit_and_validate(
         }
     }
     let fit_options = GreyboxOptions::default().with_max_iterations(options.max_iterations);
+    let global = MultiStart {
+        count: options.starts,
+        ..MultiStart::default()
+    };
     let estimated: Box<dyn SuspensionModel> =
-        match estimate(&problem, &fit_options, &mut NoProgress) {
+        match estimate_multistart(&problem, &fit_options, &global, &mut NoProgress) {
             Err(e) => {
                 result.error = Some(format!(
                     "grey-box estimation failed: {e}; validated with the start values"
                 ));
                 nominal.clone()
             }
-            Ok(est) => {
+            Ok((est, summary)) => {
                 result.stop_reason = Some(est.stop.to_string());
                 result.simulations = est.simulations;
+                result.starts = summary.starts;
+                result.local_optima_losses = summary.losses;
                 if matches!(est.stop, StopReason::NoParameterMoved { .. }) {
                     result.notes.push(est.stop.to_string());
                 } else if !est.stop.is_converged() {

@@ -16,6 +16,7 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         max_iterations: 8,
         initial: airsus_estimate::StartMethod::Equilibrium,
         normalisation: airsus_estimate::Normalisation::PooledSpread,
+        starts: 2,
     };
     let out = dir.path().join("out");
     let events = std::sync::Mutex::new(Vec::new());
@@ -75,6 +76,10 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         airsus_data::read_truck(&truck).unwrap();
     }
     let m2 = p.models.iter().find(|m| m.model == "m2").unwrap();
+    // The global stage ran: two starts, their local optima's losses best first.
+    assert_eq!(m2.starts, 2);
+    assert!(!m2.local_optima_losses.is_empty());
+    assert!(m2.local_optima_losses.windows(2).all(|w| w[0] <= w[1]));
     assert!(
         m2.estimates.iter().any(|e| e.name == "rflow1"),
         "valve runs free the flow parameters"
@@ -187,6 +192,7 @@ fn a_protocol_without_estimation_runs_is_a_clear_error() {
         max_iterations: 5,
         initial: airsus_estimate::StartMethod::Equilibrium,
         normalisation: airsus_estimate::Normalisation::PooledSpread,
+        starts: 1,
     };
     let err = run_study(&input, &options, &dir.path().join("out"), &|_| {})
         .err()
@@ -257,6 +263,7 @@ fn a_study_can_start_its_runs_from_the_first_seconds_and_says_so() {
         max_iterations: 5,
         initial: airsus_estimate::StartMethod::Prefix,
         normalisation: airsus_estimate::Normalisation::PooledSpread,
+        starts: 1,
     };
     let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
     let r = &outcome.results;

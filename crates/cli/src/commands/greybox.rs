@@ -17,7 +17,8 @@ use std::path::PathBuf;
 use airsus_data::{read_run, read_truck, write_truck};
 use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
-    NoProgress, Normalisation, Observer, OutputWeights, TerminalProgress, estimate,
+    MultiStart, NoProgress, Normalisation, Observer, OutputWeights, TerminalProgress,
+    estimate_multistart,
 };
 use airsus_truck::models::{build_any_model, default_free};
 use anyhow::{Context, bail};
@@ -76,6 +77,14 @@ pub struct GreyboxArgs {
     /// Weight of the pressure error (after normalisation; 0 leaves it out).
     #[arg(long, default_value_t = 1.0)]
     pub pressure_weight: f64,
+    /// Number of starts of the global stage: the nominal point plus a Latin hypercube over
+    /// nominal ± `--start-spread` inside the bounds, each fitted locally, the best kept
+    /// (1: the plain local fit).
+    #[arg(long, default_value_t = 1)]
+    pub starts: usize,
+    /// Half-width of the starts' range around each nominal value, relative.
+    #[arg(long, default_value_t = 0.5)]
+    pub start_spread: f64,
     /// Relative standard deviation above which a parameter counts as not determined by the
     /// runs (kept at its nominal value).
     #[arg(long, default_value_t = 0.5)]
@@ -196,7 +205,30 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     let mut terminal = TerminalProgress::new();
     let mut quiet = NoProgress;
     let observer: &mut dyn Observer = if args.json { &mut quiet } else { &mut terminal };
-    let result = estimate(&problem, &options, observer)?;
+    let (result, global) = estimate_multistart(
+        &problem,
+        &options,
+        &MultiStart {
+            count: args.starts,
+            spread: args.start_spread,
+            seed: 1,
+        },
+        observer,
+    )?;
+    if args.starts > 1 {
+        eprintln!(
+            "global stage: {} starts ({} failed), best from start {}; local optima's losses {}",
+            global.starts,
+            global.failed,
+            global.best_start,
+            global
+                .losses
+                .iter()
+                .map(|l| format!("{l:.4e}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
 
     if args.json {
         println!("{}", serde_json::to_string_pretty(&result)?);

@@ -23,6 +23,7 @@
 
 mod evaluate;
 pub mod identifiability;
+mod multistart;
 mod problem;
 mod result;
 mod solver;
@@ -33,6 +34,7 @@ pub use evaluate::{HEIGHT_RESOLUTION_M, PRESSURE_RESOLUTION_PA};
 pub use identifiability::{
     CorrelatedPair, JacobianAnalysis, NotIdentifiable, Stage, Unidentifiable,
 };
+pub use multistart::{MultiStart, MultiStartSummary, estimate_multistart};
 pub use problem::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
     Normalisation, OutputWeights,
