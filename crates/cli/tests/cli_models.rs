@@ -107,8 +107,8 @@ fn greybox_fits_the_truck_structure_and_says_what_a_truck_file_cannot_hold() {
         "--json",
     ]));
     assert!(
-        stderr.contains("freeing truck's default set with the flow parameters")
-            && stderr.contains("p0,p1,p2,p3,p4,m2,ig,kc,tc,c1,c2"),
+        stderr.contains("freeing truck's default set with the valve-action parameters")
+            && stderr.contains("p0,p1,p2,p3,p4,m2,ig,kc,tc,c1,c2,a0"),
         "{stderr}"
     );
 

@@ -264,7 +264,7 @@ pub fn fit_and_validate(
         .iter()
         .filter_map(|n| input.run(n))
         .any(|r| r.valve_action());
-    // The registry's default set (thesis "Estimation 2"), plus the flow parameters when the
+    // The registry's default set (thesis "Estimation 2"), plus the valve-action parameters when the
     // estimation runs have valve action.
     let free = model_entry(model_name)
         .map(|entry| entry.free_parameters(valve_action))

@@ -15,10 +15,10 @@ pub const TRUCK_MODEL: ModelEntry = ModelEntry {
     name: "truck",
     summary: "Virtual-truck structure: Model 2 + creep, wall friction, gas heat exchange, ISO 6358 valve, supply line",
     build: |truck| Ok(Box::new(TruckModel::from_truck_parameters(truck))),
-    // Model 2's set plus the creep element; the ISO 6358 conductances replace the linear
-    // resistances when there is valve action.
+    // Model 2's set plus the creep element; with valve action the ISO 6358 conductances
+    // (instead of the linear resistances) and the gas volume's scale.
     default_free: &["p0", "p1", "p2", "p3", "p4", "m2", "ig", "kc", "tc"],
-    valve_free: &["c1", "c2"],
+    valve_free: &["c1", "c2", "a0"],
 };
 
 /// Every registered model, in report order: the thesis models, then `truck`.
@@ -47,7 +47,7 @@ pub fn all_model_names() -> Vec<(&'static str, &'static str)> {
 }
 
 /// What a grey-box fit of `model` frees by default on `runs`: the registry's set, plus the
-/// flow parameters when a run has valve action (only then can the data determine them). The
+/// valve-action parameters (flow law, gas volume scale) when a run has valve action. The
 /// flag says whether they were added.
 pub fn default_free(
     model: &str,

@@ -550,8 +550,8 @@ def greybox(
         free: the short names to estimate, a list or a comma-separated string (``p0``..``p4``,
             ``a0``, ``a1``, ``m2``, ``ig``, ``kf``, ``kw``, ``kscl``, ``rflow1``, ``rflow2``,
             ``ksd``; ``tsd`` for ``m2xh``). ``None``: the model's default set (the
-            ``default_free`` column of :func:`models`), plus the flow parameters when a run
-            has valve action.
+            ``default_free`` column of :func:`models`), plus the flow parameters and the gas
+            volume's scale ``a0`` when a run has valve action.
         bounds: ``{name: (lower, upper)}`` narrowing a freed parameter's admissible range.
         max_iterations: Levenberg-Marquardt iterations per fit round (default 100).
         tolerance: relative tolerance on loss decrease and scaled step (default 1e-8).

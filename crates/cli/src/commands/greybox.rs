@@ -41,7 +41,7 @@ pub struct GreyboxArgs {
     pub model: String,
     /// Parameters to estimate, comma-separated short names (`airsus models` lists each
     /// model's). The others stay fixed. Default: the model's default set (thesis "Estimation
-    /// 2"), plus the valve's flow parameters when a run has valve action.
+    /// 2"), plus the flow parameters and the gas volume's scale when a run has valve action.
     #[arg(long, value_delimiter = ',')]
     pub free: Vec<String>,
     /// Truck parameter file with the nominal (start) values.
@@ -162,7 +162,7 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
             "freeing {}'s default set{}: {}",
             args.model,
             if valve_action {
-                " with the flow parameters (the runs have valve action)"
+                " with the valve-action parameters (the runs have valve action)"
             } else {
                 ""
             },
