@@ -86,3 +86,24 @@ def test_study_runs_the_pipeline(reference: Path, tmp_path: Path) -> None:
     assert {e["event"] for e in events} >= {"stage", "model_done"}
     with pytest.raises(airsus.AirsusError, match="unknown model `m9`"):
         airsus.study(reference / "study.toml", out, models=["m9"])
+
+
+def test_study_takes_the_commands_fit_options(reference: Path, tmp_path: Path) -> None:
+    results = airsus.study(
+        reference / "study.toml",
+        tmp_path / "out",
+        models=["m2"],
+        max_iterations=3,
+        initial_state="prefix",
+        normalisation="noise-level",
+        starts=2,
+    )
+    assert results["initial_state"] == "prefix"
+    (model,) = results["protocols"][0]["models"]
+    assert model["starts"] == 2
+    # Every run carries its noise ceiling (the generated study names the truth files).
+    assert all(run["ceiling"]["source"] == "truth" for run in results["runs"])
+    with pytest.raises(airsus.AirsusError, match="normalisation `spread`"):
+        airsus.study(reference / "study.toml", tmp_path / "o2", normalisation="spread")
+    with pytest.raises(airsus.AirsusError, match="starts must be at least 1"):
+        airsus.study(reference / "study.toml", tmp_path / "o3", models=["m2"], starts=0)

@@ -201,14 +201,16 @@ struct Studied {
 fn run_the_study(
     study: Option<&Path>,
     out: &Path,
-    models: &[String],
-    max_iterations: usize,
+    fit: StudyOptions,
     seed: u64,
     progress: &Progress,
 ) -> anyhow::Result<Studied> {
-    check_models(models)?;
-    if max_iterations == 0 {
+    check_models(&fit.models)?;
+    if fit.max_iterations == 0 {
         bail!("max_iterations must be at least 1");
+    }
+    if fit.starts == 0 {
+        bail!("starts must be at least 1");
     }
     let on_event = |event: Event<'_>| study_event(progress, event);
     let mut notes = Vec::new();
@@ -219,20 +221,12 @@ fn run_the_study(
                 notes.push(format!("{} omits {}", input.truck_file.display(), d));
             }
             let options = StudyOptions {
-                models: models.to_vec(),
-                max_iterations,
-                ..StudyOptions::new(vec![Protocol::from_roles(&input)])
+                protocols: vec![Protocol::from_roles(&input)],
+                ..fit
             };
             run_study(&input, &options, out, &on_event)
         }
-        None => {
-            let options = StudyOptions {
-                models: models.to_vec(),
-                max_iterations,
-                ..StudyOptions::new(vec![])
-            };
-            run_builtin(out, seed, options, &on_event)
-        }
+        None => run_builtin(out, seed, fit, &on_event),
     }
     .with_context(|| format!("running the study into {}", out.display()))?;
     Ok(Studied {
@@ -247,7 +241,8 @@ fn run_the_study(
 /// `study` is None). Returns `{"results": path of results.json, "report": path of report.html,
 /// "notes", "chart_failures"}`.
 #[pyfunction]
-#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None))]
+#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn study<'py>(
     py: Python<'py>,
     study_file: Option<PathBuf>,
@@ -256,6 +251,9 @@ pub fn study<'py>(
     max_iterations: Option<usize>,
     seed: Option<u64>,
     progress: Option<Py<PyAny>>,
+    initial_state: Option<String>,
+    normalisation: Option<String>,
+    starts: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
     if study_file.is_some() && seed.is_some() {
         return Err(crate::error::to_py(anyhow::anyhow!(
@@ -264,19 +262,21 @@ pub fn study<'py>(
     }
     // The command's defaults: every study model, `--max-iterations 60`, `--seed 1`.
     let models = models.unwrap_or_else(|| study_models().iter().map(|m| (*m).to_owned()).collect());
-    let max_iterations = max_iterations.unwrap_or(60);
+    let fit = StudyOptions {
+        models,
+        max_iterations: max_iterations.unwrap_or(60),
+        initial: crate::simulate::parse_start(initial_state.as_deref().unwrap_or("equilibrium"))
+            .or_py()?,
+        normalisation: crate::greybox::parse_normalisation(
+            normalisation.as_deref().unwrap_or("pooled-spread"),
+        )
+        .or_py()?,
+        starts: starts.unwrap_or(1),
+        ..StudyOptions::new(vec![])
+    };
     let seed = seed.unwrap_or(1);
     let progress = Progress::new(progress);
-    let result = py.detach(|| {
-        run_the_study(
-            study_file.as_deref(),
-            &out,
-            &models,
-            max_iterations,
-            seed,
-            &progress,
-        )
-    });
+    let result = py.detach(|| run_the_study(study_file.as_deref(), &out, fit, seed, &progress));
     progress.finish()?;
     let studied = result.or_py()?;
     let dict = PyDict::new(py);

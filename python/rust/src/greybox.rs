@@ -30,6 +30,17 @@ struct Settings {
     normalisation: Normalisation,
 }
 
+/// The loss normalisation by the command's name (`--normalisation`).
+pub fn parse_normalisation(name: &str) -> anyhow::Result<Normalisation> {
+    Ok(match name {
+        "pooled-spread" => Normalisation::PooledSpread,
+        "noise-level" => Normalisation::NoiseLevel,
+        other => {
+            anyhow::bail!("normalisation `{other}`: expected `pooled-spread` or `noise-level`")
+        }
+    })
+}
+
 struct Estimated {
     json: String,
     text: String,
@@ -157,15 +168,8 @@ pub fn greybox<'py>(
         pressure_weight: pressure_weight.unwrap_or(1.0),
         max_relative_std: max_relative_std.unwrap_or(0.5),
         keep_unidentifiable,
-        normalisation: match normalisation.as_deref().unwrap_or("pooled-spread") {
-            "pooled-spread" => Normalisation::PooledSpread,
-            "noise-level" => Normalisation::NoiseLevel,
-            other => {
-                return Err(crate::error::to_py(anyhow::anyhow!(
-                    "normalisation `{other}`: expected `pooled-spread` or `noise-level`"
-                )));
-            }
-        },
+        normalisation: parse_normalisation(normalisation.as_deref().unwrap_or("pooled-spread"))
+            .or_py()?,
     };
     let progress = Progress::new(progress);
     let result = py.detach(|| run_greybox(&model, params, &sources, &settings, &progress));

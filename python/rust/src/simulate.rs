@@ -15,6 +15,15 @@ use crate::error::OrPy;
 use crate::runs::{RunSource, RunSpec};
 use crate::truck::NativeTruck;
 
+/// How a run starts, by the command's name (`--initial-state`).
+pub fn parse_start(name: &str) -> anyhow::Result<StartMethod> {
+    Ok(match name {
+        "equilibrium" => StartMethod::Equilibrium,
+        "prefix" => StartMethod::Prefix,
+        other => bail!("initial_state `{other}`: expected `equilibrium` or `prefix`"),
+    })
+}
+
 /// The integration method by its command-line name (`--method`).
 pub fn parse_method(name: &str) -> anyhow::Result<Method> {
     Ok(match name {

@@ -815,6 +815,9 @@ def study(
     models: Optional[Sequence[str]] = None,
     max_iterations: int = 60,
     seed: Optional[int] = None,
+    initial_state: str = "equilibrium",
+    normalisation: str = "pooled-spread",
+    starts: int = 1,
     progress: Progress = None,
 ) -> Dict[str, Any]:
     """Run the whole thesis pipeline, as ``airsus study STUDY.toml --out OUT``: submodel fits,
@@ -828,6 +831,10 @@ def study(
         models: the models to estimate (default all: ``m1, m2, m2x, m2xh, m3, truck``).
         max_iterations: iteration limit of each grey-box fit.
         seed: seed of the built-in study (only with ``path=None``; default 1).
+        initial_state: ``"equilibrium"`` or ``"prefix"`` (runs start from their first 10 s,
+            the parameters refitted from those starts), as ``--initial-state``.
+        normalisation: ``"pooled-spread"`` or ``"noise-level"``, as ``--normalisation``.
+        starts: starts of each grey-box fit's global stage, as ``--starts``.
         progress: called with a dict per event (the GIL is released while the study runs):
             ``{"event": "stage", "message": ...}`` or ``{"event": "model_done", "protocol",
             "model", "seconds", "done", "total"}``.
@@ -843,6 +850,9 @@ def study(
         max_iterations=int(max_iterations),
         seed=None if seed is None else int(seed),
         progress=progress,
+        initial_state=initial_state,
+        normalisation=normalisation,
+        starts=int(starts),
     )
     with open(native["results"], encoding="utf-8") as f:
         results: Dict[str, Any] = json.load(f)

@@ -150,6 +150,9 @@ def study(
     models: Optional[Sequence[str]] = None,
     max_iterations: int = 60,
     seed: Optional[int] = None,
+    initial_state: str = "equilibrium",
+    normalisation: str = "pooled-spread",
+    starts: int = 1,
     progress: Progress = None,
 ) -> Dict[str, Any]: ...
 def generate(out: PathLike, seed: int = 1, *, progress: Progress = None) -> Dict[str, Any]: ...

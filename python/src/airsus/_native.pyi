@@ -97,6 +97,9 @@ def study(
     max_iterations: Optional[int] = None,
     seed: Optional[int] = None,
     progress: _Progress = None,
+    initial_state: Optional[str] = None,
+    normalisation: Optional[str] = None,
+    starts: Optional[int] = None,
 ) -> Dict[str, Any]: ...
 def generate(out: str, seed: int = 1, progress: _Progress = None) -> Dict[str, Any]: ...
 def nrmse(measured: _Array, simulated: _Array) -> float: ...
