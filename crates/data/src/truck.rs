@@ -659,23 +659,25 @@ impl Ctx<'_> {
         self.check_param(field, value)
     }
 
+    /// A value the file may leave out: checked when the file gives it; otherwise `default`,
+    /// recorded as defaulted (a default is never refused: it is not the user's to fix).
     fn estimable_param(
         &mut self,
         field: Field,
         value: Option<f64>,
         default: f64,
     ) -> Result<f64, DataError> {
-        let (section, key, _) = field.location();
-        let unit = field.param().info.unit;
-        let value = self.estimable(
-            section,
-            key,
-            value,
-            default,
-            f64::NEG_INFINITY..=f64::INFINITY,
-            unit,
-        )?;
-        self.check_param(field, value)
+        match value {
+            Some(v) => self.check_param(field, v),
+            None => {
+                let (section, key, _) = field.location();
+                self.defaulted.push(DefaultedKey {
+                    key: format!("{section}.{key}"),
+                    value: format!("{default:?}"),
+                });
+                Ok(default)
+            }
+        }
     }
 
     fn required(
@@ -698,27 +700,6 @@ impl Ctx<'_> {
             )
         })?;
         self.check_range(section, key, value, range, unit)
-    }
-
-    fn estimable(
-        &mut self,
-        section: &str,
-        key: &str,
-        value: Option<f64>,
-        default: f64,
-        range: std::ops::RangeInclusive<f64>,
-        unit: &str,
-    ) -> Result<f64, DataError> {
-        match value {
-            Some(v) => self.check_range(section, key, v, range, unit),
-            None => {
-                self.defaulted.push(DefaultedKey {
-                    key: format!("{section}.{key}"),
-                    value: format!("{default:?}"),
-                });
-                Ok(default)
-            }
-        }
     }
 
     fn estimable_array<const N: usize>(

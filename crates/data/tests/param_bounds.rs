@@ -66,3 +66,25 @@ fn every_declared_parameter_is_range_checked_at_load_with_its_declared_bounds() 
         }
     }
 }
+
+#[test]
+fn a_default_is_never_refused_only_what_the_file_says() {
+    // A light axle on a short lever: the lever inertia's default m2 l1² (0.9 kg m²) lies
+    // below ig's admissible range, but the file did not write it.
+    let mut truck = TruckParameters::reference();
+    truck.mass.unsprung_kg = 10.0;
+    truck.geometry.l1_m = 0.3;
+    let text = truck_to_toml(&truck)
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("lever_inertia_kg_m2"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let loaded = parse_truck(&text, Path::new("light.toml")).expect("loads");
+    assert!((loaded.parameters.mass.lever_inertia_kg_m2 - 0.9).abs() < 1e-12);
+    assert!(
+        loaded
+            .defaulted
+            .iter()
+            .any(|d| d.key == "mass.lever_inertia_kg_m2")
+    );
+}

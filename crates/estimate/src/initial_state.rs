@@ -21,9 +21,9 @@ use nalgebra::{DMatrix, DVector, Dyn};
 use airsus_data::Run;
 use airsus_model::{StateRole, SuspensionModel};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, simulate};
-use airsus_validate::estimate_noise_std;
 
 use crate::error::EstimateError;
+use crate::greybox::{HEIGHT_RESOLUTION_M, PRESSURE_RESOLUTION_PA, measurement_noise};
 
 /// Default length of the prefix, s.
 pub const DEFAULT_PREFIX_S: f64 = 10.0;
@@ -268,14 +268,10 @@ pub fn estimate_initial_state(
     if n < 3 {
         return Err(invalid("the prefix holds fewer than 3 samples"));
     }
-    // The noise of each output over the whole run; a floor keeps a noise-free (simulated)
-    // run from dividing by zero.
-    let noise_h = estimate_noise_std(&outputs.sensor_height_m)
-        .unwrap_or(0.0)
-        .max(1e-5);
-    let noise_p = estimate_noise_std(&outputs.bellow_gauge_pa)
-        .unwrap_or(0.0)
-        .max(10.0);
+    // Each output in units of its noise over the whole run, floored at the sensors'
+    // quantisation, as the grey-box estimator weighs it.
+    let noise_h = measurement_noise(&outputs.sensor_height_m, HEIGHT_RESOLUTION_M);
+    let noise_p = measurement_noise(&outputs.bellow_gauge_pa, PRESSURE_RESOLUTION_PA);
 
     let all = InputSeries::from_run(run).map_err(|e| invalid(&e.to_string()))?;
     let inputs = InputSeries::new(

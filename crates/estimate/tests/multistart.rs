@@ -70,6 +70,10 @@ fn fifty_percent_off_reaches_the_optimum_of_a_start_at_the_truth() {
             "{name}: {got} from 50 % off, {want} from the truth"
         );
     }
+    // Whichever start won, the result is reported against the real start point.
+    for p in &best.parameters {
+        assert_eq!(p.nominal, start.parameter(&p.name).unwrap(), "{}", p.name);
+    }
     // One start is the plain local fit.
     let (single, one) = estimate_multistart(
         &off,

@@ -226,7 +226,10 @@ impl Default for AbsoluteTolerance {
 /// Which input changes end an integration segment (the solver restarts cleanly there: new
 /// held inputs, fresh derivative, fresh step size, fresh Jacobian).
 ///
-/// Wheel load, road height and valve state always matter: any change restarts. The supply
+/// Wheel load and valve state always matter: any change restarts; so does the road height
+/// when it is held between samples ([`RoadInput::Hold`]; followed linearly, the default, it
+/// never does). For a model that uses the supply while the valve is shut, the simulator
+/// replaces `WhileFilling` by [`Self::Beyond`] with [`DEFAULT_SUPPLY_DEADBAND_PA`]. The supply
 /// pressure enters the models only through the fill flow (SPEC §2, eq 3.19), so by default
 /// a change restarts only when the valve is in `Fill` at the new sample; a noisy logged supply
 /// pressure then costs nothing while the valve is closed or exhausting.

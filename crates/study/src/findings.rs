@@ -17,20 +17,19 @@ pub fn thesis_data_set(run_name: &str) -> Option<u32> {
         .filter(|n| (1..=4).contains(n))
 }
 
-/// Mean of height and pressure NRMSE over the runs `select` picks; `None` if none.
-fn mean_fit(model: &ModelResult, select: impl Fn(&str) -> bool) -> Option<f64> {
-    let fits: Vec<OutputFit> = model
-        .runs
+/// The estimated fits of `model` on exactly `runs`; `None` if it failed on any of them (a
+/// model is never ranked on an easier subset of the runs than the others).
+fn fits_on(model: &ModelResult, runs: &[&str]) -> Option<Vec<OutputFit>> {
+    let fits: Vec<OutputFit> = runs
         .iter()
-        .filter(|r| select(&r.run))
-        .filter_map(|r| r.estimated)
-        .collect();
-    (!fits.is_empty()).then(|| {
-        fits.iter()
-            .map(|f| 0.5 * (f.height_percent + f.pressure_percent))
-            .sum::<f64>()
-            / fits.len() as f64
-    })
+        .map(|name| model.run(name).and_then(|r| r.estimated))
+        .collect::<Option<_>>()?;
+    (!fits.is_empty()).then_some(fits)
+}
+
+/// Mean over `fits` of `pick`.
+fn mean(fits: &[OutputFit], pick: impl Fn(&OutputFit) -> f64) -> f64 {
+    fits.iter().map(pick).sum::<f64>() / fits.len() as f64
 }
 
 /// The models of `protocol` ranked by mean NRMSE on those of `runs` it did not estimate on.
@@ -40,13 +39,15 @@ fn rank(protocol: &ProtocolResult, runs: &[&str], purpose: &str) -> Option<Model
         .filter(|r| !protocol.estimation_runs.iter().any(|e| e == *r))
         .map(|r| (*r).to_owned())
         .collect();
+    let names: Vec<&str> = validation.iter().map(String::as_str).collect();
     let mut ranking: Vec<RankedModel> = protocol
         .models
         .iter()
         .filter_map(|m| {
-            mean_fit(m, |r| validation.iter().any(|v| v == r)).map(|f| RankedModel {
+            let fits = fits_on(m, &names)?;
+            Some(RankedModel {
                 model: m.model.clone(),
-                mean_nrmse_percent: f,
+                mean_nrmse_percent: mean(&fits, |f| 0.5 * (f.height_percent + f.pressure_percent)),
             })
         })
         .collect();
@@ -82,26 +83,18 @@ fn valve_data_gain(
         .copied()
         .filter(|r| !last.estimation_runs.iter().any(|e| e == r))
         .collect();
-    let mean = |m: &ModelResult, pick: fn(&OutputFit) -> f64| -> Option<f64> {
-        let v: Vec<f64> = m
-            .runs
-            .iter()
-            .filter(|r| runs.contains(&r.run.as_str()))
-            .filter_map(|r| r.estimated.as_ref().map(pick))
-            .collect();
-        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-    };
     let models: Vec<ModelGain> = last
         .models
         .iter()
         .filter_map(|after| {
             let before = first.models.iter().find(|f| f.model == after.model)?;
+            let (b, a) = (fits_on(before, &runs)?, fits_on(after, &runs)?);
             Some(ModelGain {
                 model: after.model.clone(),
-                height_before_percent: mean(before, |f| f.height_percent)?,
-                height_after_percent: mean(after, |f| f.height_percent)?,
-                pressure_before_percent: mean(before, |f| f.pressure_percent)?,
-                pressure_after_percent: mean(after, |f| f.pressure_percent)?,
+                height_before_percent: mean(&b, |f| f.height_percent),
+                height_after_percent: mean(&a, |f| f.height_percent),
+                pressure_before_percent: mean(&b, |f| f.pressure_percent),
+                pressure_after_percent: mean(&a, |f| f.pressure_percent),
             })
         })
         .collect();
@@ -270,6 +263,29 @@ mod tests {
             .unwrap();
         assert_eq!(control.runs, ["data-set 4"]);
         assert!(control.best_other_than_truck.is_none());
+    }
+
+    #[test]
+    fn a_model_that_failed_a_validation_run_is_not_ranked_on_the_others() {
+        let runs = [
+            run("data-set 1", false),
+            run("data-set 2", false),
+            run("load b", false),
+        ];
+        let mut failing = model("m1", &[("data-set 2", 99.0, 99.0), ("load b", 0.0, 0.0)]);
+        failing.runs[1].estimated = None; // it did not simulate "load b"
+        let protocol = ProtocolResult {
+            name: "thesis".to_owned(),
+            description: String::new(),
+            estimation_runs: vec!["data-set 1".to_owned()],
+            models: vec![
+                failing,
+                model("m2", &[("data-set 2", 80.0, 80.0), ("load b", 70.0, 70.0)]),
+            ],
+        };
+        let f = findings(&runs, &[protocol]);
+        let order: Vec<&str> = f.uses[0].ranking.iter().map(|m| m.model.as_str()).collect();
+        assert_eq!(order, ["m2"]);
     }
 
     #[test]

@@ -291,6 +291,17 @@ pub fn fit_and_validate(
                 nominal.clone()
             }
             Ok((est, summary)) => {
+                // Everything reported below describes the fit whose model is validated.
+                let est = match initial {
+                    StartMethod::Equilibrium => est,
+                    StartMethod::Prefix => refit_from_estimated_starts(
+                        est,
+                        &estimation,
+                        &problem,
+                        &fit_options,
+                        &mut result.notes,
+                    ),
+                };
                 result.stop_reason = Some(est.stop.to_string());
                 result.simulations = est.simulations;
                 result.starts = summary.starts;
@@ -331,16 +342,6 @@ pub fn fit_and_validate(
                         }
                     ));
                 }
-                let est = match initial {
-                    StartMethod::Equilibrium => est,
-                    StartMethod::Prefix => refit_from_estimated_starts(
-                        est,
-                        &estimation,
-                        &problem,
-                        &fit_options,
-                        &mut result.notes,
-                    ),
-                };
                 result.estimates = est
                     .parameters
                     .iter()

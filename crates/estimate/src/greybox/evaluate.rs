@@ -414,7 +414,7 @@ fn pooled_spread(signals: &[&[f64]], floor: f64) -> f64 {
 
 /// The measurement noise std of `signal` ([`airsus_validate::estimate_noise_std`]: trimmed
 /// second differences), floored at the quantisation noise `q/√12` of resolution `q`.
-fn measurement_noise(signal: &[f64], q: f64) -> f64 {
+pub(crate) fn measurement_noise(signal: &[f64], q: f64) -> f64 {
     airsus_validate::estimate_noise_std(signal)
         .unwrap_or(0.0)
         .max(q / 12f64.sqrt())

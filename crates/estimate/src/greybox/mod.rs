@@ -48,6 +48,7 @@ use airsus_validate::nrmse_percent;
 
 use crate::error::EstimateError;
 use crate::progress::Observer;
+pub(crate) use evaluate::measurement_noise;
 use evaluate::{Evaluator, Responses, noise_variance_from_data};
 use identifiability::{Screen, analyse, correlation, linearise, select_identifiable};
 use solver::{FitSettings, fit};

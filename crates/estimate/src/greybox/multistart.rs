@@ -44,7 +44,9 @@ impl Default for MultiStart {
 }
 
 /// What the global stage found: the losses of every start's local optimum, best first, and
-/// how many starts did not simulate or failed.
+/// how many starts did not simulate or failed. A start other than the nominal one wins only
+/// when its fit kept every parameter (its screen resets to the start's own random values);
+/// its result is then reported against the real nominal point.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MultiStartSummary {
     pub starts: usize,
@@ -136,17 +138,43 @@ pub fn estimate_multistart(
         })
         .collect();
     let failed = others.iter().filter(|o| o.is_none()).count();
+    // A start's own values are its fit's "nominal" point: a parameter its screen found not
+    // identifiable went back to the random draw, not to the truck file's value. Only fully
+    // fitted starts can win (they still count among the local optima).
+    let mut losses: Vec<f64> = std::iter::once(nominal.loss_estimated)
+        .chain(others.iter().flatten().map(|e| e.loss_estimated))
+        .collect();
+    losses.sort_by(f64::total_cmp);
     let mut results: Vec<(usize, GreyboxEstimate)> = std::iter::once((0, nominal))
         .chain(
             others
                 .into_iter()
                 .enumerate()
-                .filter_map(|(i, o)| o.map(|e| (i + 1, e))),
+                .filter_map(|(i, o)| o.map(|e| (i + 1, e)))
+                .filter(|(_, e)| e.identifiability.not_identifiable.is_empty()),
         )
         .collect();
+    // The real nominal point's values, fits and loss, to report the winner against.
+    let reference = &results[0].1;
+    let nominal_values: Vec<f64> = reference.parameters.iter().map(|p| p.nominal).collect();
+    let nominal_fits: Vec<(Option<f64>, Option<f64>)> = reference
+        .fits
+        .iter()
+        .map(|f| (f.height_nominal_percent, f.pressure_nominal_percent))
+        .collect();
+    let nominal_loss = reference.loss_nominal;
     results.sort_by(|a, b| a.1.loss_estimated.total_cmp(&b.1.loss_estimated));
-    let losses = results.iter().map(|(_, e)| e.loss_estimated).collect();
-    let (best_start, best) = results.swap_remove(0);
+    let (best_start, mut best) = results.swap_remove(0);
+    if best_start != 0 {
+        for (p, value) in best.parameters.iter_mut().zip(nominal_values) {
+            p.nominal = value;
+        }
+        for (f, (h, p)) in best.fits.iter_mut().zip(nominal_fits) {
+            f.height_nominal_percent = h;
+            f.pressure_nominal_percent = p;
+        }
+        best.loss_nominal = nominal_loss;
+    }
     Ok((
         best,
         MultiStartSummary {

@@ -26,8 +26,8 @@ pub enum StopReason {
     NotConverging { reason: String },
     /// Nothing was freed, or no freed parameter is identifiable from the runs.
     NothingToEstimate,
-    /// Parameters were fitted, but the identifiability screen sent every one of them back to
-    /// its start: the result equals the start. Never reported as converged.
+    /// The result equals the start: the fit moved no parameter (the identifiability screen
+    /// reset `fixed` of them and the rest did not move). Never reported as converged.
     NoParameterMoved { fixed: usize, freed: usize },
 }
 
@@ -65,7 +65,7 @@ impl fmt::Display for StopReason {
             }
             Self::NoParameterMoved { fixed, freed } => write!(
                 f,
-                "NOT estimated: no parameter moved from its start ({fixed} of {freed} found not identifiable and reset); the result is the start"
+                "NOT estimated: no parameter moved from its start ({fixed} of {freed} found not identifiable); the result is the start"
             ),
         }
     }
