@@ -171,20 +171,11 @@ impl InitialState {
     ///
     /// Height, not pressure: the effective area rises, peaks and falls with height (eq 5.4),
     /// so one pressure can mean two equilibrium heights or none, while a height gives one
-    /// pressure. [`Self::from_run_pressure`] starts from the pressure instead.
+    /// pressure. `InitialCondition::BellowPressure` starts from a pressure instead.
     pub fn from_run(run: &Run) -> Option<Self> {
         let height_m = *run.outputs.as_ref()?.sensor_height_m.first()?;
         Some(Self::Equilibrium(InitialCondition::SensorHeight {
             height_m,
-        }))
-    }
-
-    /// Static equilibrium at the run's first measured bellow pressure, when the run has
-    /// measured outputs.
-    pub fn from_run_pressure(run: &Run) -> Option<Self> {
-        let gauge_pa = *run.outputs.as_ref()?.bellow_gauge_pa.first()?;
-        Some(Self::Equilibrium(InitialCondition::BellowPressure {
-            gauge_pa,
         }))
     }
 }

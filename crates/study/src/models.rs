@@ -81,13 +81,12 @@ fn refit_from_estimated_starts(
             })
         })
         .collect();
-    let mut refit = GreyboxProblem::new(&*first.estimated_model, estimation, &[])
-        .with_start_offsets(offsets.clone())
-        .with_initial(problem.initial)
-        .with_weights(problem.weights)
-        .with_normalisation(problem.normalisation);
-    refit.free = problem.free.clone();
-    refit.solver = problem.solver.clone();
+    let refit = GreyboxProblem {
+        model: &*first.estimated_model,
+        runs: estimation.to_vec(),
+        start_offsets: offsets,
+        ..problem.clone()
+    };
     // The first fit's point from the same starts: what the refit must beat.
     let baseline = GreyboxProblem {
         free: vec![],

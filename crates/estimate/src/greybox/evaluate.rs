@@ -387,6 +387,13 @@ fn run_data<'a>(
         name: run.name.clone(),
         inputs,
         initial: match offsets {
+            // Offsets are estimated from the height equilibrium (`estimate_initial_state`):
+            // on top of another equilibrium they would mean nothing.
+            Some(_) if problem.initial != InitialChoice::SensorHeight => {
+                return Err(EstimateError::InvalidOption(
+                    "start offsets apply to the sensor-height equilibrium only".to_owned(),
+                ));
+            }
             Some(offsets) => InitialState::EquilibriumOffset {
                 condition: ic,
                 offsets,
