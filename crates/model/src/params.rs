@@ -62,7 +62,7 @@ impl ParamSet {
         value: f64,
     ) -> Result<(), ModelError> {
         let p = self.lookup(name)?;
-        if !(value >= p.info.lower && value <= p.info.upper) {
+        if !p.info.admits(value) {
             return Err(ModelError::ParameterOutOfRange {
                 model: self.model.to_owned(),
                 name: name.to_owned(),

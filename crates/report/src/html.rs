@@ -193,7 +193,7 @@ fn summary(h: &mut String, results: &StudyResults) {
         for r in &results.runs {
             match &r.ceiling {
                 Some(c) => {
-                    let mark = if c.source == "truth" { "" } else { "~" };
+                    let mark = c.mark();
                     for v in [c.height_percent, c.pressure_percent] {
                         let _ = write!(h, "<td><i>{v:.1}{mark}</i></td>");
                     }

@@ -125,6 +125,13 @@ pub struct NoiseCeiling {
     pub pressure_noise_std_kpa: f64,
 }
 
+impl NoiseCeiling {
+    /// How a ceiling shows beside the fits: `~` when estimated from the measurements.
+    pub fn mark(&self) -> &'static str {
+        if self.source == "truth" { "" } else { "~" }
+    }
+}
+
 /// A named number with its unit and, where known, its standard deviation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct NamedValue {

@@ -361,10 +361,7 @@ pub fn summary_table(results: &StudyResults) -> String {
             let cell = |v: Option<f64>| {
                 v.map_or_else(
                     || "–".to_owned(),
-                    |v| {
-                        let estimated = r.ceiling.as_ref().is_some_and(|c| c.source != "truth");
-                        format!("{v:.1}{}", if estimated { "~" } else { "" })
-                    },
+                    |v| format!("{v:.1}{}", r.ceiling.as_ref().map_or("", |c| c.mark())),
                 )
             };
             let _ = write!(

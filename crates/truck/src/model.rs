@@ -500,7 +500,7 @@ impl SuspensionModel for TruckModel {
     fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
         match EFFECT_PARAMS.iter().find(|p| p.info.name == name) {
             Some(p) => {
-                if !(value >= p.info.lower && value <= p.info.upper) {
+                if !p.info.admits(value) {
                     return Err(ModelError::ParameterOutOfRange {
                         model: "truck".to_owned(),
                         name: name.to_owned(),
