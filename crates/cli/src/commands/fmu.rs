@@ -15,11 +15,12 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, anyhow, bail};
 
 use airsus_data::atomic::refuse_overwriting_inputs;
-use airsus_data::read_truck;
 use airsus_fmu::config::DEFAULT_INITIAL_HEIGHT_MM;
 use airsus_fmu::description::{Causality, Variability};
 use airsus_fmu::package::{check_library, write_fmu};
 use airsus_fmu::{ExportConfig, Prepared};
+
+use super::read_truck_listing_defaults;
 
 /// Environment variable naming the FMU library.
 pub const LIBRARY_ENV: &str = "AIRSUS_FMU_LIBRARY";
@@ -65,17 +66,7 @@ pub fn run(args: &FmuArgs) -> anyhow::Result<()> {
     let library_path = find_library(args.binary.as_deref())?;
     refuse_overwriting_inputs(&args.out, &[&args.truck, &library_path])?;
 
-    let loaded = read_truck(&args.truck)?;
-    if !loaded.defaulted.is_empty() {
-        eprintln!(
-            "truck {}: {} key(s) not in the file, using defaults:",
-            args.truck.display(),
-            loaded.defaulted.len()
-        );
-        for key in &loaded.defaulted {
-            eprintln!("  {} = {}", key.key, key.value);
-        }
-    }
+    let loaded = read_truck_listing_defaults(&args.truck)?;
     let config = ExportConfig::new(&args.model, &loaded.parameters, args.initial_height_mm)
         .with_context(|| format!("model {} from {}", args.model, args.truck.display()))?;
     let prepared = Prepared::new(config)

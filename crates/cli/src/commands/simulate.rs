@@ -16,12 +16,14 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use airsus_data::atomic::refuse_overwriting_inputs;
-use airsus_data::{Outputs, RunOutputs, read_run_with, read_truck, write_run};
+use airsus_data::{Outputs, RunOutputs, read_run_with, write_run};
 use airsus_estimate::initial_state::DEFAULT_PREFIX_S;
 use airsus_estimate::{PrefixOptions, StartChoice, StartMethod, resolve_start};
 use airsus_sim::{InputSeries, Method, SimulationProblem, SolverOptions, simulate};
 use airsus_truck::models::build_any_model;
 use anyhow::{Context, bail};
+
+use super::read_truck_listing_defaults;
 
 /// Integration method (`bdf` is the fastest on the suspension models; see BENCHMARKS.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -107,17 +109,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         bail!("--rtol {} must be between 0 and 1", args.rtol);
     }
     refuse_overwriting_inputs(&args.out, &[&args.truck, &args.run])?;
-    let loaded = read_truck(&args.truck)?;
-    if !loaded.defaulted.is_empty() {
-        eprintln!(
-            "truck {}: {} key(s) not in the file, using defaults:",
-            args.truck.display(),
-            loaded.defaulted.len()
-        );
-        for key in &loaded.defaulted {
-            eprintln!("  {} = {}", key.key, key.value);
-        }
-    }
+    let loaded = read_truck_listing_defaults(&args.truck)?;
     let run = read_run_with(&args.run, Outputs::IfPresent)?;
     let model = build_any_model(&args.model, &loaded.parameters)?;
 
