@@ -13,6 +13,8 @@ pub struct Location {
     pub line: Option<u64>,
     /// 1-based column number and, for CSV files, the column's header name.
     pub column: Option<(u64, Option<String>)>,
+    /// For logs that have no lines (MDF4, Parquet, CAN): the channel and its 1-based sample.
+    pub sample: Option<(String, u64)>,
 }
 
 impl Location {
@@ -21,7 +23,14 @@ impl Location {
             file: file.to_path_buf(),
             line: None,
             column: None,
+            sample: None,
         }
+    }
+
+    /// A channel of a log file, optionally at its 1-based sample `number`.
+    pub fn channel(mut self, name: &str, number: Option<u64>) -> Self {
+        self.sample = Some((name.to_owned(), number.unwrap_or(0)));
+        self
     }
 
     pub fn line(mut self, line: u64) -> Self {
@@ -46,6 +55,11 @@ impl fmt::Display for Location {
         }
         if let Some((_, Some(name))) = &self.column {
             write!(f, " (column `{name}`)")?;
+        }
+        match &self.sample {
+            Some((channel, 0)) => write!(f, " (channel `{channel}`)")?,
+            Some((channel, number)) => write!(f, " (channel `{channel}`, sample {number})")?,
+            None => {}
         }
         Ok(())
     }
@@ -119,6 +133,67 @@ pub enum DataErrorKind {
         value: String,
         reason: String,
     },
+    #[error("not a readable {format} file: {reason}")]
+    Malformed {
+        format: &'static str,
+        reason: String,
+    },
+    #[error("{0}")]
+    MissingChannel(Box<MissingChannel>),
+    #[error("unit `{unit}` cannot be read as column `{column}` (expected one of: {})", expected.join(", "))]
+    UnknownUnit {
+        column: String,
+        unit: String,
+        expected: Vec<String>,
+    },
+    #[error(
+        "the file gives unit `{in_file}` but the column map says `{mapped}`; remove the unit from the map or correct it"
+    )]
+    UnitConflict { in_file: String, mapped: String },
+    #[error(
+        "channels on different time bases: {first} but {second}; airsus never resamples silently: set `resample = \"zoh\"` or `\"linear\"` with `sample_s` (CLI: --resample, --sample-s)"
+    )]
+    TimeBases {
+        first: Box<TimeBaseSummary>,
+        second: Box<TimeBaseSummary>,
+    },
+}
+
+/// A run column whose channel a log does not have (boxed in [`DataErrorKind`]: it is large).
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "channel `{channel}` for column `{column}` is not in the file{}; map another channel with `[run.columns]` or `--columns {column}=NAME`; the file has: {}{}",
+    suggestion_text(suggestion),
+    available.join(", "),
+    hint.as_deref().map(|h| format!(" ({h})")).unwrap_or_default()
+)]
+pub struct MissingChannel {
+    pub column: String,
+    pub channel: String,
+    pub suggestion: Option<String>,
+    pub available: Vec<String>,
+    /// What the reader knows that may explain it (e.g. CAN frames but no DBC).
+    pub hint: Option<String>,
+}
+
+/// One time base as an error describes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeBaseSummary {
+    pub name: String,
+    pub samples: usize,
+    pub start_s: f64,
+    /// Mean step, s.
+    pub step_s: f64,
+}
+
+impl fmt::Display for TimeBaseSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "`{}` has {} samples from {} s every {} s",
+            self.name, self.samples, self.start_s, self.step_s
+        )
+    }
 }
 
 fn suggestion_text(suggestion: &Option<String>) -> String {

@@ -11,10 +11,12 @@
 //! This crate knows no models: it sits at the bottom of the workspace.
 
 pub mod atomic;
+pub mod channels;
 pub mod error;
 pub mod lab;
 pub mod params;
 pub mod run;
+pub mod source;
 pub mod study;
 pub mod table;
 pub mod time_axis;
@@ -22,14 +24,16 @@ pub mod toml_file;
 pub mod truck;
 pub mod units;
 
+pub use channels::{ChannelSet, LogChannel, TimeBase, run_from_channels};
 pub use error::{DataError, DataErrorKind, Location};
 pub use lab::{
     ForceMap, TankDischarge, read_discharge, read_force_map, write_discharge, write_force_map,
 };
 pub use run::{
-    Outputs, Run, RunInputs, RunOutputs, RunPrecision, ValveState, read_run, read_run_with,
-    write_run, write_run_with_precision,
+    LoadedRun, Outputs, Run, RunInputs, RunOutputs, RunPrecision, ValveState, read_run,
+    read_run_with, write_run, write_run_with_precision,
 };
+pub use source::{ChannelRef, ColumnMap, Resample, ResampleMethod, RunSource};
 pub use study::{Channel, Role, Study, StudyDischarge, StudyRun, read_study, write_study};
 pub use truck::{
     BellowParameters, DamperTable, DefaultedKey, Environment, Geometry, LoadedTruck,

@@ -8,6 +8,7 @@ use std::path::Path;
 
 use crate::atomic::write_atomically;
 use crate::error::{DataError, DataErrorKind};
+use crate::source::RunSource;
 use crate::table::{ColumnSpec, NumericTable, parse_table};
 use crate::time_axis::check_time_axis;
 use crate::units::{PA_PER_KPA, STANDARD_ATMOSPHERE_KPA, m_from_mm, mm_from_m};
@@ -101,6 +102,31 @@ impl Run {
         self.inputs.valve.iter().any(|&v| v != ValveState::Closed)
     }
 
+    /// Refuses to write a run whose signals differ in length (an error naming `path`).
+    pub fn check_writable(&self, path: &Path) -> Result<(), DataError> {
+        let n = self.len();
+        let inputs = &self.inputs;
+        let consistent = inputs.wheel_load_kg.len() == n
+            && inputs.valve.len() == n
+            && inputs.supply_gauge_pa.len() == n
+            && inputs.road_height_m.len() == n
+            && self
+                .outputs
+                .as_ref()
+                .is_none_or(|o| o.sensor_height_m.len() == n && o.bellow_gauge_pa.len() == n);
+        if consistent {
+            return Ok(());
+        }
+        Err(DataError::in_file(
+            path,
+            DataErrorKind::InvalidValue {
+                key: "run".to_owned(),
+                value: self.name.clone(),
+                reason: "signals of different lengths cannot be written".to_owned(),
+            },
+        ))
+    }
+
     /// The measured outputs, or an error naming the run when it has none.
     pub fn measured(&self) -> Result<&RunOutputs, DataError> {
         self.outputs.as_ref().ok_or_else(|| {
@@ -134,26 +160,85 @@ pub fn read_run_with(path: &Path, outputs: Outputs) -> Result<Run, DataError> {
     parse_run(&bytes, path, outputs)
 }
 
+/// Reads a run CSV file whose columns `source` maps (names, units, resampling).
+pub fn read_run_from(
+    path: &Path,
+    outputs: Outputs,
+    source: &RunSource,
+) -> Result<LoadedRun, DataError> {
+    let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+    parse_run_from(&bytes, path, outputs, source)
+}
+
 /// Parses run CSV bytes; `path` names the source in errors and gives the run its name.
 pub fn parse_run(bytes: &[u8], path: &Path, outputs: Outputs) -> Result<Run, DataError> {
+    parse_run_from(bytes, path, outputs, &RunSource::default()).map(|loaded| loaded.run)
+}
+
+/// A run read from a log, with what the reader did to it that the user should hear about
+/// (units assumed, channels resampled, a timestamp made relative).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadedRun {
+    pub run: Run,
+    pub notes: Vec<String>,
+}
+
+/// Parses run CSV bytes whose columns `source` maps (names and units) and may resample.
+pub fn parse_run_from(
+    bytes: &[u8],
+    path: &Path,
+    outputs: Outputs,
+    source: &RunSource,
+) -> Result<LoadedRun, DataError> {
     use columns::*;
-    let mut specs = vec![
-        ColumnSpec::required(TIME),
-        ColumnSpec::required(WHEEL_LOAD),
-        ColumnSpec::required(VALVE),
-        ColumnSpec::required(SUPPLY),
-        ColumnSpec::optional(ROAD, 0.0),
-    ];
+    let map = &source.columns;
     let with_outputs = match outputs {
         Outputs::Required => true,
-        Outputs::IfPresent => header_has(bytes, HEIGHT) || header_has(bytes, PRESSURE),
+        Outputs::IfPresent => {
+            header_has(bytes, map.channel_for(HEIGHT))
+                || header_has(bytes, map.channel_for(PRESSURE))
+        }
     };
+    let mut specs = vec![
+        ColumnSpec::required(map.channel_for(TIME)),
+        ColumnSpec::required(map.channel_for(WHEEL_LOAD)),
+        ColumnSpec::required(map.channel_for(VALVE)),
+        ColumnSpec::required(map.channel_for(SUPPLY)),
+        ColumnSpec::optional(map.channel_for(ROAD), 0.0),
+    ];
     if with_outputs {
-        specs.push(ColumnSpec::required(HEIGHT));
-        specs.push(ColumnSpec::required(PRESSURE));
+        specs.push(ColumnSpec::required(map.channel_for(HEIGHT)));
+        specs.push(ColumnSpec::required(map.channel_for(PRESSURE)));
     }
-    let table = parse_table(bytes, path, &specs)?;
-    let sample_time_s = check_time_axis(&table, 0, path, 2)?;
+    let mut table = parse_table(bytes, path, &specs)?;
+    let contract = [TIME, WHEEL_LOAD, VALVE, SUPPLY, ROAD, HEIGHT, PRESSURE];
+    if source.resample.is_some() {
+        // A CSV table is one time base; resampling it goes the way of every log.
+        let set = crate::channels::ChannelSet::from_table(&table, "CSV");
+        return crate::channels::run_from_channels(set, path, outputs, source);
+    }
+    let mut notes = Vec::new();
+    for (index, column) in contract.iter().take(table.columns.len()).enumerate() {
+        // A CSV header carries no unit: only the map's unit converts.
+        let conversion =
+            crate::channels::column_conversion(path, column, map.channel_for(column), None, map)?;
+        if let Some(note) = conversion.note {
+            notes.push(note);
+        }
+        conversion.conversion.apply(&mut table.columns[index]);
+    }
+    let run = run_from_table(&table, path, with_outputs)?;
+    Ok(LoadedRun { run, notes })
+}
+
+/// Builds a run from a table whose columns are, in order, time, load, valve, supply, road and
+/// (with outputs) height and pressure, in the contract's file units; checks every value.
+pub(crate) fn run_from_table(
+    table: &NumericTable,
+    path: &Path,
+    with_outputs: bool,
+) -> Result<Run, DataError> {
+    let sample_time_s = check_time_axis(table, 0, path, 2)?;
 
     let valve = table.columns[2]
         .iter()
@@ -169,8 +254,8 @@ pub fn parse_run(bytes: &[u8], path: &Path, outputs: Outputs) -> Result<Run, Dat
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
-    check_non_negative(&table, 1, path, "wheel load")?;
-    check_above_vacuum(&table, 3, path, "supply pressure")?;
+    check_non_negative(table, 1, path, "wheel load")?;
+    check_above_vacuum(table, 3, path, "supply pressure")?;
 
     let kpa_to_pa = |c: &[f64]| c.iter().map(|v| v * PA_PER_KPA).collect::<Vec<_>>();
     let inputs = RunInputs {
@@ -180,7 +265,7 @@ pub fn parse_run(bytes: &[u8], path: &Path, outputs: Outputs) -> Result<Run, Dat
         road_height_m: table.columns[4].iter().copied().map(m_from_mm).collect(),
     };
     let outputs = if with_outputs {
-        check_above_vacuum(&table, 6, path, "bellow pressure")?;
+        check_above_vacuum(table, 6, path, "bellow pressure")?;
         Some(RunOutputs {
             sensor_height_m: table.columns[5].iter().copied().map(m_from_mm).collect(),
             bellow_gauge_pa: kpa_to_pa(&table.columns[6]),
@@ -313,26 +398,9 @@ pub fn write_run_with_precision(
     run: &Run,
     precision: &RunPrecision,
 ) -> Result<(), DataError> {
+    run.check_writable(path)?;
     let n = run.len();
     let inputs = &run.inputs;
-    let consistent = inputs.wheel_load_kg.len() == n
-        && inputs.valve.len() == n
-        && inputs.supply_gauge_pa.len() == n
-        && inputs.road_height_m.len() == n
-        && run
-            .outputs
-            .as_ref()
-            .is_none_or(|o| o.sensor_height_m.len() == n && o.bellow_gauge_pa.len() == n);
-    if !consistent {
-        return Err(DataError::in_file(
-            path,
-            DataErrorKind::InvalidValue {
-                key: "run".to_owned(),
-                value: run.name.clone(),
-                reason: "signals of different lengths cannot be written".to_owned(),
-            },
-        ));
-    }
     write_atomically(path, |w: &mut dyn Write| {
         use columns::*;
         write!(w, "{TIME},{WHEEL_LOAD},{VALVE},{SUPPLY},{ROAD}")?;

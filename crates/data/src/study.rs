@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::atomic::write_text_atomically;
 use crate::error::{DataError, DataErrorKind, Location};
+use crate::source::{ChannelRef, ColumnMap, Resample, ResampleMethod, RunSource};
 use crate::toml_file::{
     TableSchema, check_finite, check_keys, deserialize, find_key_line, parse_toml,
 };
@@ -57,6 +58,9 @@ pub struct StudyRun {
     /// run's truth file). The study reports the noise ceiling from it: the NRMSE of the
     /// truth against the measurements, the best any model can score.
     pub truth: Option<PathBuf>,
+    /// How the file's channels map onto the run columns (`[run.columns]`, `resample`,
+    /// `sample_s`, `dbc`); the contract's own names when absent.
+    pub source: RunSource,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -96,7 +100,25 @@ const SCHEMA: &[TableSchema] = &[
     },
     TableSchema {
         name: "run",
-        keys: &["name", "file", "role", "truth"],
+        keys: &[
+            "name", "file", "role", "truth", "columns", "resample", "sample_s", "dbc",
+        ],
+    },
+    TableSchema {
+        name: "run.columns",
+        keys: &[
+            "time_s",
+            "wheel_load_kg",
+            "valve",
+            "supply_kpa",
+            "road_mm",
+            "height_mm",
+            "pressure_kpa",
+        ],
+    },
+    TableSchema {
+        name: "run.columns.*",
+        keys: &["channel", "unit"],
     },
     TableSchema {
         name: "force_map",
@@ -114,6 +136,22 @@ struct FileRun {
     file: String,
     role: Role,
     truth: Option<String>,
+    #[serde(default)]
+    columns: std::collections::BTreeMap<String, FileChannel>,
+    resample: Option<ResampleMethod>,
+    sample_s: Option<f64>,
+    dbc: Option<String>,
+}
+
+/// `height_mm = "AxleHeight"` or `pressure_kpa = { channel = "BellowP", unit = "bar" }`.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum FileChannel {
+    Name(String),
+    Full {
+        channel: String,
+        unit: Option<String>,
+    },
 }
 
 #[derive(Deserialize)]
@@ -213,18 +251,60 @@ pub fn parse_study(text: &str, path: &Path) -> Result<Study, DataError> {
         }
     }
 
+    let mut runs = Vec::with_capacity(file.run.len());
+    for r in file.run {
+        let mut columns = ColumnMap::default();
+        for (column, channel) in r.columns {
+            let channel = match channel {
+                FileChannel::Name(channel) => ChannelRef {
+                    channel,
+                    unit: None,
+                },
+                FileChannel::Full { channel, unit } => ChannelRef { channel, unit },
+            };
+            columns.insert(&column, channel).map_err(|reason| {
+                invalid("run.columns", &column, format!("{:?}", r.name), &reason)
+            })?;
+        }
+        let resample = match (r.resample, r.sample_s) {
+            (None, None) => None,
+            (Some(method), Some(sample_s)) => Some(
+                Resample::new(method, sample_s)
+                    .map_err(|reason| invalid("run", "sample_s", sample_s.to_string(), &reason))?,
+            ),
+            (Some(method), None) => {
+                return Err(invalid(
+                    "run",
+                    "resample",
+                    format!("{:?}", method.as_str()),
+                    "needs `sample_s`, the sample time to resample onto",
+                ));
+            }
+            (None, Some(sample_s)) => {
+                return Err(invalid(
+                    "run",
+                    "sample_s",
+                    sample_s.to_string(),
+                    "needs `resample = \"zoh\"` or `\"linear\"`",
+                ));
+            }
+        };
+        runs.push(StudyRun {
+            file: resolve(&r.file),
+            name: r.name,
+            role: r.role,
+            truth: r.truth.as_deref().map(resolve),
+            source: RunSource {
+                columns,
+                resample,
+                dbc: r.dbc.as_deref().map(resolve),
+            },
+        });
+    }
+
     Ok(Study {
         truck: resolve(&file.truck),
-        runs: file
-            .run
-            .into_iter()
-            .map(|r| StudyRun {
-                file: resolve(&r.file),
-                name: r.name,
-                role: r.role,
-                truth: r.truth.as_deref().map(resolve),
-            })
-            .collect(),
+        runs,
         force_map: file.force_map.map(|f| resolve(&f.file)),
         discharges: file
             .discharge
@@ -258,6 +338,31 @@ pub fn study_to_toml(study: &Study, base: &Path) -> String {
         let _ = writeln!(s, "role = \"{}\"", run.role.as_str());
         if let Some(truth) = &run.truth {
             let _ = writeln!(s, "truth = {}  # noise-free outputs", quote(&rel(truth)));
+        }
+        if let Some(dbc) = &run.source.dbc {
+            let _ = writeln!(s, "dbc = {}", quote(&rel(dbc)));
+        }
+        if let Some(resample) = &run.source.resample {
+            let _ = writeln!(s, "resample = \"{}\"", resample.method.as_str());
+            let _ = writeln!(s, "sample_s = {:?}", resample.sample_s);
+        }
+        if !run.source.columns.is_empty() {
+            let _ = writeln!(s, "[run.columns]");
+            for (column, channel) in run.source.columns.iter() {
+                match &channel.unit {
+                    None => {
+                        let _ = writeln!(s, "{column} = {}", quote(&channel.channel));
+                    }
+                    Some(unit) => {
+                        let _ = writeln!(
+                            s,
+                            "{column} = {{ channel = {}, unit = {} }}",
+                            quote(&channel.channel),
+                            quote(unit)
+                        );
+                    }
+                }
+            }
         }
     }
     if let Some(map) = &study.force_map {
@@ -358,6 +463,52 @@ role = "estimation"                      # or "validation"
         )
         .unwrap_err();
         assert_eq!(err.location.line, Some(11));
+    }
+
+    #[test]
+    fn a_run_maps_log_channels_and_resamples() {
+        let text = format!(
+            "{EXAMPLE}\n[[run]]\nname = \"drive\"\nfile = \"drive.mf4\"\nrole = \"validation\"\n\
+             dbc = \"truck.dbc\"\nresample = \"linear\"\nsample_s = 0.1\n[run.columns]\n\
+             height_mm = \"AxleHeight\"\npressure_kpa = {{ channel = \"BellowP\", unit = \"bar\" }}\n"
+        );
+        let study = parse_study(&text, Path::new("/data/study.toml")).unwrap();
+        let source = &study.runs[1].source;
+        assert_eq!(source.columns.channel_for("height_mm"), "AxleHeight");
+        assert_eq!(
+            source.columns.get("pressure_kpa").unwrap().unit.as_deref(),
+            Some("bar")
+        );
+        assert_eq!(source.dbc.as_deref(), Some(Path::new("/data/truck.dbc")));
+        assert_eq!(
+            source.resample,
+            Some(Resample::new(ResampleMethod::Linear, 0.1).unwrap())
+        );
+        assert!(study.runs[0].source.is_plain());
+        let back = study_to_toml(&study, Path::new("/data"));
+        assert_eq!(
+            parse_study(&back, Path::new("/data/study.toml")).unwrap(),
+            study
+        );
+
+        let err = parse_study(
+            &text.replace("height_mm = \"AxleHeight\"", "hight_mm = \"AxleHeight\""),
+            Path::new("s.toml"),
+        )
+        .unwrap_err();
+        assert!(
+            err.to_string().contains("did you mean `height_mm`"),
+            "{err}"
+        );
+        let err = parse_study(
+            &text.replace("unit = \"bar\"", "units = \"bar\""),
+            Path::new("s.toml"),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("did you mean `unit`"), "{err}");
+        let err =
+            parse_study(&text.replace("sample_s = 0.1\n", ""), Path::new("s.toml")).unwrap_err();
+        assert!(err.to_string().contains("needs `sample_s`"), "{err}");
     }
 
     #[test]

@@ -42,8 +42,20 @@ pub struct NumericTable {
     pub lines: Vec<u64>,
     /// The 1-based file column of each requested column (`None` where it was absent and defaulted).
     pub file_columns: Vec<Option<u64>>,
-    /// All header names as found in the file.
+    /// All header names as found in the file; for a log, the channel behind each column.
     pub header: Vec<String>,
+    pub origin: TableOrigin,
+}
+
+/// What the rows of a table are, which decides how a cell is located in errors.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TableOrigin {
+    /// Lines of a CSV file.
+    #[default]
+    Csv,
+    /// Samples of log channels (MDF4, Parquet, CAN), which have no lines: a cell is named
+    /// by its channel (`header[index]`) and 1-based sample number (`lines[row]`).
+    Samples,
 }
 
 impl NumericTable {
@@ -62,6 +74,10 @@ impl NumericTable {
     /// The location of row `row` of requested column `index`, for error messages.
     pub fn cell_location(&self, file: &Path, index: usize, row: usize) -> Location {
         let mut loc = Location::file(file);
+        if self.origin == TableOrigin::Samples {
+            let channel = self.header.get(index).map_or("?", String::as_str);
+            return loc.channel(channel, self.lines.get(row).copied());
+        }
         if let Some(&line) = self.lines.get(row) {
             loc = loc.line(line);
         }
@@ -193,6 +209,7 @@ pub fn parse_table(
         lines,
         file_columns: indices.iter().map(|i| i.map(|i| i as u64 + 1)).collect(),
         header,
+        origin: TableOrigin::Csv,
     })
 }
 

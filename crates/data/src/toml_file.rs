@@ -5,7 +5,8 @@ use std::path::Path;
 
 use crate::error::{DataError, DataErrorKind, Location, nearest_name};
 
-/// A table of the schema: its dotted name (`""` for the top level) and its valid keys.
+/// A table of the schema: its dotted name (`""` for the top level; `a.*` for every sub-table
+/// of `a`) and its valid keys.
 pub struct TableSchema {
     pub name: &'static str,
     pub keys: &'static [&'static str],
@@ -66,7 +67,12 @@ fn check_table(
     text: &str,
     path: &Path,
 ) -> Result<(), DataError> {
-    let Some(entry) = schema.iter().find(|s| s.name == prefix) else {
+    // `a.*` stands for every sub-table of `a` (tables keyed by free names).
+    let parent = prefix.rsplit_once('.').map(|(parent, _)| parent);
+    let Some(entry) = schema
+        .iter()
+        .find(|s| s.name == prefix || s.name.strip_suffix(".*").is_some_and(|p| Some(p) == parent))
+    else {
         return Ok(());
     };
     for (key, value) in table {

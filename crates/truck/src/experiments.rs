@@ -332,6 +332,7 @@ pub fn generate(
                     Role::Validation
                 },
                 truth: Some(truth.clone()),
+                source: Default::default(),
             })
             .collect(),
         force_map: Some(map_path.clone()),

@@ -1,0 +1,668 @@
+//! From the channels of a log to a run: the one path every log format (MDF4, Parquet, CAN
+//! through a DBC, and a resampled CSV) takes once its reader has decoded the file.
+//!
+//! A reader hands over named channels, each on a time base with its unit when the file gives
+//! one. Here the contract columns are looked up through the column map, units converted to
+//! the contract's, and the time bases checked: channels must share one uniform base unless
+//! the caller asked for resampling, and what was done is returned as notes, never silent.
+
+use std::path::Path;
+
+use crate::error::{
+    DataError, DataErrorKind, Location, MissingChannel, TimeBaseSummary, nearest_name,
+};
+use crate::run::{LoadedRun, Outputs, columns, run_from_table};
+use crate::source::{ColumnMap, Resample, ResampleMethod, RunSource, column_quantity};
+use crate::table::{NumericTable, TableOrigin};
+use crate::units::{Quantity, UnitConversion};
+
+/// The sample times shared by the channels of one group (an MDF4 channel group, a Parquet
+/// file, a CAN message), in seconds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeBase {
+    /// What the base is called in errors: a master channel, a group, a message.
+    pub name: String,
+    /// The sample times in the base's own unit (`unit`, seconds when `None`).
+    pub time_s: Vec<f64>,
+    pub unit: Option<String>,
+}
+
+/// One decoded channel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogChannel {
+    pub name: String,
+    /// The unit the file gives, if any (an empty unit counts as none).
+    pub unit: Option<String>,
+    /// Index of its time base in [`ChannelSet::bases`].
+    pub base: usize,
+    pub values: Vec<f64>,
+}
+
+/// What a log reader decoded.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ChannelSet {
+    /// The format, as errors and notes name it (`MDF4`, `Parquet`, ...).
+    pub format: &'static str,
+    pub bases: Vec<TimeBase>,
+    pub channels: Vec<LogChannel>,
+    /// Channels the file has but the reader did not decode (nothing asked for them); errors
+    /// list them with the decoded ones.
+    pub unread: Vec<String>,
+    /// What may explain a channel that is not there (e.g. CAN frames logged but no DBC).
+    pub hint: Option<String>,
+    /// What the reader itself did (a timestamp made relative, frames skipped, ...).
+    pub notes: Vec<String>,
+}
+
+impl ChannelSet {
+    /// A CSV table as one time base (column 0) and the columns it found, under their header
+    /// names.
+    pub(crate) fn from_table(table: &NumericTable, format: &'static str) -> Self {
+        let channels = table
+            .names
+            .iter()
+            .zip(&table.columns)
+            .zip(&table.file_columns)
+            .skip(1)
+            .filter(|(_, file_column)| file_column.is_some())
+            .map(|((name, values), _)| LogChannel {
+                name: name.clone(),
+                unit: None,
+                base: 0,
+                values: values.clone(),
+            })
+            .collect();
+        Self {
+            format,
+            bases: vec![TimeBase {
+                name: table.names.first().cloned().unwrap_or_default(),
+                time_s: table.columns.first().cloned().unwrap_or_default(),
+                unit: None,
+            }],
+            channels,
+            unread: Vec::new(),
+            hint: None,
+            notes: Vec::new(),
+        }
+    }
+
+    /// The channel called `name`, or an error naming the column it was wanted for.
+    fn find(&self, path: &Path, column: &str, name: &str) -> Result<Option<usize>, DataError> {
+        let mut found = self
+            .channels
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.name == name);
+        let Some((index, _)) = found.next() else {
+            return Ok(None);
+        };
+        if found.next().is_some() {
+            let groups: Vec<&str> = self
+                .channels
+                .iter()
+                .filter(|c| c.name == name)
+                .filter_map(|c| self.bases.get(c.base).map(|b| b.name.as_str()))
+                .collect();
+            return Err(DataError::new(
+                Location::file(path).channel(name, None),
+                DataErrorKind::InvalidValue {
+                    key: column.to_owned(),
+                    value: name.to_owned(),
+                    reason: format!(
+                        "the channel name appears {} times (on time bases {}); airsus cannot tell which one is meant",
+                        groups.len(),
+                        groups.join(", ")
+                    ),
+                },
+            ));
+        }
+        Ok(Some(index))
+    }
+
+    fn missing(&self, path: &Path, column: &str, name: &str) -> DataError {
+        let available: Vec<String> = self
+            .channels
+            .iter()
+            .map(|c| c.name.clone())
+            .chain(self.unread.iter().cloned())
+            .collect();
+        DataError::new(
+            Location::file(path),
+            DataErrorKind::MissingChannel(Box::new(MissingChannel {
+                column: column.to_owned(),
+                channel: name.to_owned(),
+                suggestion: nearest_name(name, available.iter().map(String::as_str)),
+                available,
+                hint: self.hint.clone(),
+            })),
+        )
+    }
+}
+
+/// The conversion of one channel onto its contract column, and a note when a unit was assumed.
+pub(crate) struct ColumnConversion {
+    pub conversion: UnitConversion,
+    pub note: Option<String>,
+}
+
+/// How channel `channel` (unit `file_unit` in the file, if any) converts onto `column`.
+pub(crate) fn column_conversion(
+    path: &Path,
+    column: &str,
+    channel: &str,
+    file_unit: Option<&str>,
+    map: &ColumnMap,
+) -> Result<ColumnConversion, DataError> {
+    let Some(quantity) = column_quantity(column) else {
+        return Ok(ColumnConversion {
+            conversion: UnitConversion::IDENTITY,
+            note: None,
+        });
+    };
+    let location = || Location::file(path).channel(channel, None);
+    let convert = |unit: &str| {
+        quantity.conversion(unit).map_err(|expected| {
+            DataError::new(
+                location(),
+                DataErrorKind::UnknownUnit {
+                    column: column.to_owned(),
+                    unit: unit.to_owned(),
+                    expected,
+                },
+            )
+        })
+    };
+    // The valve is a code: its unit, if any, only has to be one a code may carry.
+    let file_unit = file_unit.filter(|u| !u.trim().is_empty() || quantity == Quantity::Code);
+    let mapped_unit = map.get(column).and_then(|c| c.unit.as_deref());
+    match (file_unit, mapped_unit) {
+        (Some(in_file), Some(mapped)) => {
+            let (a, b) = (convert(in_file)?, convert(mapped)?);
+            if a != b {
+                return Err(DataError::new(
+                    location(),
+                    DataErrorKind::UnitConflict {
+                        in_file: in_file.to_owned(),
+                        mapped: mapped.to_owned(),
+                    },
+                ));
+            }
+            Ok(ColumnConversion {
+                conversion: a,
+                note: None,
+            })
+        }
+        (Some(unit), None) | (None, Some(unit)) => Ok(ColumnConversion {
+            conversion: convert(unit)?,
+            note: None,
+        }),
+        (None, None) => Ok(ColumnConversion {
+            conversion: UnitConversion::IDENTITY,
+            // A channel named as the contract names it carries its unit in its name.
+            note: (channel != column && quantity != Quantity::Code).then(|| {
+                format!(
+                    "channel `{channel}` has no unit: read as {} for `{column}`",
+                    quantity.contract_unit()
+                )
+            }),
+        }),
+    }
+}
+
+/// Builds a run from decoded channels, as `source` maps and resamples them.
+pub fn run_from_channels(
+    set: ChannelSet,
+    path: &Path,
+    outputs: Outputs,
+    source: &RunSource,
+) -> Result<LoadedRun, DataError> {
+    use columns::*;
+    let map = &source.columns;
+    let find = |column: &str| set.find(path, column, map.channel_for(column));
+    let mut notes = set.notes.clone();
+
+    let height = find(HEIGHT)?;
+    let pressure = find(PRESSURE)?;
+    let with_outputs = match outputs {
+        Outputs::Required => true,
+        Outputs::IfPresent => height.is_some() || pressure.is_some(),
+    };
+    let mut wanted: Vec<(&str, Option<usize>)> = vec![
+        (WHEEL_LOAD, find(WHEEL_LOAD)?),
+        (VALVE, find(VALVE)?),
+        (SUPPLY, find(SUPPLY)?),
+        (ROAD, find(ROAD)?),
+    ];
+    if with_outputs {
+        wanted.push((HEIGHT, height));
+        wanted.push((PRESSURE, pressure));
+    }
+    for (column, index) in &wanted {
+        if index.is_none() && *column != ROAD {
+            return Err(set.missing(path, column, map.channel_for(column)));
+        }
+    }
+
+    // The time bases the wanted channels live on, each once.
+    let mut bases: Vec<usize> = Vec::new();
+    for (_, index) in &wanted {
+        if let Some(i) = index {
+            let base = set.channels[*i].base;
+            if !bases.contains(&base) {
+                bases.push(base);
+            }
+        }
+    }
+    // Every base in seconds, as its unit (or the map's unit for `time_s`) says.
+    let mut set = set;
+    for &b in &bases {
+        let Some(base) = set.bases.get_mut(b) else {
+            continue;
+        };
+        let conversion = column_conversion(path, TIME, &base.name, base.unit.as_deref(), map)?;
+        conversion.conversion.apply(&mut base.time_s);
+        base.unit = None;
+    }
+    let set = set;
+
+    let base_of = |b: usize| -> Result<&TimeBase, DataError> {
+        set.bases.get(b).ok_or_else(|| {
+            DataError::in_file(
+                path,
+                DataErrorKind::Malformed {
+                    format: set.format,
+                    reason: format!("time base {b} is missing"),
+                },
+            )
+        })
+    };
+    for &b in &bases {
+        let base = base_of(b)?;
+        for channel in &set.channels {
+            if channel.base == b && channel.values.len() != base.time_s.len() {
+                return Err(DataError::new(
+                    Location::file(path).channel(&channel.name, None),
+                    DataErrorKind::Malformed {
+                        format: set.format,
+                        reason: format!(
+                            "{} values on a time base of {} samples",
+                            channel.values.len(),
+                            base.time_s.len()
+                        ),
+                    },
+                ));
+            }
+        }
+    }
+
+    // Grid: the one shared base, or the requested uniform grid over the common span.
+    let (time_s, time_name) = match source.resample {
+        None => {
+            let first = base_of(bases[0])?;
+            for &b in &bases[1..] {
+                let other = base_of(b)?;
+                if other.time_s != first.time_s {
+                    let describe = |base: &TimeBase| {
+                        let n = base.time_s.len();
+                        let start_s = base.time_s.first().copied().unwrap_or(f64::NAN);
+                        let step_s = if n > 1 {
+                            (base.time_s[n - 1] - start_s) / (n - 1) as f64
+                        } else {
+                            f64::NAN
+                        };
+                        Box::new(TimeBaseSummary {
+                            name: base.name.clone(),
+                            samples: n,
+                            start_s,
+                            step_s,
+                        })
+                    };
+                    return Err(DataError::in_file(
+                        path,
+                        DataErrorKind::TimeBases {
+                            first: describe(first),
+                            second: describe(other),
+                        },
+                    ));
+                }
+            }
+            (first.time_s.clone(), first.name.clone())
+        }
+        Some(resample) => {
+            let mut span = (f64::NEG_INFINITY, f64::INFINITY);
+            for &b in &bases {
+                let base = base_of(b)?;
+                check_increasing(path, base)?;
+                if let (Some(first), Some(last)) = (base.time_s.first(), base.time_s.last()) {
+                    span = (span.0.max(*first), span.1.min(*last));
+                }
+            }
+            let grid = uniform_grid(span, resample.sample_s);
+            if grid.len() < 2 {
+                return Err(DataError::in_file(
+                    path,
+                    DataErrorKind::InvalidValue {
+                        key: "sample_s".to_owned(),
+                        value: resample.sample_s.to_string(),
+                        reason: format!(
+                            "the channels overlap from {} s to {} s only: fewer than two samples to resample onto",
+                            span.0, span.1
+                        ),
+                    },
+                ));
+            }
+            notes.push(format!(
+                "resampled {} channel(s) from {} time base(s) onto {} samples every {} s from {} s, {} (valve held)",
+                wanted.iter().filter(|(_, i)| i.is_some()).count(),
+                bases.len(),
+                grid.len(),
+                resample.sample_s,
+                grid[0],
+                match resample.method {
+                    ResampleMethod::Zoh => "zero-order hold",
+                    ResampleMethod::Linear => "linear interpolation",
+                }
+            ));
+            (grid, format!("resampled {}", map.channel_for(TIME)))
+        }
+    };
+
+    let n = time_s.len();
+    let mut names = vec![TIME.to_owned()];
+    let mut header = vec![time_name];
+    let mut table_columns = vec![time_s.clone()];
+    for (column, index) in &wanted {
+        names.push((*column).to_owned());
+        let Some(i) = index else {
+            header.push(map.channel_for(column).to_owned());
+            table_columns.push(vec![0.0; n]);
+            continue;
+        };
+        let channel = &set.channels[*i];
+        let conversion =
+            column_conversion(path, column, &channel.name, channel.unit.as_deref(), map)?;
+        if let Some(note) = conversion.note {
+            notes.push(note);
+        }
+        let mut values = match source.resample {
+            None => channel.values.clone(),
+            Some(resample) => {
+                let method = if *column == VALVE {
+                    ResampleMethod::Zoh
+                } else {
+                    resample.method
+                };
+                resample_onto(
+                    &base_of(channel.base)?.time_s,
+                    &channel.values,
+                    &time_s,
+                    method,
+                )
+            }
+        };
+        conversion.conversion.apply(&mut values);
+        if let Some(row) = values.iter().position(|v| !v.is_finite()) {
+            return Err(DataError::new(
+                Location::file(path).channel(&channel.name, Some(row as u64 + 1)),
+                DataErrorKind::NotFinite {
+                    found: values[row].to_string(),
+                },
+            ));
+        }
+        header.push(channel.name.clone());
+        table_columns.push(values);
+    }
+    let table = NumericTable {
+        names,
+        columns: table_columns,
+        lines: (1..=n as u64).collect(),
+        file_columns: vec![None; header.len()],
+        header,
+        origin: TableOrigin::Samples,
+    };
+    let run = run_from_table(&table, path, with_outputs)?;
+    Ok(LoadedRun { run, notes })
+}
+
+fn check_increasing(path: &Path, base: &TimeBase) -> Result<(), DataError> {
+    match base
+        .time_s
+        .windows(2)
+        .position(|w| w[1] <= w[0] || w[1].is_nan())
+    {
+        Some(i) => Err(DataError::new(
+            Location::file(path).channel(&base.name, Some(i as u64 + 2)),
+            DataErrorKind::TimeNotIncreasing {
+                previous: base.time_s[i],
+                current: base.time_s[i + 1],
+            },
+        )),
+        None => Ok(()),
+    }
+}
+
+/// `start, start + step, ...` up to `end` (inclusive to a millionth of a step).
+fn uniform_grid((start, end): (f64, f64), step: f64) -> Vec<f64> {
+    if !(start.is_finite() && end.is_finite() && end >= start) {
+        return Vec::new();
+    }
+    let count = ((end - start) / step + 1e-6).floor() as usize + 1;
+    (0..count).map(|k| start + k as f64 * step).collect()
+}
+
+/// How close to a grid time a sample counts as at it, as a fraction of the grid step: logger
+/// timestamps carry float and clock jitter far above a ten-thousandth of a step, and without
+/// it a hold could take the previous sample for one that was meant to be simultaneous.
+const SAME_TIME_FRACTION: f64 = 1e-3;
+
+/// The values of a channel sampled at `time_s`, read at each of `grid` (inside its span).
+fn resample_onto(time_s: &[f64], values: &[f64], grid: &[f64], method: ResampleMethod) -> Vec<f64> {
+    let step = if grid.len() > 1 {
+        grid[1] - grid[0]
+    } else {
+        0.0
+    };
+    let tolerance = SAME_TIME_FRACTION * step;
+    let mut out = Vec::with_capacity(grid.len());
+    let mut k = 0;
+    for &t in grid {
+        while k + 1 < time_s.len() && time_s[k + 1] <= t + tolerance {
+            k += 1;
+        }
+        let value = match method {
+            ResampleMethod::Zoh => values[k],
+            ResampleMethod::Linear if k + 1 < time_s.len() && t > time_s[k] + tolerance => {
+                let w = (t - time_s[k]) / (time_s[k + 1] - time_s[k]);
+                values[k] + w * (values[k + 1] - values[k])
+            }
+            ResampleMethod::Linear => values[k],
+        };
+        out.push(value);
+    }
+    out
+}
+
+/// The resampling a run asked for, as results and reports state it.
+pub fn describe_resample(resample: Option<Resample>) -> String {
+    match resample {
+        None => "none".to_owned(),
+        Some(r) => format!("{} every {} s", r.method.as_str(), r.sample_s),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::source::ChannelRef;
+
+    fn channel(name: &str, unit: Option<&str>, base: usize, values: Vec<f64>) -> LogChannel {
+        LogChannel {
+            name: name.to_owned(),
+            unit: unit.map(str::to_owned),
+            base,
+            values,
+        }
+    }
+
+    fn set() -> ChannelSet {
+        let t: Vec<f64> = (0..5).map(|k| k as f64 * 0.1).collect();
+        ChannelSet {
+            format: "test",
+            bases: vec![TimeBase {
+                name: "group 1".to_owned(),
+                time_s: t,
+                unit: None,
+            }],
+            channels: vec![
+                channel("load", Some("t"), 0, vec![3.0; 5]),
+                channel("valve", None, 0, vec![0.0, 1.0, 1.0, 0.0, 2.0]),
+                channel("supply_kpa", None, 0, vec![850.0; 5]),
+                channel("AxleHeight", Some("m"), 0, vec![0.25; 5]),
+                channel("BellowP", Some("bar"), 0, vec![3.5; 5]),
+            ],
+            unread: vec!["EngineSpeed".to_owned()],
+            hint: None,
+            notes: Vec::new(),
+        }
+    }
+
+    fn source() -> RunSource {
+        RunSource {
+            columns: ColumnMap::parse_list(
+                "wheel_load_kg=load,height_mm=AxleHeight,pressure_kpa=BellowP",
+            )
+            .unwrap(),
+            ..RunSource::default()
+        }
+    }
+
+    #[test]
+    fn mapped_channels_convert_to_si() {
+        let loaded =
+            run_from_channels(set(), Path::new("x.mf4"), Outputs::Required, &source()).unwrap();
+        let run = loaded.run;
+        assert_eq!(run.inputs.wheel_load_kg, vec![3000.0; 5]);
+        assert_eq!(run.outputs.as_ref().unwrap().bellow_gauge_pa[0], 350_000.0);
+        assert!((run.outputs.as_ref().unwrap().sensor_height_m[0] - 0.25).abs() < 1e-15);
+        assert_eq!(run.inputs.road_height_m, vec![0.0; 5]);
+        assert!(loaded.notes.is_empty(), "{:?}", loaded.notes);
+    }
+
+    #[test]
+    fn missing_channel_names_column_and_nearest_channel() {
+        let mut source = source();
+        source
+            .columns
+            .insert(
+                "pressure_kpa",
+                ChannelRef {
+                    channel: "BelowP".to_owned(),
+                    unit: None,
+                },
+            )
+            .unwrap();
+        let err =
+            run_from_channels(set(), Path::new("x.mf4"), Outputs::Required, &source).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.starts_with("x.mf4: channel `BelowP` for column `pressure_kpa` is not in the file (did you mean `BellowP`?)"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn conflicting_and_unknown_units_are_refused() {
+        let mut source = source();
+        source.columns = ColumnMap::parse_list(
+            "wheel_load_kg=load,height_mm=AxleHeight,pressure_kpa=BellowP[kPa]",
+        )
+        .unwrap();
+        let err =
+            run_from_channels(set(), Path::new("x.mf4"), Outputs::Required, &source).unwrap_err();
+        assert!(
+            matches!(err.kind, DataErrorKind::UnitConflict { .. }),
+            "{err}"
+        );
+        let mut bad = set();
+        bad.channels[4].unit = Some("degC".to_owned());
+        let err = run_from_channels(bad, Path::new("x.mf4"), Outputs::Required, &self::source())
+            .unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "x.mf4 (channel `BellowP`): unit `degC` cannot be read as column `pressure_kpa` (expected one of: kpa, pa, hpa, mpa, bar, mbar, psi)"
+        );
+    }
+
+    #[test]
+    fn bad_values_are_located_by_channel_and_sample() {
+        let mut bad = set();
+        bad.channels[1].values[3] = 7.0;
+        let err =
+            run_from_channels(bad, Path::new("x.mf4"), Outputs::Required, &source()).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "x.mf4 (channel `valve`, sample 4): expected valve state 0 (closed), 1 (fill) or 2 (exhaust), found `7`"
+        );
+    }
+
+    #[test]
+    fn different_time_bases_need_an_explicit_resample() {
+        let mut two = set();
+        two.bases.push(TimeBase {
+            name: "group 2".to_owned(),
+            time_s: (0..9).map(|k| 20.0 + k as f64 * 50.0).collect(),
+            unit: Some("ms".to_owned()),
+        });
+        two.channels[4] = channel(
+            "BellowP",
+            Some("bar"),
+            1,
+            (0..9).map(|k| k as f64).collect(),
+        );
+        let err = run_from_channels(
+            two.clone(),
+            Path::new("x.mf4"),
+            Outputs::Required,
+            &source(),
+        )
+        .unwrap_err();
+        assert!(matches!(err.kind, DataErrorKind::TimeBases { .. }), "{err}");
+        assert!(
+            err.to_string().contains("never resamples silently"),
+            "{err}"
+        );
+
+        let mut source = source();
+        source.resample = Some(Resample::new(ResampleMethod::Linear, 0.1).unwrap());
+        let loaded =
+            run_from_channels(two, Path::new("x.mf4"), Outputs::Required, &source).unwrap();
+        // Common span 0.02..0.4 s: samples at 0.02, 0.12, 0.22, 0.32.
+        assert_eq!(loaded.run.len(), 4);
+        let p = &loaded.run.outputs.as_ref().unwrap().bellow_gauge_pa;
+        // BellowP at t = 0.12 s: index (0.12 - 0.02)/0.05 = 2 → 2 bar.
+        assert!((p[1] - 200_000.0).abs() < 1e-6, "{p:?}");
+        // The valve is held, not interpolated: at 0.12 s it is still sample 1's state.
+        assert_eq!(loaded.run.inputs.valve[1], crate::ValveState::Fill);
+        assert!(
+            loaded.notes.iter().any(|n| n.contains("resampled")),
+            "{:?}",
+            loaded.notes
+        );
+    }
+
+    #[test]
+    fn resampling_holds_or_interpolates() {
+        let t = [0.0, 1.0, 2.0];
+        let v = [0.0, 10.0, 20.0];
+        let grid = [0.0, 0.5, 1.5, 2.0];
+        assert_eq!(
+            resample_onto(&t, &v, &grid, ResampleMethod::Zoh),
+            vec![0.0, 0.0, 10.0, 20.0]
+        );
+        assert_eq!(
+            resample_onto(&t, &v, &grid, ResampleMethod::Linear),
+            vec![0.0, 5.0, 15.0, 20.0]
+        );
+        assert_eq!(uniform_grid((0.0, 0.3), 0.1).len(), 4);
+    }
+}

@@ -1,0 +1,289 @@
+//! CAN signals: a DBC database, frames from a candump log or an MDF4 bus log, and the decoded
+//! signals as channels. Parsing the DBC is can-dbc's work and bit-level decoding falcon_mdf's
+//! (Intel and Motorola layouts, signs, factor and offset, multiplexing); what is ours is the
+//! candump reader and the J1939 rule.
+//!
+//! SAE J1939 (heavy trucks): a 29-bit identifier carries priority and source address beside
+//! the parameter group number (PGN), and a DBC is written against one sender. When the DBC
+//! declares J1939 (`ProtocolType "J1939"` or `VFrameFormat` `J1939PG`), frames are matched on
+//! the PGN whenever no message carries their exact identifier, so the same message from
+//! another source address or at another priority still decodes.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use airsus_data::{ChannelSet, DataError, DataErrorKind, Location, LogChannel, TimeBase};
+use falcon_mdf::IdMatching;
+
+/// A parsed DBC file.
+pub struct CanDatabase {
+    inner: falcon_mdf::CanDatabase,
+    pub j1939: bool,
+}
+
+impl CanDatabase {
+    pub fn read(path: &Path) -> Result<Self, DataError> {
+        let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+        Self::parse(&bytes, path)
+    }
+
+    /// Parses DBC text; `path` names it in errors.
+    pub fn parse(bytes: &[u8], path: &Path) -> Result<Self, DataError> {
+        let inner = falcon_mdf::CanDatabase::from_dbc(bytes).map_err(|e| {
+            DataError::in_file(
+                path,
+                DataErrorKind::Malformed {
+                    format: "DBC",
+                    reason: e.to_string(),
+                },
+            )
+        })?;
+        if inner.messages().is_empty() {
+            return Err(DataError::in_file(
+                path,
+                DataErrorKind::Malformed {
+                    format: "DBC",
+                    reason: "it defines no message (`BO_`)".to_owned(),
+                },
+            ));
+        }
+        // Both markers are quoted names in the text; can-dbc keeps the attribute values but
+        // they are enum indices there, so the text is the plainer witness.
+        let text = String::from_utf8_lossy(bytes);
+        let j1939 = text.contains("\"J1939\"") || text.contains("\"J1939PG\"");
+        let inner = if j1939 {
+            inner.with_matching(IdMatching::J1939Pgn)
+        } else {
+            inner
+        };
+        Ok(Self { inner, j1939 })
+    }
+
+    pub(crate) fn inner(&self) -> &falcon_mdf::CanDatabase {
+        &self.inner
+    }
+
+    /// The signals a frame carries, as (message name, signal name, unit, value).
+    pub fn decode<'a>(&'a self, id: u32, data: &[u8]) -> Vec<(&'a str, &'a str, &'a str, f64)> {
+        let message = self.inner.message_name(id).unwrap_or_default();
+        self.inner
+            .decode(id, data)
+            .into_iter()
+            .map(|s| (message, s.name, s.unit, s.value))
+            .collect()
+    }
+}
+
+/// One decoded signal over time.
+pub(crate) struct Series<'a> {
+    pub name: &'a str,
+    pub unit: &'a str,
+    pub timestamps: &'a [f64],
+    pub values: &'a [f64],
+}
+
+/// Adds each signal as a channel on its own time base (signals of one message share equal
+/// bases, which the run builder recognises as one).
+pub(crate) fn add_signals<'a>(set: &mut ChannelSet, series: impl Iterator<Item = Series<'a>>) {
+    for s in series {
+        let base = set.bases.len();
+        set.bases.push(TimeBase {
+            name: format!("frames of `{}`", s.name),
+            time_s: s.timestamps.to_vec(),
+            unit: None,
+        });
+        set.channels.push(LogChannel {
+            name: s.name.to_owned(),
+            unit: (!s.unit.trim().is_empty()).then(|| s.unit.trim().to_owned()),
+            base,
+            values: s.values.to_vec(),
+        });
+    }
+}
+
+/// One frame of a candump log line: `(1436509052.249713) can0 18FEF100#0102030405060708`.
+struct Frame {
+    /// Seconds since 1970 as the log writes them: whole seconds and nanoseconds apart, as an
+    /// `f64` of epoch seconds resolves only a quarter microsecond.
+    stamp: (i64, u32),
+    id: u32,
+    data: Vec<u8>,
+}
+
+fn parse_candump_line(line: &str) -> Result<Option<Frame>, String> {
+    let line = line.trim();
+    if line.is_empty() || line.starts_with('#') || line.starts_with("//") {
+        return Ok(None);
+    }
+    let expected = "expected `(SECONDS) INTERFACE ID#DATA`, e.g. `(1436509052.249713) can0 18FEF100#0102030405060708`";
+    let mut fields = line.split_whitespace();
+    let (Some(stamp), Some(_interface), Some(frame)) =
+        (fields.next(), fields.next(), fields.next())
+    else {
+        return Err(format!("{expected}, found `{line}`"));
+    };
+    let stamp = stamp
+        .strip_prefix('(')
+        .and_then(|s| s.strip_suffix(')'))
+        .and_then(parse_stamp)
+        .ok_or_else(|| format!("bad timestamp `{stamp}`: {expected}"))?;
+    let Some((id_text, data_text)) = frame.split_once('#') else {
+        return Err(format!(
+            "no `#` between identifier and data in `{frame}`: {expected}"
+        ));
+    };
+    if data_text.starts_with('R') {
+        return Ok(None); // a remote request carries no data
+    }
+    // CAN FD: `ID##<flags nibble><data>`.
+    let data_text = match data_text.strip_prefix('#') {
+        Some(fd) => fd.get(1..).unwrap_or_default(),
+        None => data_text,
+    };
+    let id = u32::from_str_radix(id_text, 16)
+        .ok()
+        .filter(|id| *id <= 0x1FFF_FFFF && !id_text.is_empty() && id_text.len() <= 8)
+        .ok_or_else(|| {
+            format!("bad identifier `{id_text}`: expected 3 (standard) or 8 (extended) hex digits")
+        })?;
+    if data_text.len() % 2 != 0 || data_text.len() > 128 {
+        return Err(format!(
+            "bad data `{data_text}`: expected up to 64 bytes as pairs of hex digits"
+        ));
+    }
+    let data = (0..data_text.len() / 2)
+        .map(|k| u8::from_str_radix(&data_text[2 * k..2 * k + 2], 16))
+        .collect::<Result<Vec<u8>, _>>()
+        .map_err(|_| format!("bad data `{data_text}`: expected hex digits"))?;
+    Ok(Some(Frame { stamp, id, data }))
+}
+
+/// `1436509052.249713` → (1436509052, 249713000): digits only, up to nanoseconds.
+fn parse_stamp(text: &str) -> Option<(i64, u32)> {
+    let (whole, fraction) = text.split_once('.').unwrap_or((text, ""));
+    if whole.is_empty() || fraction.len() > 9 || !fraction.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    let seconds: i64 = whole.parse().ok()?;
+    let nanos = if fraction.is_empty() {
+        0
+    } else {
+        fraction.parse::<u32>().ok()? * 10u32.pow(9 - fraction.len() as u32)
+    };
+    Some((seconds, nanos))
+}
+
+/// Seconds from `start` to `stamp`.
+fn seconds_between(start: (i64, u32), stamp: (i64, u32)) -> f64 {
+    (stamp.0 - start.0) as f64 + (f64::from(stamp.1) - f64::from(start.1)) * 1e-9
+}
+
+/// Reads a candump log and decodes its frames through `database`. Times count from the
+/// log's first frame (candump writes seconds since 1970).
+pub(crate) fn read_candump(path: &Path, database: &CanDatabase) -> Result<ChannelSet, DataError> {
+    let text = std::fs::read_to_string(path).map_err(|e| DataError::io(path, e))?;
+    let mut frames = Vec::new();
+    for (index, line) in text.lines().enumerate() {
+        match parse_candump_line(line) {
+            Ok(Some(frame)) => frames.push(frame),
+            Ok(None) => {}
+            Err(reason) => {
+                return Err(DataError::new(
+                    Location::file(path).line(index as u64 + 1),
+                    DataErrorKind::Malformed {
+                        format: "candump log",
+                        reason,
+                    },
+                ));
+            }
+        }
+    }
+    let Some(start) = frames.first().map(|f| f.stamp) else {
+        return Err(DataError::in_file(path, DataErrorKind::Empty { needed: 2 }));
+    };
+
+    // (message, signal) → its readings; a signal name alone may repeat across messages.
+    let mut index: HashMap<(&str, &str), usize> = HashMap::new();
+    let mut series: Vec<(&str, &str, Vec<f64>, Vec<f64>)> = Vec::new();
+    let mut undecoded = 0usize;
+    for frame in &frames {
+        let decoded = database.decode(frame.id, &frame.data);
+        if decoded.is_empty() {
+            undecoded += 1;
+        }
+        for (message, signal, unit, value) in decoded {
+            let k = *index.entry((message, signal)).or_insert_with(|| {
+                series.push((signal, unit, Vec::new(), Vec::new()));
+                series.len() - 1
+            });
+            series[k].2.push(seconds_between(start, frame.stamp));
+            series[k].3.push(value);
+        }
+    }
+    let mut set = ChannelSet {
+        format: "CAN log",
+        ..ChannelSet::default()
+    };
+    set.notes.push(format!(
+        "{} CAN frames decoded through the DBC{}; time counted from the first frame at {}.{:09} s since 1970",
+        frames.len() - undecoded,
+        if undecoded > 0 {
+            format!(" ({undecoded} frames of messages it does not define skipped)")
+        } else {
+            String::new()
+        },
+        start.0,
+        start.1
+    ));
+    add_signals(
+        &mut set,
+        series.iter().map(|(name, unit, t, v)| Series {
+            name,
+            unit,
+            timestamps: t,
+            values: v,
+        }),
+    );
+    Ok(set)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn candump_lines_parse_standard_extended_and_fd() {
+        let f = parse_candump_line("(1436509052.249713) vcan0 18FEF100#0102030405060708 T")
+            .unwrap()
+            .unwrap();
+        assert_eq!(f.id, 0x18FE_F100);
+        assert_eq!(f.data, vec![1, 2, 3, 4, 5, 6, 7, 8]);
+        assert_eq!(f.stamp, (1_436_509_052, 249_713_000));
+        assert!((seconds_between((1_436_509_052, 900_000_000), f.stamp) + 0.650_287).abs() < 1e-12);
+        let f = parse_candump_line("(0.5) can1 123#DEAD").unwrap().unwrap();
+        assert_eq!((f.id, f.data), (0x123, vec![0xDE, 0xAD]));
+        let f = parse_candump_line("(0.5) can1 123##1AABB")
+            .unwrap()
+            .unwrap();
+        assert_eq!(f.data, vec![0xAA, 0xBB]);
+        assert!(parse_candump_line("(0.5) can1 123#R").unwrap().is_none());
+        assert!(parse_candump_line("").unwrap().is_none());
+    }
+
+    #[test]
+    fn malformed_candump_lines_say_what_was_expected() {
+        for bad in [
+            "0.5 can0 123#00",
+            "(0.5) can0 123",
+            "(0.5) can0 XYZ#00",
+            "(0.5) can0 123#0",
+            "(0.5) can0 123#GG",
+            "(0.5) can0 3FFFFFFFF#00",
+            "(nan) can0 123#00",
+            "(1.-5) can0 123#00",
+            "(1.0000000001) can0 123#00",
+        ] {
+            assert!(parse_candump_line(bad).is_err(), "{bad}");
+        }
+    }
+}
