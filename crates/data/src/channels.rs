@@ -243,134 +243,26 @@ pub fn run_from_channels(
         }
     }
 
-    // The time bases the wanted channels live on, each once.
-    let mut bases: Vec<usize> = Vec::new();
-    for (_, index) in &wanted {
-        if let Some(i) = index {
-            let base = set.channels[*i].base;
-            if !bases.contains(&base) {
-                bases.push(base);
-            }
-        }
-    }
-    // Every base in seconds, as its unit (or the map's unit for `time_s`) says.
     let mut set = set;
-    for &b in &bases {
-        let Some(base) = set.bases.get_mut(b) else {
-            continue;
-        };
-        let conversion = column_conversion(path, TIME, &base.name, base.unit.as_deref(), map)?;
-        conversion.conversion.apply(&mut base.time_s);
-        base.unit = None;
-    }
-    let set = set;
-
-    let base_of = |b: usize| -> Result<&TimeBase, DataError> {
-        set.bases.get(b).ok_or_else(|| {
-            DataError::in_file(
-                path,
-                DataErrorKind::Malformed {
-                    format: set.format,
-                    reason: format!("time base {b} is missing"),
-                },
-            )
+    let chosen: Vec<(usize, ResampleMethod)> = wanted
+        .iter()
+        .filter_map(|(column, index)| {
+            // The valve is a state: held, never interpolated.
+            let method = match source.resample {
+                Some(r) if *column != VALVE => r.method,
+                _ => ResampleMethod::Zoh,
+            };
+            index.map(|i| (i, method))
         })
-    };
-    for &b in &bases {
-        let base = base_of(b)?;
-        for channel in &set.channels {
-            if channel.base == b && channel.values.len() != base.time_s.len() {
-                return Err(DataError::new(
-                    Location::file(path).channel(&channel.name, None),
-                    DataErrorKind::Malformed {
-                        format: set.format,
-                        reason: format!(
-                            "{} values on a time base of {} samples",
-                            channel.values.len(),
-                            base.time_s.len()
-                        ),
-                    },
-                ));
-            }
-        }
-    }
+        .collect();
+    let aligned = set.align(path, &chosen, source.resample, map)?;
+    notes.extend(aligned.note.clone());
 
-    // Grid: the one shared base, or the requested uniform grid over the common span.
-    let (time_s, time_name) = match source.resample {
-        None => {
-            let first = base_of(bases[0])?;
-            for &b in &bases[1..] {
-                let other = base_of(b)?;
-                if other.time_s != first.time_s {
-                    let describe = |base: &TimeBase| {
-                        let n = base.time_s.len();
-                        let start_s = base.time_s.first().copied().unwrap_or(f64::NAN);
-                        let step_s = if n > 1 {
-                            (base.time_s[n - 1] - start_s) / (n - 1) as f64
-                        } else {
-                            f64::NAN
-                        };
-                        Box::new(TimeBaseSummary {
-                            name: base.name.clone(),
-                            samples: n,
-                            start_s,
-                            step_s,
-                        })
-                    };
-                    return Err(DataError::in_file(
-                        path,
-                        DataErrorKind::TimeBases {
-                            first: describe(first),
-                            second: describe(other),
-                        },
-                    ));
-                }
-            }
-            (first.time_s.clone(), first.name.clone())
-        }
-        Some(resample) => {
-            let mut span = (f64::NEG_INFINITY, f64::INFINITY);
-            for &b in &bases {
-                let base = base_of(b)?;
-                check_increasing(path, base)?;
-                if let (Some(first), Some(last)) = (base.time_s.first(), base.time_s.last()) {
-                    span = (span.0.max(*first), span.1.min(*last));
-                }
-            }
-            let grid = uniform_grid(span, resample.sample_s);
-            if grid.len() < 2 {
-                return Err(DataError::in_file(
-                    path,
-                    DataErrorKind::InvalidValue {
-                        key: "sample_s".to_owned(),
-                        value: resample.sample_s.to_string(),
-                        reason: format!(
-                            "the channels overlap from {} s to {} s only: fewer than two samples to resample onto",
-                            span.0, span.1
-                        ),
-                    },
-                ));
-            }
-            notes.push(format!(
-                "resampled {} channel(s) from {} time base(s) onto {} samples every {} s from {} s, {} (valve held)",
-                wanted.iter().filter(|(_, i)| i.is_some()).count(),
-                bases.len(),
-                grid.len(),
-                resample.sample_s,
-                grid[0],
-                match resample.method {
-                    ResampleMethod::Zoh => "zero-order hold",
-                    ResampleMethod::Linear => "linear interpolation",
-                }
-            ));
-            (grid, format!("resampled {}", map.channel_for(TIME)))
-        }
-    };
-
-    let n = time_s.len();
+    let n = aligned.time_s.len();
     let mut names = vec![TIME.to_owned()];
-    let mut header = vec![time_name];
-    let mut table_columns = vec![time_s.clone()];
+    let mut header = vec![aligned.time_name.clone()];
+    let mut table_columns = vec![aligned.time_s];
+    let mut aligned_values = aligned.values.into_iter();
     for (column, index) in &wanted {
         names.push((*column).to_owned());
         let Some(i) = index else {
@@ -384,31 +276,8 @@ pub fn run_from_channels(
         if let Some(note) = conversion.note {
             notes.push(note);
         }
-        let mut values = match source.resample {
-            None => channel.values.clone(),
-            Some(resample) => {
-                let method = if *column == VALVE {
-                    ResampleMethod::Zoh
-                } else {
-                    resample.method
-                };
-                resample_onto(
-                    &base_of(channel.base)?.time_s,
-                    &channel.values,
-                    &time_s,
-                    method,
-                )
-            }
-        };
+        let mut values = aligned_values.next().unwrap_or_default();
         conversion.conversion.apply(&mut values);
-        if let Some(row) = values.iter().position(|v| !v.is_finite()) {
-            return Err(DataError::new(
-                Location::file(path).channel(&channel.name, Some(row as u64 + 1)),
-                DataErrorKind::NotFinite {
-                    found: values[row].to_string(),
-                },
-            ));
-        }
         header.push(channel.name.clone());
         table_columns.push(values);
     }
@@ -422,6 +291,210 @@ pub fn run_from_channels(
     };
     let run = run_from_table(&table, path, with_outputs)?;
     Ok(LoadedRun { run, notes })
+}
+
+/// Channels brought onto one time axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Aligned {
+    /// Seconds.
+    pub time_s: Vec<f64>,
+    /// The base's name (or `resampled ...`), for errors about the time axis.
+    pub time_name: String,
+    /// One column per channel asked for, in order.
+    pub values: Vec<Vec<f64>>,
+    /// What resampling did, if it was asked.
+    pub note: Option<String>,
+}
+
+impl ChannelSet {
+    fn base(&self, path: &Path, b: usize) -> Result<&TimeBase, DataError> {
+        self.bases.get(b).ok_or_else(|| {
+            DataError::in_file(
+                path,
+                DataErrorKind::Malformed {
+                    format: self.format,
+                    reason: format!("time base {b} is missing"),
+                },
+            )
+        })
+    }
+
+    /// Brings `chosen` channels (index, how to resample it) onto one axis: their shared base,
+    /// or with `resample` a uniform grid over the span they all cover. Bases are first put in
+    /// seconds by their unit (or the map's unit for `time_s`). Different bases without
+    /// `resample` are an error; so is a value that is not finite.
+    pub fn align(
+        &mut self,
+        path: &Path,
+        chosen: &[(usize, ResampleMethod)],
+        resample: Option<Resample>,
+        map: &ColumnMap,
+    ) -> Result<Aligned, DataError> {
+        let mut bases: Vec<usize> = Vec::new();
+        for &(i, _) in chosen {
+            let base = self.channels[i].base;
+            if !bases.contains(&base) {
+                bases.push(base);
+            }
+        }
+        let Some(&first_base) = bases.first() else {
+            return Err(DataError::in_file(
+                path,
+                DataErrorKind::MissingKey {
+                    key: "channels".to_owned(),
+                    expected: "at least one channel to read".to_owned(),
+                },
+            ));
+        };
+        for &b in &bases {
+            let Some(base) = self.bases.get_mut(b) else {
+                continue;
+            };
+            let conversion =
+                column_conversion(path, columns::TIME, &base.name, base.unit.as_deref(), map)?;
+            conversion.conversion.apply(&mut base.time_s);
+            base.unit = None;
+        }
+        for &(i, _) in chosen {
+            let channel = &self.channels[i];
+            let base = self.base(path, channel.base)?;
+            if channel.values.len() != base.time_s.len() {
+                return Err(DataError::new(
+                    Location::file(path).channel(&channel.name, None),
+                    DataErrorKind::Malformed {
+                        format: self.format,
+                        reason: format!(
+                            "{} values on a time base of {} samples",
+                            channel.values.len(),
+                            base.time_s.len()
+                        ),
+                    },
+                ));
+            }
+            if let Some(row) = channel.values.iter().position(|v| !v.is_finite()) {
+                return Err(DataError::new(
+                    Location::file(path).channel(&channel.name, Some(row as u64 + 1)),
+                    DataErrorKind::NotFinite {
+                        found: channel.values[row].to_string(),
+                    },
+                ));
+            }
+        }
+
+        let Some(resample) = resample else {
+            let first = self.base(path, first_base)?;
+            for &b in &bases[1..] {
+                let other = self.base(path, b)?;
+                if other.time_s != first.time_s {
+                    return Err(DataError::in_file(
+                        path,
+                        DataErrorKind::TimeBases {
+                            first: Box::new(summary(first)),
+                            second: Box::new(summary(other)),
+                        },
+                    ));
+                }
+            }
+            return Ok(Aligned {
+                time_s: first.time_s.clone(),
+                time_name: first.name.clone(),
+                values: chosen
+                    .iter()
+                    .map(|&(i, _)| self.channels[i].values.clone())
+                    .collect(),
+                note: None,
+            });
+        };
+
+        let mut span = (f64::NEG_INFINITY, f64::INFINITY);
+        for &b in &bases {
+            let base = self.base(path, b)?;
+            check_increasing(path, base)?;
+            if let (Some(first), Some(last)) = (base.time_s.first(), base.time_s.last()) {
+                span = (span.0.max(*first), span.1.min(*last));
+            }
+        }
+        let grid = uniform_grid(span, resample.sample_s);
+        if grid.len() < 2 {
+            return Err(DataError::in_file(
+                path,
+                DataErrorKind::InvalidValue {
+                    key: "sample_s".to_owned(),
+                    value: resample.sample_s.to_string(),
+                    reason: format!(
+                        "the channels overlap from {} s to {} s only: fewer than two samples to resample onto",
+                        span.0, span.1
+                    ),
+                },
+            ));
+        }
+        let values = chosen
+            .iter()
+            .map(|&(i, method)| {
+                let channel = &self.channels[i];
+                let base = self.base(path, channel.base)?;
+                Ok(resample_onto(&base.time_s, &channel.values, &grid, method))
+            })
+            .collect::<Result<Vec<_>, DataError>>()?;
+        let held = chosen
+            .iter()
+            .filter(|(_, m)| *m == ResampleMethod::Zoh)
+            .count();
+        let note = format!(
+            "resampled {} channel(s) from {} time base(s) onto {} samples every {} s from {} s, {}",
+            chosen.len(),
+            bases.len(),
+            grid.len(),
+            resample.sample_s,
+            grid[0],
+            match resample.method {
+                ResampleMethod::Zoh => "zero-order hold".to_owned(),
+                ResampleMethod::Linear if held > 0 =>
+                    format!("linear interpolation ({held} state channel(s) held)"),
+                ResampleMethod::Linear => "linear interpolation".to_owned(),
+            }
+        );
+        Ok(Aligned {
+            time_s: grid,
+            time_name: format!("resampled {}", map.channel_for(columns::TIME)),
+            values,
+            note: Some(note),
+        })
+    }
+
+    /// The channels called `names` on one axis (or an error naming the first that is missing,
+    /// with the nearest names): for black-box identification on any signals of a log.
+    pub fn signals(
+        mut self,
+        path: &Path,
+        names: &[&str],
+        resample: Option<Resample>,
+    ) -> Result<Aligned, DataError> {
+        let mut chosen = Vec::with_capacity(names.len());
+        for name in names {
+            match self.find(path, name, name)? {
+                Some(i) => chosen.push((i, resample.map_or(ResampleMethod::Zoh, |r| r.method))),
+                None => return Err(self.missing(path, name, name)),
+            }
+        }
+        self.align(path, &chosen, resample, &ColumnMap::default())
+    }
+}
+
+fn summary(base: &TimeBase) -> TimeBaseSummary {
+    let samples = base.time_s.len();
+    let start_s = base.time_s.first().copied().unwrap_or(f64::NAN);
+    let step_s = if samples > 1 {
+        (base.time_s[samples - 1] - start_s) / (samples - 1) as f64
+    } else {
+        f64::NAN
+    };
+    TimeBaseSummary {
+        name: base.name.clone(),
+        samples,
+        start_s,
+        step_s,
+    }
 }
 
 fn check_increasing(path: &Path, base: &TimeBase) -> Result<(), DataError> {

@@ -8,7 +8,7 @@
 
 use std::path::Path;
 
-use crate::error::{DataError, DataErrorKind};
+use crate::error::{DataError, DataErrorKind, Location};
 use crate::table::NumericTable;
 
 /// Largest accepted relative deviation of one sample interval from the median interval.
@@ -21,7 +21,22 @@ pub fn check_time_axis(
     path: &Path,
     min_rows: usize,
 ) -> Result<f64, DataError> {
-    let time = &table.columns[index];
+    check_uniform(
+        &table.columns[index],
+        path,
+        |row| table.cell_location(path, index, row),
+        min_rows,
+    )
+}
+
+/// Validates `time` as a uniform time axis and returns the sample time in seconds;
+/// `location(row)` places a fault at (0-based) sample `row`.
+pub fn check_uniform(
+    time: &[f64],
+    path: &Path,
+    location: impl Fn(usize) -> Location,
+    min_rows: usize,
+) -> Result<f64, DataError> {
     if time.len() < min_rows.max(2) {
         let kind = if time.is_empty() {
             DataErrorKind::Empty {
@@ -41,7 +56,7 @@ pub fn check_time_axis(
         // `<= 0` or NaN: the cells are finite, but their difference may still not be positive.
         if dt.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return Err(DataError::new(
-                table.cell_location(path, index, row + 1),
+                location(row + 1),
                 DataErrorKind::TimeNotIncreasing {
                     previous: pair[0],
                     current: pair[1],
@@ -56,7 +71,7 @@ pub fn check_time_axis(
     for (row, &dt) in intervals.iter().enumerate() {
         if (dt - median).abs() > SAMPLING_TOLERANCE * median {
             return Err(DataError::new(
-                table.cell_location(path, index, row + 1),
+                location(row + 1),
                 DataErrorKind::NonUniformSampling {
                     expected_s: median,
                     found_s: dt,

@@ -18,6 +18,7 @@ mod parquet;
 use std::io::Read;
 use std::path::Path;
 
+use airsus_data::channels::Aligned;
 use airsus_data::run::read_run_from;
 use airsus_data::{
     DataError, DataErrorKind, LoadedRun, Location, Outputs, Run, RunSource, run_from_channels,
@@ -123,20 +124,57 @@ pub fn read_run(path: &Path, outputs: Outputs, source: &RunSource) -> Result<Loa
         }
         LogFormat::Mdf4 => mdf4::read_channels(path, &wanted, database.as_ref())?,
         LogFormat::Parquet => parquet::read_channels(path, source, &wanted)?,
-        LogFormat::CanLog => {
-            let Some(database) = database.as_ref() else {
-                return Err(DataError::new(
-                    Location::file(path),
-                    DataErrorKind::MissingKey {
-                        key: "dbc".to_owned(),
-                        expected: "a CAN log holds raw frames: name the DBC file that decodes them (`dbc = \"truck.dbc\"` in the study, `--dbc` on the command line)".to_owned(),
-                    },
-                ));
-            };
-            can::read_candump(path, database)?
-        }
+        LogFormat::CanLog => match database.as_ref() {
+            Some(database) => can::read_candump(path, database)?,
+            None => return Err(needs_dbc(path)),
+        },
     };
     run_from_channels(set, path, outputs, source)
+}
+
+/// The channels `names` of a log (MDF4, Parquet or CAN log) on one time axis, as `source`
+/// resamples and decodes them (its column map only names the time column of a Parquet file):
+/// what black-box identification reads. Values are as the file gives them, in its units.
+pub fn read_signals(
+    path: &Path,
+    names: &[&str],
+    source: &RunSource,
+) -> Result<(Aligned, Vec<String>), DataError> {
+    let format = detect_format(path)?;
+    let wanted = |name: &str| names.contains(&name);
+    let database = source.dbc.as_deref().map(CanDatabase::read).transpose()?;
+    let set = match format {
+        LogFormat::Csv => {
+            return Err(DataError::in_file(
+                path,
+                DataErrorKind::InvalidValue {
+                    key: "format".to_owned(),
+                    value: "CSV".to_owned(),
+                    reason: "read CSV signals with the CSV reader".to_owned(),
+                },
+            ));
+        }
+        LogFormat::Mdf4 => mdf4::read_channels(path, &wanted, database.as_ref())?,
+        LogFormat::Parquet => parquet::read_channels(path, source, &wanted)?,
+        LogFormat::CanLog => match database.as_ref() {
+            Some(database) => can::read_candump(path, database)?,
+            None => return Err(needs_dbc(path)),
+        },
+    };
+    let mut notes = set.notes.clone();
+    let aligned = set.signals(path, names, source.resample)?;
+    notes.extend(aligned.note.clone());
+    Ok((aligned, notes))
+}
+
+fn needs_dbc(path: &Path) -> DataError {
+    DataError::new(
+        Location::file(path),
+        DataErrorKind::MissingKey {
+            key: "dbc".to_owned(),
+            expected: "a CAN log holds raw frames: name the DBC file that decodes them (`dbc = \"truck.dbc\"` in the study, `--dbc` on the command line)".to_owned(),
+        },
+    )
 }
 
 /// Reads a run whose outputs are required, from any supported log, with the contract's names.

@@ -140,13 +140,14 @@ fn render_html(results: &StudyResults, charts: &[(&Chart, Result<String, String>
 }
 
 fn runs_table(h: &mut String, results: &StudyResults) {
-    h.push_str("<h2>Runs</h2><table><tr><th>run</th><th>file</th><th>role</th><th>samples</th><th>duration [s]</th><th>valve action</th></tr>");
+    h.push_str("<h2>Runs</h2><table><tr><th>run</th><th>file</th><th>format</th><th>role</th><th>samples</th><th>duration [s]</th><th>valve action</th></tr>");
     for r in &results.runs {
         let _ = write!(
             h,
-            "<tr><td>{}</td><td><code>{}</code></td><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{:.0}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td><code>{}</code></td><td>{}</td><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{:.0}</td><td>{}</td></tr>",
             esc(&r.name),
             esc(&r.file),
+            esc(&r.format),
             esc(&r.role),
             r.samples,
             r.duration_s,
@@ -154,6 +155,21 @@ fn runs_table(h: &mut String, results: &StudyResults) {
         );
     }
     h.push_str("</table>");
+    // What reading a log did to it (resampling above all) is part of the result.
+    let noted: Vec<_> = results
+        .runs
+        .iter()
+        .filter(|r| !r.notes.is_empty())
+        .collect();
+    if !noted.is_empty() {
+        h.push_str("<p>How the runs were read:</p><ul>");
+        for r in noted {
+            for note in &r.notes {
+                let _ = write!(h, "<li>{}: {}</li>", esc(&r.name), esc(note));
+            }
+        }
+        h.push_str("</ul>");
+    }
 }
 
 /// The summary table: models × runs × outputs, estimated NRMSE, per protocol.
@@ -637,6 +653,8 @@ mod tests {
                         height_noise_std_mm: 0.15,
                         pressure_noise_std_kpa: 0.2,
                     }),
+                    format: "CSV".to_owned(),
+                    notes: Vec::new(),
                 })
                 .collect(),
             submodels: SubmodelResults {

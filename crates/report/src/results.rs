@@ -108,6 +108,17 @@ pub struct RunInfo {
     /// The noise floor: the best NRMSE any model can reach on this run.
     #[serde(default)]
     pub ceiling: Option<NoiseCeiling>,
+    /// The run file's format: `CSV`, `MDF4`, `Parquet` or `CAN log`.
+    #[serde(default = "csv_format")]
+    pub format: String,
+    /// What reading the file assumed or did: units taken as the contract's, channels
+    /// resampled (how, onto what), timestamps made relative. Empty for a contract CSV.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
+}
+
+fn csv_format() -> String {
+    "CSV".to_owned()
 }
 
 /// The best NRMSE any model can reach on a run: its noise-free outputs against the
@@ -301,6 +312,8 @@ mod tests {
                     height_noise_std_mm: 0.15,
                     pressure_noise_std_kpa: 0.2,
                 }),
+                format: "CSV".to_owned(),
+                notes: Vec::new(),
             }],
             submodels: SubmodelResults {
                 fits: vec![SubmodelFit {
@@ -513,6 +526,7 @@ mod tests {
             "runs[].ceiling.source",
             "runs[].duration_s",
             "runs[].file",
+            "runs[].format",
             "runs[].name",
             "runs[].role",
             "runs[].samples",

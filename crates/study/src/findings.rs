@@ -171,6 +171,8 @@ mod tests {
             valve_action: valve,
             thesis_data_set: thesis_data_set(name),
             ceiling: None,
+            format: "CSV".to_owned(),
+            notes: Vec::new(),
         }
     }
 

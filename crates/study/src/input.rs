@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use airsus_data::{
-    Channel, ForceMap, Role, Run, RunOutputs, Study, TankDischarge, TruckParameters,
+    Channel, ForceMap, Outputs, Role, Run, RunOutputs, Study, TankDischarge, TruckParameters,
     read_discharge, read_force_map, read_run, read_study, read_truck,
 };
 
@@ -19,6 +19,10 @@ pub struct StudyRunData {
     pub run: Run,
     /// The noise-free outputs on the run's time axis, when the study names a truth file.
     pub truth: Option<RunOutputs>,
+    /// The file's format (`CSV`, `MDF4`, `Parquet`, `CAN log`).
+    pub format: &'static str,
+    /// What reading it assumed or did (units, resampling, timestamps), for the report.
+    pub notes: Vec<String>,
 }
 
 impl StudyRunData {
@@ -111,7 +115,9 @@ pub fn load_parts(label: String, study: &Study) -> Result<StudyInput, StudyError
         .runs
         .iter()
         .map(|r| {
-            let mut run = read_run(&r.file)?;
+            let format = airsus_logs::detect_format(&r.file)?;
+            let loaded = airsus_logs::read_run(&r.file, Outputs::Required, &r.source)?;
+            let mut run = loaded.run;
             run.name = r.name.clone();
             let truth = r
                 .truth
@@ -124,6 +130,8 @@ pub fn load_parts(label: String, study: &Study) -> Result<StudyInput, StudyError
                 role: r.role,
                 run,
                 truth,
+                format: format.name(),
+                notes: loaded.notes,
             })
         })
         .collect::<Result<Vec<_>, StudyError>>()?;

@@ -247,6 +247,8 @@ pub fn run_study(
                 valve_action: r.valve_action(),
                 thesis_data_set: findings::thesis_data_set(&r.name),
                 ceiling: ceiling::noise_ceiling(r),
+                format: r.format.to_owned(),
+                notes: r.notes.clone(),
             })
             .collect(),
         submodels,

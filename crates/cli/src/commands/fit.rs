@@ -12,8 +12,8 @@ use airsus_data::atomic::refuse_overwriting_inputs;
 use std::path::{Path, PathBuf};
 
 use airsus_data::{
-    Channel, Role, TruckParameters, read_discharge, read_force_map, read_run, read_study,
-    read_truck, write_truck,
+    Channel, Role, TruckParameters, read_discharge, read_force_map, read_study, read_truck,
+    write_truck,
 };
 use airsus_estimate::submodel::{
     CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions,
@@ -191,10 +191,14 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             known_volume_l,
             at_height_mm,
         } => {
-            let est = read_run(run).with_context(|| format!("run {}", run.display()))?;
+            let est = airsus_logs::read_plain_run(run)
+                .with_context(|| format!("run {}", run.display()))?;
             let vals = validation
                 .iter()
-                .map(|p| read_run(p).with_context(|| format!("validation run {}", p.display())))
+                .map(|p| {
+                    airsus_logs::read_plain_run(p)
+                        .with_context(|| format!("validation run {}", p.display()))
+                })
                 .collect::<anyhow::Result<Vec<_>>>()?;
             let val_refs: Vec<&_> = vals.iter().collect();
             let scale = match (known_volume_l, at_height_mm) {
@@ -391,7 +395,8 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             nf,
             nk,
         } => {
-            let r = read_run(run).with_context(|| format!("run {}", run.display()))?;
+            let r = airsus_logs::read_plain_run(run)
+                .with_context(|| format!("run {}", run.display()))?;
             let options = SlowDynamicsOptions {
                 orders: OeOrders::siso(*nb, *nf, *nk),
                 step_time_s: *step_time_s,

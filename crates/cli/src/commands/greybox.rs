@@ -14,13 +14,15 @@
 use airsus_data::atomic::refuse_overwriting_inputs;
 use std::path::PathBuf;
 
-use airsus_data::{read_run, read_truck, write_truck};
+use airsus_data::{Outputs, read_truck, write_truck};
 use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
     MultiStart, NoProgress, Normalisation, Observer, OutputWeights, TerminalProgress,
     estimate_multistart,
 };
 use airsus_truck::models::{build_any_model, default_free};
+
+use super::{RunSourceArgs, read_run_file};
 use anyhow::{Context, bail};
 
 /// What fixes each run's initial equilibrium.
@@ -47,9 +49,13 @@ pub struct GreyboxArgs {
     /// Truck parameter file with the nominal (start) values.
     #[arg(long)]
     pub truck: PathBuf,
-    /// Estimation run (CSV with measured height and pressure); repeat for several runs.
+    /// Estimation run with measured height and pressure (CSV, MDF4, Parquet or a CAN log);
+    /// repeat for several runs.
     #[arg(long = "run", required = true)]
     pub runs: Vec<PathBuf>,
+    /// How the runs map onto the run columns (the same for every --run).
+    #[command(flatten)]
+    pub source: RunSourceArgs,
     /// Write the estimated parameters as a truck file.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -149,10 +155,11 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     }
     let mut truck = loaded.parameters;
     let model = build_any_model(&args.model, &truck)?;
+    let source = args.source.source()?;
     let runs = args
         .runs
         .iter()
-        .map(|p| read_run(p).with_context(|| format!("estimation run {}", p.display())))
+        .map(|p| read_run_file(p, Outputs::Required, &source))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let run_refs: Vec<&_> = runs.iter().collect();
 

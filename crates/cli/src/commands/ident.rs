@@ -9,14 +9,17 @@
 
 use std::path::{Path, PathBuf};
 
+use airsus_data::Location;
 use airsus_data::table::read_columns;
-use airsus_data::time_axis::check_time_axis;
+use airsus_data::time_axis::{check_time_axis, check_uniform};
 use airsus_ident::linear::{
     ArmaxOrders, ArxOrders, BjOrders, Estimate, IdData, IdentError, OeOrders, Offsets, PemOptions,
     armax, arx, bj, fit_percent, oe,
 };
 use anyhow::{Context, anyhow, bail};
 use serde::Serialize;
+
+use super::RunSourceArgs;
 
 /// Model structure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
@@ -83,8 +86,12 @@ pub struct IdentArgs {
     /// Print the result as JSON instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Run file (CSV with a header row).
+    /// Run file: CSV with a header row, or an MDF4, Parquet or CAN log (its channels by name).
     pub run: PathBuf,
+    /// Resampling and CAN decoding of a log's channels (`--columns` only names a Parquet
+    /// file's time column).
+    #[command(flatten)]
+    pub source: RunSourceArgs,
 }
 
 /// What `--json` prints.
@@ -160,6 +167,34 @@ fn read_data(args: &IdentArgs) -> anyhow::Result<(IdData, usize)> {
     let mut names: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
     names.push(&args.output);
     let path = args.run.as_path();
+    let source = args.source.source()?;
+    if airsus_logs::detect_format(path)? != airsus_logs::LogFormat::Csv {
+        let (aligned, notes) = airsus_logs::read_signals(path, &names, &source)?;
+        for note in &notes {
+            eprintln!("note: {}: {note}", path.display());
+        }
+        let time_name = aligned.time_name.clone();
+        let ts_s = check_uniform(
+            &aligned.time_s,
+            path,
+            |row| Location::file(path).channel(&time_name, Some(row as u64 + 1)),
+            2,
+        )?;
+        if let Some(flag) = args.ts_s
+            && (flag - ts_s).abs() > 1e-9 * ts_s
+        {
+            bail!(
+                "--ts-s {flag} contradicts the sample time {ts_s} s of {}",
+                path.display()
+            );
+        }
+        let mut columns = aligned.values;
+        let y = columns.pop().context("output channel missing")?;
+        let rows = y.len();
+        let data = IdData::new(y, columns, ts_s)
+            .with_context(|| format!("invalid identification data in {}", path.display()))?;
+        return Ok((data, rows));
+    }
     let mut table = read_columns(path, &names)?;
     let ts_s = if table.header.iter().any(|h| h == "time_s") {
         names.push("time_s");

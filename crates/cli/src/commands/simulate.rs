@@ -16,14 +16,14 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use airsus_data::atomic::refuse_overwriting_inputs;
-use airsus_data::{Outputs, RunOutputs, read_run_with, write_run};
+use airsus_data::{Outputs, RunOutputs};
 use airsus_estimate::initial_state::DEFAULT_PREFIX_S;
 use airsus_estimate::{PrefixOptions, StartChoice, StartMethod, resolve_start};
 use airsus_sim::{InputSeries, Method, SimulationProblem, SolverOptions, simulate};
 use airsus_truck::models::build_any_model;
 use anyhow::{Context, bail};
 
-use super::read_truck_listing_defaults;
+use super::{RunSourceArgs, read_run_file, read_truck_listing_defaults};
 
 /// Integration method (`bdf` is the fastest on the suspension models; see BENCHMARKS.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -58,10 +58,14 @@ pub struct SimulateArgs {
     /// Truck parameter file (TOML); omitted *est* keys take the reference truck's values.
     #[arg(long)]
     pub truck: PathBuf,
-    /// Run file (CSV) whose inputs drive the model; measured outputs are optional.
+    /// Run file whose inputs drive the model (CSV, MDF4, Parquet or a CAN log; see
+    /// --columns); measured outputs are optional.
     #[arg(long)]
     pub run: PathBuf,
-    /// Output run file: the inputs copied, `height_mm` and `pressure_kpa` simulated.
+    #[command(flatten)]
+    pub source: RunSourceArgs,
+    /// Output run file: the inputs copied, `height_mm` and `pressure_kpa` simulated; Parquet
+    /// when it ends in `.parquet`, else CSV.
     #[arg(long)]
     pub out: PathBuf,
     /// Relative tolerance of the adaptive ODE solver.
@@ -108,9 +112,12 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     if !(args.rtol.is_finite() && args.rtol > 0.0 && args.rtol < 1.0) {
         bail!("--rtol {} must be between 0 and 1", args.rtol);
     }
-    refuse_overwriting_inputs(&args.out, &[&args.truck, &args.run])?;
+    let source = args.source.source()?;
+    let mut inputs_read: Vec<&std::path::Path> = vec![&args.truck, &args.run];
+    inputs_read.extend(source.dbc.as_deref());
+    refuse_overwriting_inputs(&args.out, &inputs_read)?;
     let loaded = read_truck_listing_defaults(&args.truck)?;
-    let run = read_run_with(&args.run, Outputs::IfPresent)?;
+    let run = read_run_file(&args.run, Outputs::IfPresent, &source)?;
     let model = build_any_model(&args.model, &loaded.parameters)?;
 
     let choice = match (args.initial_pressure_kpa, args.initial_height_mm) {
@@ -147,7 +154,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         sensor_height_m: response.sensor_height_m,
         bellow_gauge_pa: response.bellow_gauge_pa,
     });
-    write_run(&args.out, &out)?;
+    airsus_logs::write_run(&args.out, &out)?;
 
     let s = &response.statistics;
     eprintln!(

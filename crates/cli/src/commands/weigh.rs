@@ -9,7 +9,9 @@ use airsus_apps::weigh::{
     EkfTuning, LinearCalibration, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty,
     evaluate_weighing, weigh_ekf, weigh_static, write_weigh_csv,
 };
-use airsus_data::{read_run, read_truck};
+use airsus_data::{Outputs, read_run, read_truck};
+
+use super::{RunSourceArgs, read_run_file};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Method {
@@ -26,9 +28,12 @@ pub struct WeighArgs {
     /// Truck parameter file (nominal, or identified parameters).
     #[arg(long, value_name = "T.toml")]
     pub truck: PathBuf,
-    /// Run file with height_mm and pressure_kpa.
+    /// Run file with height_mm and pressure_kpa (CSV, MDF4, Parquet or a CAN log).
     #[arg(long, value_name = "R.csv")]
     pub run: PathBuf,
+    /// How the run (and the calibration run) map onto the run columns.
+    #[command(flatten)]
+    pub source: RunSourceArgs,
     #[arg(long, value_enum, default_value_t = Method::Static)]
     pub method: Method,
     /// Model the EKF runs (`airsus models`).
@@ -50,8 +55,10 @@ pub struct WeighArgs {
 }
 
 pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
+    let source = args.source.source()?;
     if let Some(out) = &args.out {
         let mut inputs: Vec<&std::path::Path> = vec![&args.truck, &args.run];
+        inputs.extend(source.dbc.as_deref());
         inputs.extend(args.calibration_run.as_deref());
         inputs.extend(args.truth.as_deref());
         refuse_overwriting_inputs(out, &inputs)?;
@@ -62,7 +69,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
         eprintln!("note: {} not in the truck file, using {}", d.key, d.value);
     }
     let truck = loaded.parameters;
-    let run = read_run(&args.run).with_context(|| format!("reading run {}", args.run.display()))?;
+    let run = read_run_file(&args.run, Outputs::Required, &source)?;
     let weigher = StaticWeigher::new(
         StaticLaw::from_truck(&truck),
         WeighingUncertainty::default(),
@@ -83,7 +90,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     let mut series = estimate(&run).with_context(|| format!("weighing {}", args.run.display()))?;
     let rule = StandstillRule::default();
     if let Some(path) = &args.calibration_run {
-        let cal_run = read_run(path).with_context(|| format!("reading {}", path.display()))?;
+        let cal_run = read_run_file(path, Outputs::Required, &source)?;
         let cal_est = estimate(&cal_run)?;
         let cal = LinearCalibration::fit(
             &cal_run.time_s,
