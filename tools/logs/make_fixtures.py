@@ -113,7 +113,9 @@ def write_mdf(run: pd.DataFrame) -> None:
     shifted = time[:-1] + 0.05
     height = np.interp(shifted, time, run.height_mm.to_numpy())
     pressure = np.interp(shifted, time, run.pressure_kpa.to_numpy())
-    inputs = [s for s in plain_signals(run, time) if s.name in ("WheelLoad", "ValveCmd", "SupplyPressure")]
+    inputs = [
+        s for s in plain_signals(run, time) if s.name in ("WheelLoad", "ValveCmd", "SupplyPressure")
+    ]
     outputs = [
         Signal(height, shifted, name="AxleHeight", unit="mm"),
         Signal(pressure, shifted, name="BellowPressure", unit="kPa"),
@@ -149,7 +151,9 @@ def write_parquet(run: pd.DataFrame) -> None:
     start = pd.Timestamp(EPOCH_S, unit="s", tz="UTC")
     table = pa.table(
         {
-            "timestamp": pa.array(start + pd.to_timedelta(run.time_s, unit="s"), pa.timestamp("us", tz="UTC")),
+            "timestamp": pa.array(
+                start + pd.to_timedelta(run.time_s, unit="s"), pa.timestamp("us", tz="UTC")
+            ),
             "wheel_load_kg": run.wheel_load_kg.to_numpy(),
             "valve": pa.array(run.valve.to_numpy(), pa.int8()),
             "supply_bar": run.supply_kpa.to_numpy() / 100.0,
@@ -158,7 +162,9 @@ def write_parquet(run: pd.DataFrame) -> None:
         }
     )
     units = {"supply_bar": "bar", "height_mm": "mm", "pressure_kpa": "kPa", "wheel_load_kg": "kg"}
-    table = table.replace_schema_metadata({**(table.schema.metadata or {}), b"units": json.dumps(units)})
+    table = table.replace_schema_metadata(
+        {**(table.schema.metadata or {}), b"units": json.dumps(units)}
+    )
     pq.write_table(table, FIXTURES / "run.parquet")  # snappy, nullable columns
 
     # The contract's own names, zstd, several row groups, no metadata at all.
@@ -207,7 +213,9 @@ def can_frames(run: pd.DataFrame, db: cantools.database.Database) -> list[can.Me
                 timestamp=t + LOAD1_DELAY_S,
                 arbitration_id=LOAD1_BUS_ID,
                 is_extended_id=True,
-                data=load1.encode({"WheelLoad": row.wheel_load_kg, "SupplyPressure": row.supply_kpa}),
+                data=load1.encode(
+                    {"WheelLoad": row.wheel_load_kg, "SupplyPressure": row.supply_kpa}
+                ),
             )
         )
         frames.append(
@@ -250,8 +258,12 @@ def write_can(run: pd.DataFrame) -> None:
         if message is None:
             continue
         for name, value in message.decode(frame.data).items():
-            rows.append({"time_s": frame.timestamp - EPOCH_S, "signal": name, "value": float(value)})
-    pd.DataFrame(rows).to_csv(FIXTURES / "expected_can_decode.csv", index=False, float_format="%.10g")
+            rows.append(
+                {"time_s": frame.timestamp - EPOCH_S, "signal": name, "value": float(value)}
+            )
+    pd.DataFrame(rows).to_csv(
+        FIXTURES / "expected_can_decode.csv", index=False, float_format="%.10g"
+    )
 
 
 def main() -> None:

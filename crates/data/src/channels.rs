@@ -414,6 +414,29 @@ impl ChannelSet {
                 span = (span.0.max(*first), span.1.min(*last));
             }
         }
+        // A grid far denser than the data (a damaged or absolute time stamp stretching the
+        // span) would only invent samples, and could exhaust memory: refuse it by its size.
+        let most_samples = bases
+            .iter()
+            .filter_map(|&b| self.bases.get(b))
+            .map(|base| base.time_s.len())
+            .max()
+            .unwrap_or(0);
+        let limit = most_samples.saturating_mul(MAX_UPSAMPLING).max(1000);
+        let count = grid_count(span, resample.sample_s);
+        if count > limit {
+            return Err(DataError::in_file(
+                path,
+                DataErrorKind::InvalidValue {
+                    key: "sample_s".to_owned(),
+                    value: resample.sample_s.to_string(),
+                    reason: format!(
+                        "resampling would make {count} samples from channels of at most {most_samples} (they span {} s to {} s): check the time channels for a damaged or absolute time stamp, or choose a longer sample_s",
+                        span.0, span.1
+                    ),
+                },
+            ));
+        }
         let grid = uniform_grid(span, resample.sample_s);
         if grid.len() < 2 {
             return Err(DataError::in_file(
@@ -514,13 +537,23 @@ fn check_increasing(path: &Path, base: &TimeBase) -> Result<(), DataError> {
     }
 }
 
-/// `start, start + step, ...` up to `end` (inclusive to a millionth of a step).
-fn uniform_grid((start, end): (f64, f64), step: f64) -> Vec<f64> {
+/// How many times more samples than its densest channel a resampled run may have.
+const MAX_UPSAMPLING: usize = 100;
+
+/// The number of samples of [`uniform_grid`].
+fn grid_count((start, end): (f64, f64), step: f64) -> usize {
     if !(start.is_finite() && end.is_finite() && end >= start) {
-        return Vec::new();
+        return 0;
     }
-    let count = ((end - start) / step + 1e-6).floor() as usize + 1;
-    (0..count).map(|k| start + k as f64 * step).collect()
+    // `as` saturates: an absurd span gives usize::MAX, which the caller refuses.
+    (((end - start) / step + 1e-6).floor() as usize).saturating_add(1)
+}
+
+/// `start, start + step, ...` up to `end` (inclusive to a millionth of a step).
+fn uniform_grid(span: (f64, f64), step: f64) -> Vec<f64> {
+    (0..grid_count(span, step))
+        .map(|k| span.0 + k as f64 * step)
+        .collect()
 }
 
 /// How close to a grid time a sample counts as at it, as a fraction of the grid step: logger
@@ -721,6 +754,33 @@ mod tests {
             "{:?}",
             loaded.notes
         );
+    }
+
+    #[test]
+    fn an_irregular_base_is_refused_by_sample_and_resampled_on_request() {
+        let mut jittered = set();
+        jittered.bases[0].time_s = vec![0.0, 0.1, 0.25, 0.3, 0.4];
+        let err = run_from_channels(
+            jittered.clone(),
+            Path::new("x.mf4"),
+            Outputs::Required,
+            &source(),
+        )
+        .unwrap_err();
+        assert!(
+            err.to_string().starts_with(
+                "x.mf4 (channel `group 1`, sample 3): non-uniform sampling: this interval is 0.15 s"
+            ),
+            "{err}"
+        );
+        let mut resampled = source();
+        resampled.resample = Some(Resample::new(ResampleMethod::Zoh, 0.1).unwrap());
+        let run = run_from_channels(jittered, Path::new("x.mf4"), Outputs::Required, &resampled)
+            .unwrap()
+            .run;
+        assert_eq!(run.time_s.len(), 5);
+        // Held at 0.2 s: the sample of 0.1 s (the valve was 1 there).
+        assert_eq!(run.inputs.valve[2], crate::ValveState::Fill);
     }
 
     #[test]

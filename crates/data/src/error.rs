@@ -91,7 +91,7 @@ pub enum DataErrorKind {
     #[error("time must increase strictly: {current} s follows {previous} s")]
     TimeNotIncreasing { previous: f64, current: f64 },
     #[error(
-        "non-uniform sampling: this interval is {found_s} s where the run's sample time is {expected_s} s (off by {:.3} %, tolerance {:.1} %); airsus never resamples silently: resample the file or split it at the gap",
+        "non-uniform sampling: this interval is {found_s} s where the run's sample time is {expected_s} s (off by {:.3} %, tolerance {:.1} %); airsus never resamples silently: resample it (study `resample` with `sample_s`, CLI --resample with --sample-s) or split the file at the gap",
         100.0 * (found_s - expected_s).abs() / expected_s,
         100.0 * tolerance
     )]

@@ -30,9 +30,18 @@ fn long_run() -> Run {
             _ => ValveState::Closed,
         })
         .collect();
-    let supply: Vec<f64> = time_s.iter().map(|t| 850e3 + 5e3 * (t / 30.0).sin()).collect();
-    let height: Vec<f64> = time_s.iter().map(|t| 0.235 + 0.01 * (t / 11.0).sin()).collect();
-    let pressure: Vec<f64> = time_s.iter().map(|t| 330e3 + 20e3 * (t / 13.0).cos()).collect();
+    let supply: Vec<f64> = time_s
+        .iter()
+        .map(|t| 850e3 + 5e3 * (t / 30.0).sin())
+        .collect();
+    let height: Vec<f64> = time_s
+        .iter()
+        .map(|t| 0.235 + 0.01 * (t / 11.0).sin())
+        .collect();
+    let pressure: Vec<f64> = time_s
+        .iter()
+        .map(|t| 330e3 + 20e3 * (t / 13.0).cos())
+        .collect();
     Run {
         name: "ten_hours".to_owned(),
         sample_time_s: SAMPLE_S,
@@ -60,12 +69,22 @@ fn write_mdf4(run: &Run, path: &Path, compressed: bool) {
     let kpa = |pa: &[f64]| pa.iter().map(|p| p / 1e3).collect::<Vec<_>>();
     let mm = |m: &[f64]| m.iter().map(|x| x * 1e3).collect::<Vec<_>>();
     let valve: Vec<f64> = i.valve.iter().map(|v| f64::from(v.code())).collect();
-    group.add_channel("wheel_load_kg", "kg", &i.wheel_load_kg).unwrap();
+    group
+        .add_channel("wheel_load_kg", "kg", &i.wheel_load_kg)
+        .unwrap();
     group.add_channel("valve", "", &valve).unwrap();
-    group.add_channel("supply_kpa", "kPa", &kpa(&i.supply_gauge_pa)).unwrap();
-    group.add_channel("road_mm", "mm", &mm(&i.road_height_m)).unwrap();
-    group.add_channel("height_mm", "mm", &mm(&o.sensor_height_m)).unwrap();
-    group.add_channel("pressure_kpa", "kPa", &kpa(&o.bellow_gauge_pa)).unwrap();
+    group
+        .add_channel("supply_kpa", "kPa", &kpa(&i.supply_gauge_pa))
+        .unwrap();
+    group
+        .add_channel("road_mm", "mm", &mm(&i.road_height_m))
+        .unwrap();
+    group
+        .add_channel("height_mm", "mm", &mm(&o.sensor_height_m))
+        .unwrap();
+    group
+        .add_channel("pressure_kpa", "kPa", &kpa(&o.bellow_gauge_pa))
+        .unwrap();
     writer.write_to_file(path).unwrap();
 }
 
@@ -94,7 +113,9 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("read 10 h at 100 Hz");
     group.sample_size(10);
     group.bench_function("MDF4", |b| b.iter(|| black_box(read(&mdf4))));
-    group.bench_function("MDF4, DZ (deflate)", |b| b.iter(|| black_box(read(&mdf4_dz))));
+    group.bench_function("MDF4, DZ (deflate)", |b| {
+        b.iter(|| black_box(read(&mdf4_dz)))
+    });
     group.bench_function("Parquet", |b| b.iter(|| black_box(read(&parquet))));
     group.bench_function("CSV", |b| b.iter(|| black_box(read(&csv))));
     group.finish();

@@ -31,6 +31,12 @@ const FORMAT: &str = "Parquet";
 pub const UNITS_KEY: &str = "units";
 /// Rows per row group when writing: big enough for fast scans, small enough to stream.
 const ROW_GROUP_ROWS: usize = 1 << 20;
+/// Rows decoded per call: bounds what one call can allocate, whatever a page claims.
+const BATCH_ROWS: usize = 1 << 16;
+/// The most rows one file may declare: 100 M samples is 11.6 days at 100 Hz (0.8 GB per
+/// column in memory). A damaged footer usually claims far more; a real log that long is
+/// better split by day.
+const MAX_ROWS: u64 = 100_000_000;
 
 fn malformed(path: &Path, reason: impl std::fmt::Display) -> DataError {
     DataError::in_file(
@@ -69,6 +75,15 @@ pub(crate) fn read_channels(
     let file = File::open(path).map_err(|e| DataError::io(path, e))?;
     let reader = SerializedFileReader::new(file).map_err(|e| malformed(path, e))?;
     let metadata = reader.metadata().file_metadata();
+    if u64::try_from(metadata.num_rows()).map_or(true, |rows| rows > MAX_ROWS) {
+        return Err(malformed(
+            path,
+            format!(
+                "it declares {} rows; airsus reads at most {MAX_ROWS} rows (11.6 days at 100 Hz) from one file: split it, e.g. by day",
+                metadata.num_rows()
+            ),
+        ));
+    }
     let units = file_units(path, metadata.key_value_metadata())?;
     let schema = metadata.schema_descr();
     let time_name = source.columns.channel_for(columns::TIME);
@@ -201,7 +216,11 @@ fn read_typed<T: DataType>(
         let group = reader
             .get_row_group(group)
             .map_err(|e| malformed(path, e))?;
-        let rows = usize::try_from(group.metadata().num_rows()).unwrap_or(0);
+        let declared = group.metadata().num_rows();
+        let rows = usize::try_from(declared)
+            .ok()
+            .filter(|&r| r as u64 <= MAX_ROWS)
+            .ok_or_else(|| malformed(path, format!("a row group declares {declared} rows")))?;
         let column = group
             .get_column_reader(index)
             .map_err(|e| in_column(path, name, None, e.to_string()))?;
@@ -213,12 +232,15 @@ fn read_typed<T: DataType>(
                 "unexpected column type".to_owned(),
             ));
         };
-        let mut values = Vec::with_capacity(rows);
-        let mut levels = Vec::with_capacity(if max_def > 0 { rows } else { 0 });
-        loop {
+        // Capacity follows the data actually decoded, in batches, never a declared count
+        // alone: a damaged footer must not make us reserve gigabytes.
+        let mut values = Vec::with_capacity(rows.min(BATCH_ROWS));
+        let mut levels = Vec::with_capacity(if max_def > 0 { rows.min(BATCH_ROWS) } else { 0 });
+        let mut read_rows = 0;
+        while read_rows < rows {
             let (records, _, _) = column
                 .read_records(
-                    rows.max(1),
+                    (rows - read_rows).min(BATCH_ROWS),
                     (max_def > 0).then_some(&mut levels),
                     None,
                     &mut values,
@@ -227,6 +249,15 @@ fn read_typed<T: DataType>(
             if records == 0 {
                 break;
             }
+            read_rows += records;
+        }
+        if read_rows != rows || (max_def == 0 && values.len() != rows) {
+            return Err(in_column(
+                path,
+                name,
+                None,
+                format!("a row group declares {rows} rows but holds {read_rows}"),
+            ));
         }
         if let Some(null) = levels.iter().position(|&d| d < max_def) {
             return Err(in_column(

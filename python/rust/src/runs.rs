@@ -20,7 +20,7 @@ use pyo3::types::PyDict;
 use airsus_data::atomic::write_atomically;
 use airsus_data::run::{columns, parse_run};
 use airsus_data::table::{ColumnSpec, NumericTable, parse_table};
-use airsus_data::{DataError, Outputs, Run, read_run_with};
+use airsus_data::{DataError, Outputs, Run};
 
 use crate::error::OrPy;
 
@@ -86,9 +86,12 @@ impl RunSource {
 
     /// The run, read as `airsus_data::read_run_with` reads a file. A frame's run is named
     /// after the frame (a file's after its stem, as the command line names it).
+    /// A file may be any log airsus reads (CSV, MDF4, Parquet), under the contract's names.
     pub fn load(&self, outputs: Outputs) -> anyhow::Result<Run> {
         match self {
-            Self::File(path) => Ok(read_run_with(path, outputs)?),
+            Self::File(path) => {
+                Ok(airsus_logs::read_run(path, outputs, &airsus_data::RunSource::default())?.run)
+            }
             Self::Frame { name, columns } => {
                 let bytes = frame_csv(columns)?;
                 let mut run = parse_run(&bytes, &self.path(), outputs)?;
@@ -185,13 +188,117 @@ fn read_raw(source: &RunSource) -> anyhow::Result<RawRun> {
     })
 }
 
-/// Reads a run file (outputs optional) and returns `{"name", "sample_time_s", "columns"}` with
-/// the contract's columns in the file's units, as the file has them.
+/// A run read from a log (MDF4, Parquet, CAN, or a CSV under other names): the contract's
+/// columns in its file units, converted back from SI (the log's own values may differ from
+/// these in the last bit), and what reading did.
+fn read_log(path: &Path, source: &airsus_data::RunSource) -> anyhow::Result<(RawRun, Vec<String>)> {
+    let loaded = airsus_logs::read_run(path, Outputs::IfPresent, source)?;
+    let run = loaded.run;
+    let kpa = |pa: &[f64]| {
+        pa.iter()
+            .map(|p| p / airsus_data::units::PA_PER_KPA)
+            .collect()
+    };
+    let mm = |m: &[f64]| {
+        m.iter()
+            .map(|&x| airsus_data::units::mm_from_m(x))
+            .collect()
+    };
+    let mut names: Vec<String> = [
+        columns::TIME,
+        columns::WHEEL_LOAD,
+        columns::VALVE,
+        columns::SUPPLY,
+        columns::ROAD,
+    ]
+    .map(str::to_owned)
+    .to_vec();
+    let mut values: Vec<Vec<f64>> = vec![
+        run.time_s.clone(),
+        run.inputs.wheel_load_kg.clone(),
+        run.inputs
+            .valve
+            .iter()
+            .map(|v| f64::from(v.code()))
+            .collect(),
+        kpa(&run.inputs.supply_gauge_pa),
+        mm(&run.inputs.road_height_m),
+    ];
+    if let Some(o) = &run.outputs {
+        names.extend([columns::HEIGHT.to_owned(), columns::PRESSURE.to_owned()]);
+        values.extend([mm(&o.sensor_height_m), kpa(&o.bellow_gauge_pa)]);
+    }
+    Ok((
+        RawRun {
+            name: run.name,
+            sample_time_s: run.sample_time_s,
+            names,
+            columns: values,
+        },
+        loaded.notes,
+    ))
+}
+
+/// `(column, channel, unit)` triples, a resampling and a DBC as the Python package passes them.
+fn log_source(
+    columns: Vec<(String, String, Option<String>)>,
+    resample: Option<String>,
+    sample_s: Option<f64>,
+    dbc: Option<PathBuf>,
+) -> anyhow::Result<airsus_data::RunSource> {
+    let mut map = airsus_data::ColumnMap::default();
+    for (column, channel, unit) in columns {
+        map.insert(&column, airsus_data::ChannelRef { channel, unit })
+            .map_err(anyhow::Error::msg)?;
+    }
+    let resample = match (resample, sample_s) {
+        (None, None) => None,
+        (Some(method), Some(sample_s)) => Some(
+            airsus_data::Resample::new(method.parse().map_err(anyhow::Error::msg)?, sample_s)
+                .map_err(anyhow::Error::msg)?,
+        ),
+        (Some(_), None) => bail!("resample needs sample_s, the sample time to resample onto"),
+        (None, Some(_)) => bail!("sample_s needs resample = \"zoh\" or \"linear\""),
+    };
+    Ok(airsus_data::RunSource {
+        columns: map,
+        resample,
+        dbc,
+    })
+}
+
+/// Reads a run file (outputs optional) and returns `{"name", "sample_time_s", "columns",
+/// "notes", "format"}` with the contract's columns in the file's units: a contract CSV as the
+/// file has them, any other log (MDF4, Parquet, CAN) through the column map, resampling and
+/// DBC given.
 #[pyfunction]
-pub fn read_run(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
-    let source = RunSource::File(path);
-    let raw = py.detach(|| read_raw(&source)).or_py()?;
+#[pyo3(signature = (path, columns=Vec::new(), resample=None, sample_s=None, dbc=None))]
+pub fn read_run(
+    py: Python<'_>,
+    path: PathBuf,
+    columns: Vec<(String, String, Option<String>)>,
+    resample: Option<String>,
+    sample_s: Option<f64>,
+    dbc: Option<PathBuf>,
+) -> PyResult<Bound<'_, PyDict>> {
+    let (raw, notes, format) = py
+        .detach(|| -> anyhow::Result<_> {
+            let source = log_source(columns, resample, sample_s, dbc)?;
+            let format = airsus_logs::detect_format(&path)?;
+            if format == airsus_logs::LogFormat::Csv && source.is_plain() {
+                return Ok((
+                    read_raw(&RunSource::File(path.clone()))?,
+                    Vec::new(),
+                    format,
+                ));
+            }
+            let (raw, notes) = read_log(&path, &source)?;
+            Ok((raw, notes, format))
+        })
+        .or_py()?;
     let out = PyDict::new(py);
+    out.set_item("notes", notes)?;
+    out.set_item("format", format.name())?;
     out.set_item("name", raw.name)?;
     out.set_item("sample_time_s", raw.sample_time_s)?;
     let columns = PyDict::new(py);
@@ -228,9 +335,18 @@ fn write_raw(source: &RunSource, out: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Checks a run (as `read_run` would) and writes it atomically in the contract's format.
+/// Checks a run (as `read_run` would) and writes it atomically in the contract's format: CSV,
+/// or Parquet when `path` ends in `.parquet`.
 #[pyfunction]
 pub fn write_run(py: Python<'_>, run: RunSpec<'_>, path: PathBuf) -> PyResult<()> {
     let source = RunSource::from_spec(run)?;
-    py.detach(|| write_raw(&source, &path)).or_py()
+    py.detach(|| {
+        if airsus_logs::is_parquet_path(&path) {
+            let run = source.load(Outputs::IfPresent)?;
+            Ok(airsus_logs::write_run_parquet(&path, &run)?)
+        } else {
+            write_raw(&source, &path)
+        }
+    })
+    .or_py()
 }

@@ -186,34 +186,67 @@ def _orders(value: Union[None, int, Sequence[int]]) -> Optional[List[int]]:
 # --------------------------------------------------------------------------------------------
 
 
-def read_run(path: PathLike) -> pd.DataFrame:
-    """Read a run file of the data contract into a DataFrame.
+def read_run(
+    path: PathLike,
+    columns: Optional[Mapping[str, Union[str, Tuple[str, str]]]] = None,
+    resample: Optional[str] = None,
+    sample_s: Optional[float] = None,
+    dbc: Optional[PathLike] = None,
+) -> pd.DataFrame:
+    """Read a run file into a DataFrame: the contract's CSV, or a log (ASAM MDF4, Parquet,
+    a candump CAN log), told apart by content.
 
-    The columns are the contract's run columns in the file's units, with the values exactly
-    as the file has them: ``time_s`` (s), ``wheel_load_kg`` (kg), ``valve`` (0 closed, 1 fill,
-    2 exhaust, as integers), ``supply_kpa`` (kPa gauge), ``road_mm`` (mm; 0 when the file has
-    no such column), and ``height_mm`` (mm) and ``pressure_kpa`` (kPa gauge) when the file
-    has measured outputs. Extra columns of the file are ignored.
+    The columns are the contract's run columns in the file's units: ``time_s`` (s),
+    ``wheel_load_kg`` (kg), ``valve`` (0 closed, 1 fill, 2 exhaust, as integers),
+    ``supply_kpa`` (kPa gauge), ``road_mm`` (mm; 0 when the file has no such column), and
+    ``height_mm`` (mm) and ``pressure_kpa`` (kPa gauge) when the file has measured outputs.
+    A contract CSV gives its values exactly as the file has them; extra columns are ignored.
+
+    A log's channels are found by the contract's names unless ``columns`` maps them:
+    ``{"height_mm": "AxleHeight", "pressure_kpa": ("BellowP", "bar")}`` (a unit after the
+    channel name is used where the log gives none, and must agree where it does). Units the
+    log gives are converted (bar, Pa, m, ...). Channels on different time bases are refused
+    unless ``resample`` (``"zoh"`` or ``"linear"``; the valve is always held) and
+    ``sample_s`` ask for one uniform base. ``dbc`` names the DBC file that decodes CAN frames
+    (SAE J1939 messages matched on their PGN when the DBC declares J1939).
 
     The file gets every check of the contract (uniform sampling, valve codes, signs, finite
-    numbers); a fault raises :class:`AirsusError` naming file, line and column, e.g.
-    ``ds1.csv:57:3 (column `valve`): expected valve state 0 (closed), 1 (fill) or 2
-    (exhaust), found `3```.
+    numbers); a fault raises :class:`AirsusError` naming file, line and column (a log: its
+    channel and sample), e.g. ``ds1.csv:57:3 (column `valve`): expected valve state 0
+    (closed), 1 (fill) or 2 (exhaust), found `3```.
 
     ``df.attrs`` holds ``name`` (the file's stem, which names the run in results),
-    ``sample_time_s`` and ``source`` (the path).
+    ``sample_time_s``, ``source`` (the path), ``format`` (``CSV``, ``MDF4``, ``Parquet``,
+    ``CAN log``) and ``notes`` (what reading a log assumed or did, e.g. resampling).
     """
-    raw = _native.read_run(os.fsdecode(path))
+    mapped = []
+    for column, channel in (columns or {}).items():
+        if isinstance(channel, str):
+            mapped.append((column, channel, None))
+        else:
+            name, unit = channel
+            mapped.append((column, name, unit))
+    raw = _native.read_run(
+        os.fsdecode(path),
+        mapped,
+        resample,
+        None if sample_s is None else float(sample_s),
+        None if dbc is None else os.fsdecode(dbc),
+    )
     frame = pd.DataFrame(dict(raw["columns"]))
     frame["valve"] = frame["valve"].astype(np.int64)
     frame.attrs["name"] = raw["name"]
     frame.attrs["sample_time_s"] = raw["sample_time_s"]
     frame.attrs["source"] = os.fsdecode(path)
+    frame.attrs["format"] = raw["format"]
+    frame.attrs["notes"] = list(raw["notes"])
     return frame
 
 
 def write_run(run: Union[pd.DataFrame, Mapping[str, Any]], path: PathLike) -> None:
-    """Write a run (a DataFrame or dict of arrays in the file's units) as a run file.
+    """Write a run (a DataFrame or dict of arrays in the file's units) as a run file: CSV, or
+    Parquet (snappy, the contract's columns, their units in the ``units`` metadata) when
+    ``path`` ends in ``.parquet``.
 
     The run is checked as :func:`read_run` checks a file (a fault raises
     :class:`AirsusError` naming ``DataFrame `NAME`:LINE:COLUMN``, with LINE the row position

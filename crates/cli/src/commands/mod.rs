@@ -17,7 +17,6 @@ pub mod weigh;
 use std::path::{Path, PathBuf};
 
 use airsus_data::{ColumnMap, Outputs, Resample, ResampleMethod, Run, RunSource};
-use anyhow::Context;
 
 /// How a run's columns are found in a log that does not use the contract's names (MDF4,
 /// Parquet, CAN through a DBC, or a CSV with other headers): the CLI side of a study file's
@@ -81,8 +80,8 @@ impl RunSourceArgs {
 /// Reads a run from any supported log (CSV, MDF4, Parquet, CAN log) and prints on stderr
 /// what the reader assumed or did (units, resampling, timestamps).
 pub fn read_run_file(path: &Path, outputs: Outputs, source: &RunSource) -> anyhow::Result<Run> {
-    let loaded = airsus_logs::read_run(path, outputs, source)
-        .with_context(|| format!("reading run {}", path.display()))?;
+    // The error names the file already (and where in it).
+    let loaded = airsus_logs::read_run(path, outputs, source)?;
     for note in &loaded.notes {
         eprintln!("note: {}: {note}", path.display());
     }
