@@ -209,6 +209,18 @@ pub(crate) fn column_conversion(
     }
 }
 
+/// Whether a run's outputs are read: always when required; else when the file has them or
+/// the map names a channel for one (then a missing channel is an error, not a silent
+/// inputs-only run).
+pub(crate) fn outputs_wanted(outputs: Outputs, map: &ColumnMap, present: bool) -> bool {
+    match outputs {
+        Outputs::Required => true,
+        Outputs::IfPresent => {
+            present || map.get(columns::HEIGHT).is_some() || map.get(columns::PRESSURE).is_some()
+        }
+    }
+}
+
 /// Builds a run from decoded channels, as `source` maps and resamples them.
 pub fn run_from_channels(
     set: ChannelSet,
@@ -223,10 +235,7 @@ pub fn run_from_channels(
 
     let height = find(HEIGHT)?;
     let pressure = find(PRESSURE)?;
-    let with_outputs = match outputs {
-        Outputs::Required => true,
-        Outputs::IfPresent => height.is_some() || pressure.is_some(),
-    };
+    let with_outputs = outputs_wanted(outputs, map, height.is_some() || pressure.is_some());
     let mut wanted: Vec<(&str, Option<usize>)> = vec![
         (WHEEL_LOAD, find(WHEEL_LOAD)?),
         (VALVE, find(VALVE)?),
@@ -238,7 +247,8 @@ pub fn run_from_channels(
         wanted.push((PRESSURE, pressure));
     }
     for (column, index) in &wanted {
-        if index.is_none() && *column != ROAD {
+        // The road may be absent (flat) unless the map names a channel for it.
+        if index.is_none() && (*column != ROAD || map.get(ROAD).is_some()) {
             return Err(set.missing(path, column, map.channel_for(column)));
         }
     }
@@ -290,7 +300,11 @@ pub fn run_from_channels(
         origin: TableOrigin::Samples,
     };
     let run = run_from_table(&table, path, with_outputs)?;
-    Ok(LoadedRun { run, notes })
+    Ok(LoadedRun {
+        run,
+        notes,
+        format: set.format,
+    })
 }
 
 /// Channels brought onto one time axis.
@@ -323,7 +337,7 @@ impl ChannelSet {
     /// or with `resample` a uniform grid over the span they all cover. Bases are first put in
     /// seconds by their unit (or the map's unit for `time_s`). Different bases without
     /// `resample` are an error; so is a value that is not finite.
-    pub fn align(
+    pub(crate) fn align(
         &mut self,
         path: &Path,
         chosen: &[(usize, ResampleMethod)],
@@ -358,6 +372,15 @@ impl ChannelSet {
         for &(i, _) in chosen {
             let channel = &self.channels[i];
             let base = self.base(path, channel.base)?;
+            if base.time_s.is_empty() {
+                return Err(DataError::new(
+                    Location::file(path).channel(&channel.name, None),
+                    DataErrorKind::Malformed {
+                        format: self.format,
+                        reason: format!("the channel has no samples (time base `{}`)", base.name),
+                    },
+                ));
+            }
             if channel.values.len() != base.time_s.len() {
                 return Err(DataError::new(
                     Location::file(path).channel(&channel.name, None),
@@ -695,8 +718,49 @@ mod tests {
             .unwrap_err();
         assert_eq!(
             err.to_string(),
-            "x.mf4 (channel `BellowP`): unit `degC` cannot be read as column `pressure_kpa` (expected one of: kpa, pa, hpa, mpa, bar, mbar, psi)"
+            "x.mf4 (channel `BellowP`): unit `degC` cannot be read as column `pressure_kpa` (expected one of: kPa, Pa, hPa, MPa, bar, mbar, psi)"
         );
+    }
+
+    #[test]
+    fn a_mapped_road_or_output_channel_that_is_missing_is_an_error_not_a_default() {
+        let mut mapped = source();
+        mapped
+            .columns
+            .insert(
+                "road_mm",
+                ChannelRef {
+                    channel: "RoadProfile".to_owned(),
+                    unit: None,
+                },
+            )
+            .unwrap();
+        let err =
+            run_from_channels(set(), Path::new("x.mf4"), Outputs::Required, &mapped).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("channel `RoadProfile` for column `road_mm`"),
+            "{err}"
+        );
+        // Outputs optional, but the map names them: a missing one is not an inputs-only run.
+        let mut inputs_only = set();
+        inputs_only.channels.truncate(3);
+        let err = run_from_channels(
+            inputs_only.clone(),
+            Path::new("x.mf4"),
+            Outputs::IfPresent,
+            &source(),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("for column `height_mm`"), "{err}");
+        let plain = RunSource {
+            columns: ColumnMap::parse_list("wheel_load_kg=load").unwrap(),
+            ..RunSource::default()
+        };
+        let run = run_from_channels(inputs_only, Path::new("x.mf4"), Outputs::IfPresent, &plain)
+            .unwrap()
+            .run;
+        assert!(run.outputs.is_none());
     }
 
     #[test]

@@ -22,6 +22,8 @@ pub mod columns {
     pub const ROAD: &str = "road_mm";
     pub const HEIGHT: &str = "height_mm";
     pub const PRESSURE: &str = "pressure_kpa";
+    /// Every run column, in the order files are written.
+    pub const ALL: [&str; 7] = [TIME, WHEEL_LOAD, VALVE, SUPPLY, ROAD, HEIGHT, PRESSURE];
 }
 
 /// The 3-state solenoid valve between bellow circuit and supply tank (SPEC §1).
@@ -100,6 +102,30 @@ impl Run {
     /// Whether the valve moves during the run (what makes flow parameters identifiable).
     pub fn valve_action(&self) -> bool {
         self.inputs.valve.iter().any(|&v| v != ValveState::Closed)
+    }
+
+    /// The run's columns in the contract's file units and order, as (name, unit, values):
+    /// the valve as its code, the outputs only when measured.
+    pub fn file_columns(&self) -> Vec<(&'static str, &'static str, Vec<f64>)> {
+        let kpa = |pa: &[f64]| pa.iter().map(|p| p / PA_PER_KPA).collect();
+        let mm = |m: &[f64]| m.iter().map(|&x| mm_from_m(x)).collect();
+        let i = &self.inputs;
+        let mut out = vec![
+            (columns::TIME, "s", self.time_s.clone()),
+            (columns::WHEEL_LOAD, "kg", i.wheel_load_kg.clone()),
+            (
+                columns::VALVE,
+                "",
+                i.valve.iter().map(|v| f64::from(v.code())).collect(),
+            ),
+            (columns::SUPPLY, "kPa", kpa(&i.supply_gauge_pa)),
+            (columns::ROAD, "mm", mm(&i.road_height_m)),
+        ];
+        if let Some(o) = &self.outputs {
+            out.push((columns::HEIGHT, "mm", mm(&o.sensor_height_m)));
+            out.push((columns::PRESSURE, "kPa", kpa(&o.bellow_gauge_pa)));
+        }
+        out
     }
 
     /// Refuses to write a run whose signals differ in length (an error naming `path`).
@@ -181,6 +207,8 @@ pub fn parse_run(bytes: &[u8], path: &Path, outputs: Outputs) -> Result<Run, Dat
 pub struct LoadedRun {
     pub run: Run,
     pub notes: Vec<String>,
+    /// The file's format as errors and reports name it (`CSV`, `MDF4`, `Parquet`, ...).
+    pub format: &'static str,
 }
 
 /// Parses run CSV bytes whose columns `source` maps (names and units) and may resample.
@@ -192,33 +220,35 @@ pub fn parse_run_from(
 ) -> Result<LoadedRun, DataError> {
     use columns::*;
     let map = &source.columns;
-    let with_outputs = match outputs {
-        Outputs::Required => true,
-        Outputs::IfPresent => {
-            header_has(bytes, map.channel_for(HEIGHT))
-                || header_has(bytes, map.channel_for(PRESSURE))
-        }
+    let with_outputs = crate::channels::outputs_wanted(
+        outputs,
+        map,
+        header_has(bytes, map.channel_for(HEIGHT)) || header_has(bytes, map.channel_for(PRESSURE)),
+    );
+    // The road may be absent (flat) unless the map names a column for it.
+    let road = match map.get(ROAD) {
+        Some(_) => ColumnSpec::required(map.channel_for(ROAD)),
+        None => ColumnSpec::optional(ROAD, 0.0),
     };
     let mut specs = vec![
         ColumnSpec::required(map.channel_for(TIME)),
         ColumnSpec::required(map.channel_for(WHEEL_LOAD)),
         ColumnSpec::required(map.channel_for(VALVE)),
         ColumnSpec::required(map.channel_for(SUPPLY)),
-        ColumnSpec::optional(map.channel_for(ROAD), 0.0),
+        road,
     ];
     if with_outputs {
         specs.push(ColumnSpec::required(map.channel_for(HEIGHT)));
         specs.push(ColumnSpec::required(map.channel_for(PRESSURE)));
     }
     let mut table = parse_table(bytes, path, &specs)?;
-    let contract = [TIME, WHEEL_LOAD, VALVE, SUPPLY, ROAD, HEIGHT, PRESSURE];
     if source.resample.is_some() {
         // A CSV table is one time base; resampling it goes the way of every log.
         let set = crate::channels::ChannelSet::from_table(&table, "CSV");
         return crate::channels::run_from_channels(set, path, outputs, source);
     }
     let mut notes = Vec::new();
-    for (index, column) in contract.iter().take(table.columns.len()).enumerate() {
+    for (index, column) in ALL.iter().take(table.columns.len()).enumerate() {
         // A CSV header carries no unit: only the map's unit converts.
         let conversion =
             crate::channels::column_conversion(path, column, map.channel_for(column), None, map)?;
@@ -228,7 +258,11 @@ pub fn parse_run_from(
         conversion.conversion.apply(&mut table.columns[index]);
     }
     let run = run_from_table(&table, path, with_outputs)?;
-    Ok(LoadedRun { run, notes })
+    Ok(LoadedRun {
+        run,
+        notes,
+        format: "CSV",
+    })
 }
 
 /// Builds a run from a table whose columns are, in order, time, load, valve, supply, road and

@@ -98,10 +98,17 @@ impl ColumnMap {
                     "`{item}`: expected COLUMN=CHANNEL or COLUMN=CHANNEL[unit], e.g. pressure_kpa=BellowP[bar]"
                 ));
             };
-            let channel = channel.trim();
+            let (column, channel) = (column.trim(), channel.trim());
+            // `Name[unit]` when the brackets hold a unit of the column's quantity; otherwise
+            // the brackets belong to the channel's name (`Signal[0]`, an array element).
             let (name, unit) = match channel.strip_suffix(']').and_then(|c| c.rsplit_once('[')) {
-                Some((name, unit)) => (name.trim(), Some(unit.trim().to_owned())),
-                None => (channel, None),
+                Some((name, unit))
+                    if column_quantity(column)
+                        .is_some_and(|q| q.conversion(unit.trim()).is_ok()) =>
+                {
+                    (name.trim(), Some(unit.trim().to_owned()))
+                }
+                _ => (channel, None),
             };
             map.insert(
                 column.trim(),
@@ -169,6 +176,24 @@ pub struct Resample {
 }
 
 impl Resample {
+    /// The request from its two settings, given together or not at all (a study's `resample`
+    /// and `sample_s`, the CLI's `--resample` and `--sample-s`, Python's keywords).
+    pub fn from_parts(
+        method: Option<ResampleMethod>,
+        sample_s: Option<f64>,
+    ) -> Result<Option<Self>, String> {
+        match (method, sample_s) {
+            (None, None) => Ok(None),
+            (Some(method), Some(sample_s)) => Self::new(method, sample_s).map(Some),
+            (Some(_), None) => {
+                Err("`resample` needs `sample_s`, the sample time to resample onto".to_owned())
+            }
+            (None, Some(_)) => {
+                Err("`sample_s` needs `resample = \"zoh\"` or `\"linear\"`".to_owned())
+            }
+        }
+    }
+
     pub fn new(method: ResampleMethod, sample_s: f64) -> Result<Self, String> {
         if !(sample_s.is_finite() && sample_s > 0.0) {
             return Err(format!(
@@ -212,6 +237,10 @@ mod tests {
         assert_eq!(map.channel_for("valve"), "valve");
         assert_eq!(map.to_string(), "height_mm=AxleH,pressure_kpa=BellowP[bar]");
         assert_eq!(ColumnMap::parse_list(&map.to_string()).unwrap(), map);
+        // Brackets that hold no unit of the column belong to the channel's name.
+        let map = ColumnMap::parse_list("height_mm=Height[0]").unwrap();
+        assert_eq!(map.channel_for("height_mm"), "Height[0]");
+        assert_eq!(map.get("height_mm").unwrap().unit, None);
     }
 
     #[test]
@@ -225,6 +254,9 @@ mod tests {
     #[test]
     fn resample_needs_a_positive_step() {
         assert!(Resample::new(ResampleMethod::Zoh, 0.0).is_err());
+        assert_eq!(Resample::from_parts(None, None), Ok(None));
+        assert!(Resample::from_parts(Some(ResampleMethod::Zoh), None).is_err());
+        assert!(Resample::from_parts(None, Some(0.1)).is_err());
         assert!(Resample::new(ResampleMethod::Linear, f64::NAN).is_err());
         assert_eq!(
             "linear".parse::<ResampleMethod>(),

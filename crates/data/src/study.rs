@@ -87,6 +87,7 @@ impl Study {
         std::iter::once(self.truck.as_path())
             .chain(self.runs.iter().map(|r| r.file.as_path()))
             .chain(self.runs.iter().filter_map(|r| r.truth.as_deref()))
+            .chain(self.runs.iter().filter_map(|r| r.source.dbc.as_deref()))
             .chain(self.force_map.as_deref())
             .chain(self.discharges.iter().map(|d| d.file.as_path()))
             .collect()
@@ -106,15 +107,7 @@ const SCHEMA: &[TableSchema] = &[
     },
     TableSchema {
         name: "run.columns",
-        keys: &[
-            "time_s",
-            "wheel_load_kg",
-            "valve",
-            "supply_kpa",
-            "road_mm",
-            "height_mm",
-            "pressure_kpa",
-        ],
+        keys: &crate::run::columns::ALL,
     },
     TableSchema {
         name: "run.columns.*",
@@ -266,29 +259,16 @@ pub fn parse_study(text: &str, path: &Path) -> Result<Study, DataError> {
                 invalid("run.columns", &column, format!("{:?}", r.name), &reason)
             })?;
         }
-        let resample = match (r.resample, r.sample_s) {
-            (None, None) => None,
-            (Some(method), Some(sample_s)) => Some(
-                Resample::new(method, sample_s)
-                    .map_err(|reason| invalid("run", "sample_s", sample_s.to_string(), &reason))?,
-            ),
-            (Some(method), None) => {
-                return Err(invalid(
-                    "run",
-                    "resample",
-                    format!("{:?}", method.as_str()),
-                    "needs `sample_s`, the sample time to resample onto",
-                ));
-            }
-            (None, Some(sample_s)) => {
-                return Err(invalid(
-                    "run",
-                    "sample_s",
-                    sample_s.to_string(),
-                    "needs `resample = \"zoh\"` or `\"linear\"`",
-                ));
-            }
-        };
+        let resample = Resample::from_parts(r.resample, r.sample_s).map_err(|reason| {
+            let key = if r.sample_s.is_some() && r.resample.is_some() {
+                "sample_s"
+            } else if r.resample.is_some() {
+                "resample"
+            } else {
+                "sample_s"
+            };
+            invalid("run", key, format!("{:?}", r.name), &reason)
+        })?;
         runs.push(StudyRun {
             file: resolve(&r.file),
             name: r.name,

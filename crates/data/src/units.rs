@@ -52,9 +52,11 @@ pub enum Quantity {
 }
 
 impl Quantity {
-    /// The spellings each quantity accepts, with their factor onto the contract unit. Gauge
-    /// pressures only: a log in absolute pressure would need the day's ambient pressure,
-    /// which a run does not carry, so `bar(a)`-style units are refused rather than guessed.
+    /// The spellings each quantity accepts (matched exactly, after spaces and a gauge marker
+    /// are removed), with their factor onto the contract unit. Case matters where it carries
+    /// meaning: `MPa` is not `mPa`. Gauge pressures only: a log in absolute pressure would
+    /// need the day's ambient pressure, which a run does not carry, so `bar(a)`-style units
+    /// are refused rather than guessed.
     fn table(self) -> &'static [(&'static str, f64)] {
         match self {
             Quantity::Time => &[
@@ -67,16 +69,31 @@ impl Quantity {
                 ("min", 60.0),
                 ("h", 3600.0),
             ],
-            Quantity::Mass => &[("kg", 1.0), ("g", 1e-3), ("t", 1e3)],
+            Quantity::Mass => &[
+                ("kg", 1.0),
+                ("Kg", 1.0),
+                ("KG", 1.0),
+                ("g", 1e-3),
+                ("t", 1e3),
+            ],
             Quantity::Code => &[("", 1.0), ("-", 1.0), ("1", 1.0), ("state", 1.0)],
             Quantity::GaugePressure => &[
+                ("kPa", 1.0),
                 ("kpa", 1.0),
+                ("KPa", 1.0),
+                ("KPA", 1.0),
+                ("Pa", 1e-3),
                 ("pa", 1e-3),
-                ("hpa", 0.1),
-                ("mpa", 1e3),
+                ("hPa", 0.1),
+                ("MPa", 1e3),
+                ("MPA", 1e3),
                 ("bar", 100.0),
+                ("Bar", 100.0),
+                ("BAR", 100.0),
                 ("mbar", 0.1),
+                ("mBar", 0.1),
                 ("psi", 6.894_757_293_168),
+                ("PSI", 6.894_757_293_168),
             ],
             Quantity::Length => &[
                 ("mm", 1.0),
@@ -99,49 +116,44 @@ impl Quantity {
         }
     }
 
-    /// The conversion from `unit` (as a log spells it: case, spaces and a `(g)`/`gauge`
-    /// marker are ignored) onto the contract unit, or the accepted spellings when unknown.
+    /// The conversion from `unit` as a log spells it onto the contract unit, or the accepted
+    /// spellings when it is unknown.
     pub fn conversion(self, unit: &str) -> Result<UnitConversion, Vec<String>> {
-        let key = normalise_unit(unit);
+        let compact: String = unit.chars().filter(|c| !c.is_whitespace()).collect();
+        let key = if self == Quantity::GaugePressure {
+            strip_gauge_marker(&compact)
+        } else {
+            compact.as_str()
+        };
         self.table()
             .iter()
             .find(|(name, _)| *name == key)
             .map(|&(_, scale)| UnitConversion { scale, offset: 0.0 })
             .ok_or_else(|| {
-                self.table()
-                    .iter()
-                    .map(|(n, _)| {
-                        if n.is_empty() {
-                            "(none)".to_owned()
-                        } else {
-                            (*n).to_owned()
-                        }
-                    })
-                    .collect()
+                // One spelling per unit (the first), not every case variant.
+                let mut shown: Vec<String> = Vec::new();
+                for &(name, _) in self.table() {
+                    let name = if name.is_empty() { "(none)" } else { name };
+                    if !shown.iter().any(|s| s.eq_ignore_ascii_case(name)) {
+                        shown.push(name.to_owned());
+                    }
+                }
+                shown
             })
     }
 }
 
-/// `" kPa (g) "` → `"kpa"`, `"bar gauge"` → `"bar"`; `"bar(a)"` stays unknown.
-fn normalise_unit(unit: &str) -> String {
-    let lower = unit.trim().to_lowercase();
-    let stripped = lower
-        .trim_end_matches("(g)")
-        .trim_end_matches("gauge")
-        .trim_end_matches('g')
-        .trim();
-    // Only a trailing `g` after a pressure unit is a gauge marker (`barg`, `kpag`), never the
-    // gram: `g` alone, `kg` and `mg` keep theirs.
-    let stripped = if ["barg", "kpag", "mbarg", "pag", "psig", "hpag", "mpag"]
-        .contains(&lower.as_str())
-        || lower.ends_with("(g)")
-        || lower.ends_with("gauge")
-    {
-        stripped
-    } else {
-        lower.as_str()
-    };
-    stripped.replace(' ', "")
+/// `kPa(g)`, `kPag`, `barg`, `bar gauge` (spaces already removed) → the pressure unit.
+/// `bar(a)` and `kPaabs` stay as they are, and are refused.
+fn strip_gauge_marker(unit: &str) -> &str {
+    for marker in ["(g)", "(G)", "gauge", "Gauge", "g"] {
+        if let Some(base) = unit.strip_suffix(marker)
+            && !base.is_empty()
+        {
+            return base;
+        }
+    }
+    unit
 }
 
 #[cfg(test)]
@@ -155,10 +167,18 @@ mod tests {
         assert_eq!(kpa("bar"), 100.0);
         assert_eq!(kpa(" barg "), 100.0);
         assert_eq!(kpa("kPa (g)"), 1.0);
+        assert_eq!(kpa("kPa(g)"), 1.0);
         assert_eq!(kpa("Pa"), 1e-3);
         assert_eq!(kpa("MPa"), 1e3);
+        assert_eq!(kpa("bar g"), 100.0);
+        assert_eq!(kpa("kPa g"), 1.0);
+        assert_eq!(kpa("psig"), 6.894_757_293_168);
         assert!(Quantity::GaugePressure.conversion("bar(a)").is_err());
         assert!(Quantity::GaugePressure.conversion("degC").is_err());
+        // Milli is not mega.
+        assert!(Quantity::GaugePressure.conversion("mPa").is_err());
+        assert!(Quantity::Time.conversion("Ms").is_err());
+        assert!(Quantity::Length.conversion("Mm").is_err());
     }
 
     #[test]

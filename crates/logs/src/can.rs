@@ -47,10 +47,7 @@ impl CanDatabase {
                 },
             ));
         }
-        // Both markers are quoted names in the text; can-dbc keeps the attribute values but
-        // they are enum indices there, so the text is the plainer witness.
-        let text = String::from_utf8_lossy(bytes);
-        let j1939 = text.contains("\"J1939\"") || text.contains("\"J1939PG\"");
+        let j1939 = declares_j1939(&String::from_utf8_lossy(bytes));
         let inner = if j1939 {
             inner.with_matching(IdMatching::J1939Pgn)
         } else {
@@ -74,8 +71,58 @@ impl CanDatabase {
     }
 }
 
+/// Whether a DBC declares J1939: the database attribute `BA_ "ProtocolType" "J1939";`, the
+/// message attribute `VFrameFormat` defaulting to `J1939PG` (`BA_DEF_DEF_`), or assigned the
+/// `J1939PG` entry of its enum for some message (`BA_ "VFrameFormat" BO_ id N;`). The enum's
+/// definition alone (Vector's template ships it in every DBC) declares nothing. can-dbc
+/// parses these lines, but its attribute API differs between its versions and falcon_mdf
+/// hides it; the lines are simple enough to read here.
+fn declares_j1939(text: &str) -> bool {
+    let quoted = |line: &str| -> Vec<String> {
+        line.split('"')
+            .skip(1)
+            .step_by(2)
+            .map(str::to_owned)
+            .collect()
+    };
+    let mut pg_index = None;
+    for line in text.lines().map(str::trim) {
+        if line.starts_with("BA_DEF_ BO_") && line.contains("\"VFrameFormat\"") {
+            pg_index = quoted(line)
+                .iter()
+                .skip(1)
+                .position(|entry| entry == "J1939PG");
+        }
+    }
+    text.lines().map(str::trim).any(|line| {
+        let words = quoted(line);
+        let attribute = words.first().map(String::as_str);
+        if line.starts_with("BA_DEF_DEF_") {
+            return attribute == Some("VFrameFormat")
+                && words.get(1).is_some_and(|v| v == "J1939PG");
+        }
+        if !line.starts_with("BA_ ") {
+            return false;
+        }
+        match attribute {
+            Some("ProtocolType") => words.get(1).is_some_and(|v| v == "J1939"),
+            Some("VFrameFormat") => {
+                let value = line
+                    .trim_end_matches(';')
+                    .split_whitespace()
+                    .last()
+                    .and_then(|v| v.parse::<usize>().ok());
+                value.is_some() && value == pg_index
+            }
+            _ => false,
+        }
+    })
+}
+
 /// One decoded signal over time.
 pub(crate) struct Series<'a> {
+    /// The message it came in, which names its time base.
+    pub message: &'a str,
     pub name: &'a str,
     pub unit: &'a str,
     pub timestamps: &'a [f64],
@@ -88,9 +135,9 @@ pub(crate) fn add_signals<'a>(set: &mut ChannelSet, series: impl Iterator<Item =
     for s in series {
         let base = set.bases.len();
         set.bases.push(TimeBase {
-            name: format!("frames of `{}`", s.name),
+            name: format!("frames of message `{}`", s.message),
             time_s: s.timestamps.to_vec(),
-            unit: None,
+            unit: Some("s".to_owned()),
         });
         set.channels.push(LogChannel {
             name: s.name.to_owned(),
@@ -106,6 +153,8 @@ struct Frame {
     /// Seconds since 1970 as the log writes them: whole seconds and nanoseconds apart, as an
     /// `f64` of epoch seconds resolves only a quarter microsecond.
     stamp: (i64, u32),
+    /// The interface (`can0`): the same identifier on two buses is two signals.
+    interface: String,
     id: u32,
     data: Vec<u8>,
 }
@@ -117,8 +166,7 @@ fn parse_candump_line(line: &str) -> Result<Option<Frame>, String> {
     }
     let expected = "expected `(SECONDS) INTERFACE ID#DATA`, e.g. `(1436509052.249713) can0 18FEF100#0102030405060708`";
     let mut fields = line.split_whitespace();
-    let (Some(stamp), Some(_interface), Some(frame)) =
-        (fields.next(), fields.next(), fields.next())
+    let (Some(stamp), Some(interface), Some(frame)) = (fields.next(), fields.next(), fields.next())
     else {
         return Err(format!("{expected}, found `{line}`"));
     };
@@ -137,7 +185,12 @@ fn parse_candump_line(line: &str) -> Result<Option<Frame>, String> {
     }
     // CAN FD: `ID##<flags nibble><data>`.
     let data_text = match data_text.strip_prefix('#') {
-        Some(fd) => fd.get(1..).unwrap_or_default(),
+        Some(fd) if fd.bytes().next().is_some_and(|b| b.is_ascii_hexdigit()) => &fd[1..],
+        Some(_) => {
+            return Err(format!(
+                "bad CAN FD frame `{frame}`: expected `ID##<flags><data>`"
+            ));
+        }
         None => data_text,
     };
     let id = u32::from_str_radix(id_text, 16)
@@ -146,24 +199,39 @@ fn parse_candump_line(line: &str) -> Result<Option<Frame>, String> {
         .ok_or_else(|| {
             format!("bad identifier `{id_text}`: expected 3 (standard) or 8 (extended) hex digits")
         })?;
-    if data_text.len() % 2 != 0 || data_text.len() > 128 {
+    if data_text.len() % 2 != 0
+        || data_text.len() > 128
+        || !data_text.bytes().all(|b| b.is_ascii_hexdigit())
+    {
         return Err(format!(
             "bad data `{data_text}`: expected up to 64 bytes as pairs of hex digits"
         ));
     }
-    let data = (0..data_text.len() / 2)
-        .map(|k| u8::from_str_radix(&data_text[2 * k..2 * k + 2], 16))
-        .collect::<Result<Vec<u8>, _>>()
-        .map_err(|_| format!("bad data `{data_text}`: expected hex digits"))?;
-    Ok(Some(Frame { stamp, id, data }))
+    // Hex digits only (checked above): every pair is two ASCII bytes.
+    let data = data_text
+        .as_bytes()
+        .chunks(2)
+        .map(|pair| {
+            let digit = |b: u8| (b as char).to_digit(16).unwrap_or(0) as u8;
+            digit(pair[0]) << 4 | digit(pair[1])
+        })
+        .collect();
+    Ok(Some(Frame {
+        stamp,
+        interface: interface.to_owned(),
+        id,
+        data,
+    }))
 }
 
 /// `1436509052.249713` → (1436509052, 249713000): digits only, up to nanoseconds.
 fn parse_stamp(text: &str) -> Option<(i64, u32)> {
     let (whole, fraction) = text.split_once('.').unwrap_or((text, ""));
-    if whole.is_empty() || fraction.len() > 9 || !fraction.bytes().all(|b| b.is_ascii_digit()) {
+    let digits = |s: &str| s.bytes().all(|b| b.is_ascii_digit());
+    if whole.is_empty() || fraction.len() > 9 || !digits(whole) || !digits(fraction) {
         return None;
     }
+    // Digits only and below 2^63: two stamps never overflow when subtracted.
     let seconds: i64 = whole.parse().ok()?;
     let nanos = if fraction.is_empty() {
         0
@@ -178,18 +246,37 @@ fn seconds_between(start: (i64, u32), stamp: (i64, u32)) -> f64 {
     (stamp.0 - start.0) as f64 + (f64::from(stamp.1) - f64::from(start.1)) * 1e-9
 }
 
+/// One signal's readings as a log is decoded.
+struct Readings<'a> {
+    message: &'a str,
+    name: &'a str,
+    unit: &'a str,
+    times_s: Vec<f64>,
+    values: Vec<f64>,
+}
+
 /// Reads a candump log and decodes its frames through `database`. Times count from the
 /// log's first frame (candump writes seconds since 1970).
 pub(crate) fn read_candump(path: &Path, database: &CanDatabase) -> Result<ChannelSet, DataError> {
-    let text = std::fs::read_to_string(path).map_err(|e| DataError::io(path, e))?;
+    let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
     let mut frames = Vec::new();
-    for (index, line) in text.lines().enumerate() {
+    for (index, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let location = || Location::file(path).line(index as u64 + 1);
+        let line = std::str::from_utf8(line).map_err(|_| {
+            DataError::new(
+                location(),
+                DataErrorKind::Malformed {
+                    format: "candump log",
+                    reason: "the line is not text (UTF-8)".to_owned(),
+                },
+            )
+        })?;
         match parse_candump_line(line) {
             Ok(Some(frame)) => frames.push(frame),
             Ok(None) => {}
             Err(reason) => {
                 return Err(DataError::new(
-                    Location::file(path).line(index as u64 + 1),
+                    location(),
                     DataErrorKind::Malformed {
                         format: "candump log",
                         reason,
@@ -202,46 +289,71 @@ pub(crate) fn read_candump(path: &Path, database: &CanDatabase) -> Result<Channe
         return Err(DataError::in_file(path, DataErrorKind::Empty { needed: 2 }));
     };
 
-    // (message, signal) → its readings; a signal name alone may repeat across messages.
-    let mut index: HashMap<(&str, &str), usize> = HashMap::new();
-    let mut series: Vec<(&str, &str, Vec<f64>, Vec<f64>)> = Vec::new();
-    let mut undecoded = 0usize;
+    // One series per bus, message, signal and (for J1939) sender: the same signal from two
+    // buses or two ECUs is two signals, which the column map then has to tell apart.
+    let mut index: HashMap<(&str, &str, &str, Option<u8>), usize> = HashMap::new();
+    let mut series: Vec<Readings> = Vec::new();
+    let (mut unknown, mut short) = (0usize, 0usize);
     for frame in &frames {
         let decoded = database.decode(frame.id, &frame.data);
         if decoded.is_empty() {
-            undecoded += 1;
+            if database.inner.message(frame.id).is_some() {
+                short += 1;
+            } else {
+                unknown += 1;
+            }
         }
+        let sender = database.j1939.then_some((frame.id & 0xFF) as u8);
         for (message, signal, unit, value) in decoded {
-            let k = *index.entry((message, signal)).or_insert_with(|| {
-                series.push((signal, unit, Vec::new(), Vec::new()));
+            let key = (frame.interface.as_str(), message, signal, sender);
+            let k = *index.entry(key).or_insert_with(|| {
+                series.push(Readings {
+                    message,
+                    name: signal,
+                    unit,
+                    times_s: Vec::new(),
+                    values: Vec::new(),
+                });
                 series.len() - 1
             });
-            series[k].2.push(seconds_between(start, frame.stamp));
-            series[k].3.push(value);
+            series[k].times_s.push(seconds_between(start, frame.stamp));
+            series[k].values.push(value);
         }
     }
     let mut set = ChannelSet {
         format: "CAN log",
         ..ChannelSet::default()
     };
+    let mut skipped = Vec::new();
+    if unknown > 0 {
+        skipped.push(format!(
+            "{unknown} frames of messages it does not define skipped"
+        ));
+    }
+    if short > 0 {
+        skipped.push(format!(
+            "{short} frames too short for their signals skipped"
+        ));
+    }
     set.notes.push(format!(
         "{} CAN frames decoded through the DBC{}; time counted from the first frame at {}.{:09} s since 1970",
-        frames.len() - undecoded,
-        if undecoded > 0 {
-            format!(" ({undecoded} frames of messages it does not define skipped)")
-        } else {
+        frames.len() - unknown - short,
+        if skipped.is_empty() {
             String::new()
+        } else {
+            format!(" ({})", skipped.join(", "))
         },
         start.0,
         start.1
     ));
     add_signals(
         &mut set,
-        series.iter().map(|(name, unit, t, v)| Series {
-            name,
-            unit,
-            timestamps: t,
-            values: v,
+        series.iter().map(|r| Series {
+            message: r.message,
+            name: r.name,
+            unit: r.unit,
+            timestamps: &r.times_s,
+            values: &r.values,
         }),
     );
     Ok(set)
@@ -271,6 +383,23 @@ mod tests {
     }
 
     #[test]
+    fn j1939_is_declared_by_assignment_not_by_the_enum_definition() {
+        let template = "BA_DEF_ BO_ \"VFrameFormat\" ENUM \"StandardCAN\",\"ExtendedCAN\",\"reserved\",\"J1939PG\";\n";
+        assert!(!declares_j1939(template));
+        assert!(declares_j1939(&format!(
+            "{template}BA_ \"VFrameFormat\" BO_ 2365587759 3;\n"
+        )));
+        assert!(!declares_j1939(&format!(
+            "{template}BA_ \"VFrameFormat\" BO_ 2365587759 1;\n"
+        )));
+        assert!(declares_j1939(&format!(
+            "{template}BA_DEF_DEF_ \"VFrameFormat\" \"J1939PG\";\n"
+        )));
+        assert!(declares_j1939("BA_ \"ProtocolType\" \"J1939\";\n"));
+        assert!(!declares_j1939("BA_DEF_ \"ProtocolType\" STRING ;\n"));
+    }
+
+    #[test]
     fn malformed_candump_lines_say_what_was_expected() {
         for bad in [
             "0.5 can0 123#00",
@@ -282,6 +411,9 @@ mod tests {
             "(nan) can0 123#00",
             "(1.-5) can0 123#00",
             "(1.0000000001) can0 123#00",
+            "(-1.5) can0 123#00",
+            "(0.5) can0 123#aé0",
+            "(0.5) can0 123##Z00",
         ] {
             assert!(parse_candump_line(bad).is_err(), "{bad}");
         }

@@ -21,7 +21,8 @@ use std::path::Path;
 use airsus_data::channels::Aligned;
 use airsus_data::run::read_run_from;
 use airsus_data::{
-    DataError, DataErrorKind, LoadedRun, Location, Outputs, Run, RunSource, run_from_channels,
+    ChannelSet, DataError, DataErrorKind, LoadedRun, Location, Outputs, Run, RunSource,
+    run_from_channels,
 };
 
 pub use can::CanDatabase;
@@ -101,35 +102,43 @@ pub fn detect_format(path: &Path) -> Result<LogFormat, DataError> {
 /// Reads a run from any supported log, as `source` maps its channels onto the run columns.
 /// The notes say what was assumed or done (units, resampling, relative timestamps).
 pub fn read_run(path: &Path, outputs: Outputs, source: &RunSource) -> Result<LoadedRun, DataError> {
+    let wanted = |name: &str| wanted_channel(source, name);
+    match read_channel_set(path, source, &wanted)? {
+        None => read_run_from(path, outputs, source),
+        Some(set) => run_from_channels(set, path, outputs, source),
+    }
+}
+
+/// A log's channels that `wanted` names, decoded by the reader of its format; `None` for a
+/// CSV file (read by the contract's own reader, which knows lines and columns).
+fn read_channel_set(
+    path: &Path,
+    source: &RunSource,
+    wanted: &dyn Fn(&str) -> bool,
+) -> Result<Option<ChannelSet>, DataError> {
     let format = detect_format(path)?;
     let database = source.dbc.as_deref().map(CanDatabase::read).transpose()?;
-    let wanted = |name: &str| wanted_channel(source, name);
-    let set = match format {
+    Ok(Some(match format {
         LogFormat::Csv => {
-            if source.dbc.is_some() {
+            if let Some(dbc) = &source.dbc {
                 return Err(DataError::in_file(
                     path,
                     DataErrorKind::InvalidValue {
                         key: "dbc".to_owned(),
-                        value: source
-                            .dbc
-                            .as_deref()
-                            .map(|p| p.display().to_string())
-                            .unwrap_or_default(),
+                        value: dbc.display().to_string(),
                         reason: "a DBC decodes CAN frames, and this CSV file holds none (an MDF4 bus log or a candump log does)".to_owned(),
                     },
                 ));
             }
-            return read_run_from(path, outputs, source);
+            return Ok(None);
         }
-        LogFormat::Mdf4 => mdf4::read_channels(path, &wanted, database.as_ref())?,
-        LogFormat::Parquet => parquet::read_channels(path, source, &wanted)?,
+        LogFormat::Mdf4 => mdf4::read_channels(path, wanted, database.as_ref())?,
+        LogFormat::Parquet => parquet::read_channels(path, source, wanted)?,
         LogFormat::CanLog => match database.as_ref() {
             Some(database) => can::read_candump(path, database)?,
             None => return Err(needs_dbc(path)),
         },
-    };
-    run_from_channels(set, path, outputs, source)
+    }))
 }
 
 /// The channels `names` of a log (MDF4, Parquet or CAN log) on one time axis, as `source`
@@ -140,26 +149,16 @@ pub fn read_signals(
     names: &[&str],
     source: &RunSource,
 ) -> Result<(Aligned, Vec<String>), DataError> {
-    let format = detect_format(path)?;
     let wanted = |name: &str| names.contains(&name);
-    let database = source.dbc.as_deref().map(CanDatabase::read).transpose()?;
-    let set = match format {
-        LogFormat::Csv => {
-            return Err(DataError::in_file(
-                path,
-                DataErrorKind::InvalidValue {
-                    key: "format".to_owned(),
-                    value: "CSV".to_owned(),
-                    reason: "read CSV signals with the CSV reader".to_owned(),
-                },
-            ));
-        }
-        LogFormat::Mdf4 => mdf4::read_channels(path, &wanted, database.as_ref())?,
-        LogFormat::Parquet => parquet::read_channels(path, source, &wanted)?,
-        LogFormat::CanLog => match database.as_ref() {
-            Some(database) => can::read_candump(path, database)?,
-            None => return Err(needs_dbc(path)),
-        },
+    let Some(set) = read_channel_set(path, source, &wanted)? else {
+        return Err(DataError::in_file(
+            path,
+            DataErrorKind::InvalidValue {
+                key: "format".to_owned(),
+                value: "CSV".to_owned(),
+                reason: "read CSV signals with the CSV reader".to_owned(),
+            },
+        ));
     };
     let mut notes = set.notes.clone();
     let aligned = set.signals(path, names, source.resample)?;

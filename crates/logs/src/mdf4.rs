@@ -52,6 +52,8 @@ pub(crate) fn read_channels(
         format: FORMAT,
         ..ChannelSet::default()
     };
+    // Channels a column asks for but that cannot be read as numbers: they explain an error.
+    let mut skipped_wanted: Vec<String> = Vec::new();
     let bus_groups: Vec<(usize, usize)> = file
         .can_frame_groups()
         .iter()
@@ -64,8 +66,15 @@ pub(crate) fn read_channels(
                 continue;
             }
             let Some(master) = group.master_channel() else {
-                set.unread
-                    .extend(group.channels.iter().map(|c| c.name.clone()));
+                for channel in &group.channels {
+                    if wanted(&channel.name) {
+                        skipped_wanted.push(format!(
+                            "`{}` is in a channel group without a time channel",
+                            channel.name
+                        ));
+                    }
+                    set.unread.push(channel.name.clone());
+                }
                 continue;
             };
             let (chosen, skipped): (Vec<_>, Vec<_>) = group.channels.iter().partition(|c| {
@@ -74,12 +83,16 @@ pub(crate) fn read_channels(
                     && is_numeric(&c.data_type)
                     && wanted(&c.name)
             });
-            set.unread.extend(
-                skipped
-                    .iter()
-                    .filter(|c| !c.is_master())
-                    .map(|c| c.name.clone()),
-            );
+            for channel in skipped.iter().filter(|c| !c.is_master()) {
+                if wanted(&channel.name) {
+                    skipped_wanted.push(if channel.unreadable().is_some() {
+                        format!("`{}` has a layout this reader cannot decode", channel.name)
+                    } else {
+                        format!("`{}` holds text or bytes, not numbers", channel.name)
+                    });
+                }
+                set.unread.push(channel.name.clone());
+            }
             if chosen.is_empty() {
                 continue;
             }
@@ -136,6 +149,7 @@ pub(crate) fn read_channels(
                 can::add_signals(
                     &mut set,
                     signals.iter().map(|s| can::Series {
+                        message: s.message,
                         name: s.name,
                         unit: s.unit,
                         timestamps: &s.timestamps,
@@ -153,6 +167,13 @@ pub(crate) fn read_channels(
     } else if database.is_some() {
         set.notes
             .push("a DBC was given, but the file logs no CAN frames".to_owned());
+    }
+    if !skipped_wanted.is_empty() {
+        let reasons = skipped_wanted.join("; ");
+        set.hint = Some(match set.hint.take() {
+            Some(hint) => format!("{hint}; {reasons}"),
+            None => reasons,
+        });
     }
     Ok(set)
 }

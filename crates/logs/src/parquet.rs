@@ -13,7 +13,6 @@ use std::sync::Arc;
 
 use airsus_data::error::MissingChannel;
 use airsus_data::run::columns;
-use airsus_data::units::{PA_PER_KPA, mm_from_m};
 use airsus_data::{
     ChannelSet, DataError, DataErrorKind, Location, LogChannel, Run, RunSource, TimeBase,
 };
@@ -62,8 +61,9 @@ fn in_column(path: &Path, column: &str, sample: Option<u64>, reason: String) -> 
 enum TimeKind {
     /// Plain numbers, in the unit the metadata or the map gives (seconds by default).
     Numeric,
-    /// Integer timestamps in units of `seconds_per_tick`, counted from the first row.
-    Timestamp { seconds_per_tick: f64 },
+    /// Integer timestamps in units of `seconds_per_tick`, counted from the first row; `utc`
+    /// says whether they are UTC or local time.
+    Timestamp { seconds_per_tick: f64, utc: bool },
 }
 
 /// Decodes the time column and the columns `wanted` names.
@@ -97,6 +97,14 @@ pub(crate) fn read_channels(
     for (index, column) in schema.columns().iter().enumerate() {
         let name = column.path().string();
         if name == time_name {
+            if column.physical_type() == PhysicalType::INT96 {
+                return Err(in_column(
+                    path,
+                    &name,
+                    None,
+                    "a legacy INT96 timestamp: write the time as an INT64 timestamp (pyarrow does by default; Spark with spark.sql.parquet.outputTimestampType=TIMESTAMP_MICROS)".to_owned(),
+                ));
+            }
             let kind = match column.logical_type_ref() {
                 Some(LogicalType::Timestamp(ts)) => TimeKind::Timestamp {
                     seconds_per_tick: match ts.unit {
@@ -104,13 +112,16 @@ pub(crate) fn read_channels(
                         TimeUnit::MICROS => 1e-6,
                         TimeUnit::NANOS => 1e-9,
                     },
+                    utc: ts.is_adjusted_to_u_t_c,
                 },
                 _ => match column.converted_type() {
                     ConvertedType::TIMESTAMP_MILLIS => TimeKind::Timestamp {
                         seconds_per_tick: 1e-3,
+                        utc: true,
                     },
                     ConvertedType::TIMESTAMP_MICROS => TimeKind::Timestamp {
                         seconds_per_tick: 1e-6,
+                        utc: true,
                     },
                     _ => TimeKind::Numeric,
                 },
@@ -141,18 +152,34 @@ pub(crate) fn read_channels(
 
     let time_s = match time_kind {
         TimeKind::Numeric => read_numeric(&reader, path, time_index, time_name)?,
-        TimeKind::Timestamp { seconds_per_tick } => {
+        TimeKind::Timestamp {
+            seconds_per_tick,
+            utc,
+        } => {
             let ticks = read_timestamps(&reader, path, time_index, time_name)?;
             let first = ticks.first().copied().unwrap_or_default();
             set.notes.push(format!(
-                "time counted from the first timestamp of `{time_name}` ({} s since 1970, UTC)",
-                first as f64 * seconds_per_tick
+                "time counted from the first timestamp of `{time_name}` ({} s since 1970, {})",
+                first as f64 * seconds_per_tick,
+                if utc { "UTC" } else { "local time" }
             ));
             // Differences in integers first: epoch nanoseconds do not fit an f64 exactly.
             ticks
                 .iter()
-                .map(|&t| t.wrapping_sub(first) as f64 * seconds_per_tick)
-                .collect()
+                .enumerate()
+                .map(|(row, &t)| {
+                    t.checked_sub(first)
+                        .map(|ticks| ticks as f64 * seconds_per_tick)
+                        .ok_or_else(|| {
+                            in_column(
+                                path,
+                                time_name,
+                                Some(row as u64 + 1),
+                                format!("timestamp {t} is out of range"),
+                            )
+                        })
+                })
+                .collect::<Result<Vec<f64>, DataError>>()?
         }
     };
     set.bases.push(TimeBase {
@@ -160,7 +187,8 @@ pub(crate) fn read_channels(
         time_s,
         unit: match time_kind {
             TimeKind::Numeric => units.get(time_name).cloned(),
-            TimeKind::Timestamp { .. } => None,
+            // Already seconds: a unit in the map must not scale it again.
+            TimeKind::Timestamp { .. } => Some("s".to_owned()),
         },
     });
     for (index, name) in chosen {
@@ -327,7 +355,7 @@ fn read_numeric(
     }
 }
 
-/// An INT64 timestamp column (INT96 legacy timestamps are refused by name).
+/// An INT64 timestamp column (an INT96 legacy timestamp was refused by name above).
 fn read_timestamps(
     reader: &SerializedFileReader<File>,
     path: &Path,
@@ -346,20 +374,16 @@ pub fn write_run_parquet(path: &Path, run: &Run) -> Result<(), DataError> {
     use columns::*;
     run.check_writable(path)?;
     let n = run.len();
-    let inputs = &run.inputs;
-    let kpa = |pa: &[f64]| pa.iter().map(|p| p / PA_PER_KPA).collect::<Vec<f64>>();
-    let mm = |m: &[f64]| m.iter().map(|&x| mm_from_m(x)).collect::<Vec<f64>>();
-    let mut doubles: Vec<(&str, &str, Vec<f64>)> = vec![
-        (TIME, "s", run.time_s.clone()),
-        (WHEEL_LOAD, "kg", inputs.wheel_load_kg.clone()),
-        (SUPPLY, "kPa", kpa(&inputs.supply_gauge_pa)),
-        (ROAD, "mm", mm(&inputs.road_height_m)),
-    ];
-    if let Some(outputs) = &run.outputs {
-        doubles.push((HEIGHT, "mm", mm(&outputs.sensor_height_m)));
-        doubles.push((PRESSURE, "kPa", kpa(&outputs.bellow_gauge_pa)));
-    }
-    let valve: Vec<i32> = inputs.valve.iter().map(|v| i32::from(v.code())).collect();
+    // Schema order: time, valve, then the other columns, all DOUBLE.
+    let mut doubles = run.file_columns();
+    let valve: Vec<i32> = doubles
+        .iter()
+        .position(|(name, _, _)| *name == VALVE)
+        .map(|k| doubles.remove(k).2)
+        .unwrap_or_default()
+        .into_iter()
+        .map(|code| code as i32)
+        .collect();
 
     let mut message = format!("message run {{ required double {TIME}; required int32 {VALVE};");
     for (name, _, _) in &doubles[1..] {

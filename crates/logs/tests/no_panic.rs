@@ -42,6 +42,13 @@ fn damage(name: &str, source: &RunSource, cuts: usize, flips: usize) {
         let mut data = bytes.clone();
         data[at] ^= 0xA5;
         read(&data, &format!("byte {at} flipped"));
+        // Text stays text: a printable character, or a two-byte one (é), in its place.
+        let mut data = bytes.clone();
+        data[at] = b"#0Z(). -9F\t"[k % 11];
+        read(&data, &format!("byte {at} replaced"));
+        let mut data = bytes.clone();
+        data.splice(at..=at, "é".bytes());
+        read(&data, &format!("byte {at} made non-ASCII"));
     }
 }
 

@@ -115,7 +115,6 @@ pub fn load_parts(label: String, study: &Study) -> Result<StudyInput, StudyError
         .runs
         .iter()
         .map(|r| {
-            let format = airsus_logs::detect_format(&r.file)?;
             let loaded = airsus_logs::read_run(&r.file, Outputs::Required, &r.source)?;
             let mut run = loaded.run;
             run.name = r.name.clone();
@@ -130,7 +129,7 @@ pub fn load_parts(label: String, study: &Study) -> Result<StudyInput, StudyError
                 role: r.role,
                 run,
                 truth,
-                format: format.name(),
+                format: loaded.format,
                 notes: loaded.notes,
             })
         })

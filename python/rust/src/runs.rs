@@ -191,51 +191,26 @@ fn read_raw(source: &RunSource) -> anyhow::Result<RawRun> {
 /// A run read from a log (MDF4, Parquet, CAN, or a CSV under other names): the contract's
 /// columns in its file units, converted back from SI (the log's own values may differ from
 /// these in the last bit), and what reading did.
-fn read_log(path: &Path, source: &airsus_data::RunSource) -> anyhow::Result<(RawRun, Vec<String>)> {
+fn read_log(
+    path: &Path,
+    source: &airsus_data::RunSource,
+) -> anyhow::Result<(RawRun, Vec<String>, &'static str)> {
     let loaded = airsus_logs::read_run(path, Outputs::IfPresent, source)?;
-    let run = loaded.run;
-    let kpa = |pa: &[f64]| {
-        pa.iter()
-            .map(|p| p / airsus_data::units::PA_PER_KPA)
-            .collect()
-    };
-    let mm = |m: &[f64]| {
-        m.iter()
-            .map(|&x| airsus_data::units::mm_from_m(x))
-            .collect()
-    };
-    let mut names: Vec<String> = [
-        columns::TIME,
-        columns::WHEEL_LOAD,
-        columns::VALVE,
-        columns::SUPPLY,
-        columns::ROAD,
-    ]
-    .map(str::to_owned)
-    .to_vec();
-    let mut values: Vec<Vec<f64>> = vec![
-        run.time_s.clone(),
-        run.inputs.wheel_load_kg.clone(),
-        run.inputs
-            .valve
-            .iter()
-            .map(|v| f64::from(v.code()))
-            .collect(),
-        kpa(&run.inputs.supply_gauge_pa),
-        mm(&run.inputs.road_height_m),
-    ];
-    if let Some(o) = &run.outputs {
-        names.extend([columns::HEIGHT.to_owned(), columns::PRESSURE.to_owned()]);
-        values.extend([mm(&o.sensor_height_m), kpa(&o.bellow_gauge_pa)]);
-    }
+    let (names, columns) = loaded
+        .run
+        .file_columns()
+        .into_iter()
+        .map(|(name, _, values)| (name.to_owned(), values))
+        .unzip();
     Ok((
         RawRun {
-            name: run.name,
-            sample_time_s: run.sample_time_s,
+            name: loaded.run.name,
+            sample_time_s: loaded.run.sample_time_s,
             names,
-            columns: values,
+            columns,
         },
         loaded.notes,
+        loaded.format,
     ))
 }
 
@@ -251,15 +226,12 @@ fn log_source(
         map.insert(&column, airsus_data::ChannelRef { channel, unit })
             .map_err(anyhow::Error::msg)?;
     }
-    let resample = match (resample, sample_s) {
-        (None, None) => None,
-        (Some(method), Some(sample_s)) => Some(
-            airsus_data::Resample::new(method.parse().map_err(anyhow::Error::msg)?, sample_s)
-                .map_err(anyhow::Error::msg)?,
-        ),
-        (Some(_), None) => bail!("resample needs sample_s, the sample time to resample onto"),
-        (None, Some(_)) => bail!("sample_s needs resample = \"zoh\" or \"linear\""),
-    };
+    let method = resample
+        .map(|m| m.parse::<airsus_data::ResampleMethod>())
+        .transpose()
+        .map_err(anyhow::Error::msg)?;
+    let resample =
+        airsus_data::Resample::from_parts(method, sample_s).map_err(anyhow::Error::msg)?;
     Ok(airsus_data::RunSource {
         columns: map,
         resample,
@@ -284,21 +256,19 @@ pub fn read_run(
     let (raw, notes, format) = py
         .detach(|| -> anyhow::Result<_> {
             let source = log_source(columns, resample, sample_s, dbc)?;
-            let format = airsus_logs::detect_format(&path)?;
-            if format == airsus_logs::LogFormat::Csv && source.is_plain() {
-                return Ok((
-                    read_raw(&RunSource::File(path.clone()))?,
-                    Vec::new(),
-                    format,
-                ));
+            if airsus_logs::detect_format(&path)? == airsus_logs::LogFormat::Csv
+                && source.is_plain()
+            {
+                // A contract CSV: its values exactly as written, not through SI and back.
+                let raw = read_raw(&RunSource::File(path.clone()))?;
+                return Ok((raw, Vec::new(), "CSV"));
             }
-            let (raw, notes) = read_log(&path, &source)?;
-            Ok((raw, notes, format))
+            read_log(&path, &source)
         })
         .or_py()?;
     let out = PyDict::new(py);
     out.set_item("notes", notes)?;
-    out.set_item("format", format.name())?;
+    out.set_item("format", format)?;
     out.set_item("name", raw.name)?;
     out.set_item("sample_time_s", raw.sample_time_s)?;
     let columns = PyDict::new(py);

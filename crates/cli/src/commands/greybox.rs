@@ -134,9 +134,11 @@ fn parse_bounds(text: &str) -> anyhow::Result<(String, f64, f64)> {
 }
 
 pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
+    let source = args.source.source()?;
     if let Some(out) = &args.out {
         let mut inputs: Vec<&std::path::Path> = vec![&args.truck];
         inputs.extend(args.runs.iter().map(PathBuf::as_path));
+        inputs.extend(source.dbc.as_deref());
         refuse_overwriting_inputs(out, &inputs)?;
     }
     let loaded = read_truck(&args.truck)?;
@@ -155,7 +157,6 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     }
     let mut truck = loaded.parameters;
     let model = build_any_model(&args.model, &truck)?;
-    let source = args.source.source()?;
     let runs = args
         .runs
         .iter()

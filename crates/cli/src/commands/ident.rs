@@ -151,6 +151,19 @@ fn reject_unused(args: &IdentArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `--ts-s`, when given, must agree with the file's own sample time.
+fn check_ts_flag(flag: Option<f64>, ts_s: f64, path: &Path) -> anyhow::Result<()> {
+    if let Some(flag) = flag
+        && (flag - ts_s).abs() > 1e-9 * ts_s
+    {
+        bail!(
+            "--ts-s {flag} contradicts the sample time {ts_s} s of the time in {}",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 /// Reads the requested columns and the sample time.
 fn read_data(args: &IdentArgs) -> anyhow::Result<(IdData, usize)> {
     if args.inputs.iter().any(|n| n.trim().is_empty()) {
@@ -180,14 +193,7 @@ fn read_data(args: &IdentArgs) -> anyhow::Result<(IdData, usize)> {
             |row| Location::file(path).channel(&time_name, Some(row as u64 + 1)),
             2,
         )?;
-        if let Some(flag) = args.ts_s
-            && (flag - ts_s).abs() > 1e-9 * ts_s
-        {
-            bail!(
-                "--ts-s {flag} contradicts the sample time {ts_s} s of {}",
-                path.display()
-            );
-        }
+        check_ts_flag(args.ts_s, ts_s, path)?;
         let mut columns = aligned.values;
         let y = columns.pop().context("output channel missing")?;
         let rows = y.len();
@@ -195,19 +201,17 @@ fn read_data(args: &IdentArgs) -> anyhow::Result<(IdData, usize)> {
             .with_context(|| format!("invalid identification data in {}", path.display()))?;
         return Ok((data, rows));
     }
+    if !source.is_plain() {
+        bail!(
+            "--columns, --resample and --dbc apply to logs (MDF4, Parquet, CAN); a CSV file's columns are named directly by --inputs and --output"
+        );
+    }
     let mut table = read_columns(path, &names)?;
     let ts_s = if table.header.iter().any(|h| h == "time_s") {
         names.push("time_s");
         table = read_columns(path, &names)?;
         let ts = check_time_axis(&table, names.len() - 1, path, 2)?;
-        if let Some(flag) = args.ts_s
-            && (flag - ts).abs() > 1e-9 * ts
-        {
-            bail!(
-                "--ts-s {flag} contradicts the sample time {ts} s of the time_s column in {}",
-                path.display()
-            );
-        }
+        check_ts_flag(args.ts_s, ts, path)?;
         ts
     } else {
         args.ts_s.with_context(|| {

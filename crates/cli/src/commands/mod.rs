@@ -56,19 +56,12 @@ impl RunSourceArgs {
             }
             None => ColumnMap::default(),
         };
-        let resample = match (self.resample, self.sample_s) {
-            (Some(method), Some(sample_s)) => Some(
-                Resample::new(
-                    match method {
-                        ResampleArg::Zoh => ResampleMethod::Zoh,
-                        ResampleArg::Linear => ResampleMethod::Linear,
-                    },
-                    sample_s,
-                )
-                .map_err(|e| anyhow::anyhow!("--sample-s: {e}"))?,
-            ),
-            _ => None,
-        };
+        let method = self.resample.map(|m| match m {
+            ResampleArg::Zoh => ResampleMethod::Zoh,
+            ResampleArg::Linear => ResampleMethod::Linear,
+        });
+        let resample = Resample::from_parts(method, self.sample_s)
+            .map_err(|e| anyhow::anyhow!("--resample/--sample-s: {e}"))?;
         Ok(RunSource {
             columns,
             resample,
