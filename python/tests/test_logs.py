@@ -72,7 +72,7 @@ def test_a_can_log_through_the_dbc_resampled_and_said_so(csv_run):
 def test_two_time_bases_without_resampling_raise_naming_the_file():
     with pytest.raises(airsus.AirsusError, match=r"run_two_bases\.mf4.*different time bases"):
         airsus.read_run(FIXTURES / "run_two_bases.mf4", columns=MDF_COLUMNS)
-    with pytest.raises(airsus.AirsusError, match="needs sample_s"):
+    with pytest.raises(airsus.AirsusError, match="needs `sample_s`"):
         airsus.read_run(FIXTURES / "run_two_bases.mf4", columns=MDF_COLUMNS, resample="zoh")
 
 
