@@ -296,6 +296,7 @@ fn refuse_writing_over_inputs(input: &StudyInput, out_dir: &Path) -> Result<(), 
 pub fn run_builtin(
     out_dir: &Path,
     seed: u64,
+    variant: u32,
     options: StudyOptions,
     progress: &(dyn Fn(Event) + Sync),
 ) -> Result<StudyOutcome, StudyError> {
@@ -303,10 +304,10 @@ pub fn run_builtin(
         "generating the reference experiments with the virtual truck",
     ));
     let data = out_dir.join("data");
-    let generated = airsus_truck::experiments::generate(&data, seed, &mut |_| {})?;
+    let generated = airsus_truck::experiments::generate_variant(&data, seed, variant, &mut |_| {})?;
     let mut input = load_study(&generated.study)?;
     input.label = format!(
-        "built-in virtual truck (seed {seed}), {}",
+        "built-in virtual truck (variant {variant}, seed {seed}), {}",
         generated.study.display()
     );
     let options = StudyOptions {

@@ -262,12 +262,25 @@ pub fn generate(
     seed: u64,
     progress: &mut dyn FnMut(&str),
 ) -> Result<GeneratedStudy, TruckError> {
+    generate_variant(out_dir, seed, 0, progress)
+}
+
+/// [`generate`] with member `variant` of the virtual truck family
+/// ([`VirtualTruck::variant`]; 0 is the reference truck). The nominal `truck.toml` the study
+/// starts from is the same for every variant: the engineer's first guess does not know which
+/// truck it is; `truth/` holds the variant's own values.
+pub fn generate_variant(
+    out_dir: &Path,
+    seed: u64,
+    variant: u32,
+    progress: &mut dyn FnMut(&str),
+) -> Result<GeneratedStudy, TruckError> {
     let truth_dir = out_dir.join("truth");
     std::fs::create_dir_all(&truth_dir).map_err(|source| TruckError::OutputFolder {
         path: truth_dir.clone(),
         source,
     })?;
-    let truck = VirtualTruck::reference();
+    let truck = VirtualTruck::variant(variant);
     let mut files = Vec::new();
 
     let nominal = TruckParameters::reference();
@@ -278,7 +291,13 @@ pub fn generate(
     write_truck(&true_truck, &truck.physical)?;
     files.push(true_truck);
     let effects = truth_dir.join("effects.toml");
-    airsus_data::atomic::write_text_atomically(&effects, &effects_toml(&truck))?;
+    airsus_data::atomic::write_text_atomically(
+        &effects,
+        &format!(
+            "# Virtual truck variant {variant} (0 = the reference truck).\n{}",
+            effects_toml(&truck)
+        ),
+    )?;
     files.push(effects);
 
     let mut runs = Vec::new();

@@ -3,6 +3,9 @@
 //! the effects the thesis models lack (SPEC §6), each switchable.
 
 use airsus_data::TruckParameters;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::Distribution;
 
 /// Which of the extra effects are on. All on is the virtual truck; all off reduces it to a
 /// Model 2 structure with ideal-gas, Poiseuille-valve physics.
@@ -137,6 +140,94 @@ impl VirtualTruck {
         }
     }
 
+    /// Member `k` of the virtual truck family: `0` is [`VirtualTruck::reference`]; every
+    /// other `k` draws (deterministically, from `k` alone) a truck whose laws and values
+    /// differ from it within what one truck model line spans: effective-area size, tilt and
+    /// curvature and its growth with pressure; gas-volume scale and slope; valve law (every
+    /// fourth variant flows through linear resistances instead of ISO 6358 orifices) and
+    /// flow coefficients; wall friction; creep; gas thermal time; masses, lever inertia and
+    /// flex; tire stiffness; damping; supply-line resistance. Identification tested on them
+    /// meets laws and values it was not built from.
+    pub fn variant(k: u32) -> Self {
+        let mut truck = Self::reference();
+        if k == 0 {
+            return truck;
+        }
+        // A stream of its own per variant, apart from the experiments' seeds.
+        let mut rng = ChaCha8Rng::seed_from_u64(0x7A12_1A7E_0000_0000 ^ u64::from(k));
+        let mut uniform = |low: f64, high: f64| -> f64 {
+            let u: f64 = rand_distr::Uniform::new(0.0, 1.0).map_or(0.5, |d| d.sample(&mut rng));
+            low + (high - low) * u
+        };
+        let nominal = Self::reference();
+        let physical = &mut truck.physical;
+        let effects = &mut truck.effect_parameters;
+
+        // Effective area: scale, tilt and curvature about 0.3 m, redrawn until plausible
+        // over the whole stroke (a few draws at most; the fallback keeps the reference).
+        let p = nominal.physical.bellow.effective_area_poly_m2;
+        for _ in 0..20 {
+            let (scale, tilt, bend, pivot) = (
+                uniform(0.94, 1.07),
+                uniform(-0.03, 0.02),
+                uniform(-0.15, 0.15),
+                0.3,
+            );
+            // scale·A(h) + tilt·(h − pivot) + bend·(h − pivot)²
+            let candidate = [
+                p[0] * scale - tilt * pivot + bend * pivot * pivot,
+                p[1] * scale + tilt - 2.0 * bend * pivot,
+                p[2] * scale + bend,
+                p[3] * scale,
+                p[4] * scale,
+            ];
+            let plausible = (0..=30).all(|i| {
+                let h = 0.15 + 0.01 * f64::from(i);
+                let a = candidate.iter().rev().fold(0.0, |acc, c| acc * h + c);
+                (0.040..0.070).contains(&a)
+            });
+            if plausible {
+                physical.bellow.effective_area_poly_m2 = candidate;
+                break;
+            }
+        }
+        effects.area_pressure_coefficient = uniform(0.0, 0.008);
+
+        // Gas volume A(h) = A0 + A1 h: scale and slope.
+        let [a0, _] = nominal.physical.bellow.cross_section_m2;
+        physical.bellow.cross_section_m2 = [a0 * uniform(0.9, 1.12), uniform(-0.06, -0.015)];
+
+        // Valve: the law, then its coefficients.
+        if k % 4 == 3 {
+            truck.effects.orifice_flow = false;
+        }
+        let v = &mut physical.valve;
+        v.fill_resistance_pa_s_per_mol *= uniform(0.75, 1.35);
+        v.exhaust_resistance_pa_s_per_mol *= uniform(0.75, 1.35);
+        effects.fill_conductance_m3_s_pa *= uniform(0.7, 1.4);
+        effects.exhaust_conductance_m3_s_pa *= uniform(0.7, 1.4);
+        effects.critical_pressure_ratio = uniform(0.3, 0.5);
+        effects.line_resistance_pa_s_per_mol *= uniform(0.6, 1.6);
+
+        // Wall friction, creep, heat.
+        effects.friction_force_n = uniform(60.0, 200.0);
+        effects.friction_stiffness_n_per_m *= uniform(0.7, 1.3);
+        effects.creep_stiffness_n_per_m *= uniform(0.6, 1.6);
+        effects.creep_time_constant_s = uniform(12.0, 45.0);
+        effects.thermal_time_constant_s = uniform(10.0, 40.0);
+
+        // Masses, lever, tire, damper.
+        physical.mass.unsprung_kg *= uniform(0.88, 1.12);
+        physical.mass.lever_inertia_kg_m2 *= uniform(0.8, 1.2);
+        physical.geometry.lever_compliance_m_per_n *= uniform(0.8, 1.2);
+        physical.tire.stiffness_n_per_m *= uniform(0.85, 1.15);
+        let damping = uniform(0.8, 1.25);
+        for force in &mut physical.damper.force_n {
+            *force *= damping;
+        }
+        truck
+    }
+
     /// The true effective area at bellow height `h_m` and gauge pressure `p_gauge_pa`, m².
     pub fn effective_area_m2(&self, h_m: f64, p_gauge_pa: f64) -> f64 {
         let poly = &self.physical.bellow.effective_area_poly_m2;
@@ -161,6 +252,36 @@ mod tests {
         let low = truck.effective_area_m2(0.3, 100e3);
         let high = truck.effective_area_m2(0.3, 600e3);
         assert!(high > low && high < 1.05 * low);
+    }
+
+    #[test]
+    fn variants_are_deterministic_plausible_and_different() {
+        assert_eq!(VirtualTruck::variant(0), VirtualTruck::reference());
+        assert_eq!(VirtualTruck::variant(5), VirtualTruck::variant(5));
+        let reference = VirtualTruck::reference();
+        for k in 1..=12 {
+            let truck = VirtualTruck::variant(k);
+            assert_ne!(truck, reference, "variant {k}");
+            for i in 0..=30 {
+                let h = 0.15 + 0.01 * f64::from(i);
+                let a = truck.effective_area_m2(h, 350e3);
+                assert!((0.040..0.072).contains(&a), "variant {k}: A_eff({h}) = {a}");
+                let [a0, a1] = truck.physical.bellow.cross_section_m2;
+                assert!(a0 + a1 * h > 0.15, "variant {k}: cross-section at {h}");
+            }
+            // The file the study starts from must still load: every value in its bounds.
+            let text = airsus_data::truck_to_toml(&truck.physical);
+            airsus_data::truck::parse_truck(&text, std::path::Path::new("variant.toml"))
+                .unwrap_or_else(|e| panic!("variant {k}: {e}"));
+            assert_eq!(truck.effects.orifice_flow, k % 4 != 3, "variant {k}");
+        }
+        // The effective area really changes shape, not only size, across the family.
+        let ratio =
+            |t: &VirtualTruck| t.effective_area_m2(0.4, 350e3) / t.effective_area_m2(0.25, 350e3);
+        let ratios: Vec<f64> = (1..=8).map(|k| ratio(&VirtualTruck::variant(k))).collect();
+        let spread = ratios.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+            - ratios.iter().cloned().fold(f64::INFINITY, f64::min);
+        assert!(spread > 0.03, "shape ratios {ratios:?}");
     }
 
     #[test]

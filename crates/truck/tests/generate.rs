@@ -229,3 +229,45 @@ fn same_seed_same_bytes_and_another_seed_other_bytes() {
         "only {differing} files changed with the seed"
     );
 }
+
+#[test]
+fn a_variant_is_generated_from_its_own_truth_and_the_same_nominal_start() {
+    use airsus_truck::truth::VirtualTruck;
+    let dir = tempfile::tempdir().unwrap();
+    let generated =
+        airsus_truck::experiments::generate_variant(dir.path(), 1, 3, &mut |_: &str| {}).unwrap();
+    let study = read_study(&generated.study).unwrap();
+    // The study starts from the same nominal guess as for the reference truck ...
+    assert_eq!(
+        read_truck(&study.truck).unwrap().parameters,
+        airsus_data::TruckParameters::reference()
+    );
+    // ... while the truth is the variant's: its values, its valve law (variant 3 flows
+    // through linear resistances), and the variant named in the effects file.
+    let variant = VirtualTruck::variant(3);
+    let truth = read_truck(&dir.path().join("truth/truck.toml"))
+        .unwrap()
+        .parameters;
+    assert_eq!(truth.mass.unsprung_kg, variant.physical.mass.unsprung_kg);
+    assert_eq!(
+        truth.bellow.effective_area_poly_m2,
+        variant.physical.bellow.effective_area_poly_m2
+    );
+    let effects = std::fs::read_to_string(dir.path().join("truth/effects.toml")).unwrap();
+    assert!(
+        effects.starts_with("# Virtual truck variant 3"),
+        "{effects}"
+    );
+    assert!(effects.contains("orifice_flow = false"), "{effects}");
+    // Its measurements differ from the reference truck's under the same seed.
+    let reference = tempfile::tempdir().unwrap();
+    generate_into(reference.path(), 1);
+    let a = read_run(&dir.path().join("ds3.csv")).unwrap();
+    let b = read_run(&reference.path().join("ds3.csv")).unwrap();
+    let (pa, pb) = (
+        &a.outputs.as_ref().unwrap().bellow_gauge_pa,
+        &b.outputs.as_ref().unwrap().bellow_gauge_pa,
+    );
+    let mean_gap = pa.iter().zip(pb).map(|(x, y)| (x - y).abs()).sum::<f64>() / pa.len() as f64;
+    assert!(mean_gap > 2e3, "mean pressure difference {mean_gap} Pa");
+}

@@ -202,7 +202,7 @@ fn run_the_study(
     study: Option<&Path>,
     out: &Path,
     fit: StudyOptions,
-    seed: u64,
+    (seed, variant): (u64, u32),
     progress: &Progress,
 ) -> anyhow::Result<Studied> {
     check_models(&fit.models)?;
@@ -226,7 +226,7 @@ fn run_the_study(
             };
             run_study(&input, &options, out, &on_event)
         }
-        None => run_builtin(out, seed, fit, &on_event),
+        None => run_builtin(out, seed, variant, fit, &on_event),
     }
     .with_context(|| format!("running the study into {}", out.display()))?;
     Ok(Studied {
@@ -241,7 +241,7 @@ fn run_the_study(
 /// `study` is None). Returns `{"results": path of results.json, "report": path of report.html,
 /// "notes", "chart_failures"}`.
 #[pyfunction]
-#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None))]
+#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, variant=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn study<'py>(
     py: Python<'py>,
@@ -254,10 +254,11 @@ pub fn study<'py>(
     initial_state: Option<String>,
     normalisation: Option<String>,
     starts: Option<usize>,
+    variant: Option<u32>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    if study_file.is_some() && seed.is_some() {
+    if study_file.is_some() && (seed.is_some() || variant.is_some()) {
         return Err(crate::error::to_py(anyhow::anyhow!(
-            "seed applies to the built-in study only (study=None)"
+            "seed and variant apply to the built-in study only (study=None)"
         )));
     }
     // The command's defaults: every study model, `--max-iterations 60`, `--seed 1`.
@@ -274,9 +275,9 @@ pub fn study<'py>(
         starts: starts.unwrap_or(1),
         ..StudyOptions::new(vec![])
     };
-    let seed = seed.unwrap_or(1);
+    let builtin = (seed.unwrap_or(1), variant.unwrap_or(0));
     let progress = Progress::new(progress);
-    let result = py.detach(|| run_the_study(study_file.as_deref(), &out, fit, seed, &progress));
+    let result = py.detach(|| run_the_study(study_file.as_deref(), &out, fit, builtin, &progress));
     progress.finish()?;
     let studied = result.or_py()?;
     let dict = PyDict::new(py);
@@ -287,20 +288,24 @@ pub fn study<'py>(
     Ok(dict)
 }
 
-/// The virtual truck's reference experiments, as `airsus generate --out OUT --seed SEED`.
+/// The virtual truck's reference experiments, as `airsus generate --out OUT --seed SEED
+/// --variant K`.
 /// Returns `{"study", "study_valve", "files"}` (paths).
 #[pyfunction]
-#[pyo3(signature = (out, seed=1, progress=None))]
+#[pyo3(signature = (out, seed=1, progress=None, variant=0))]
 pub fn generate<'py>(
     py: Python<'py>,
     out: PathBuf,
     seed: u64,
     progress: Option<Py<PyAny>>,
+    variant: u32,
 ) -> PyResult<Bound<'py, PyDict>> {
     let progress = Progress::new(progress);
     let result = py.detach(|| {
-        airsus_truck::experiments::generate(&out, seed, &mut |step: &str| progress.stage(step))
-            .with_context(|| format!("generating the reference study into {}", out.display()))
+        airsus_truck::experiments::generate_variant(&out, seed, variant, &mut |step: &str| {
+            progress.stage(step)
+        })
+        .with_context(|| format!("generating the reference study into {}", out.display()))
     });
     progress.finish()?;
     let generated = result.or_py()?;

@@ -851,6 +851,7 @@ def study(
     initial_state: str = "equilibrium",
     normalisation: str = "pooled-spread",
     starts: int = 1,
+    variant: Optional[int] = None,
     progress: Progress = None,
 ) -> Dict[str, Any]:
     """Run the whole thesis pipeline, as ``airsus study STUDY.toml --out OUT``: submodel fits,
@@ -868,6 +869,8 @@ def study(
             the parameters refitted from those starts), as ``--initial-state``.
         normalisation: ``"pooled-spread"`` or ``"noise-level"``, as ``--normalisation``.
         starts: starts of each grey-box fit's global stage, as ``--starts``.
+        variant: member of the virtual truck family for the built-in study (only with
+            ``path=None``; default 0, the reference truck), as ``--variant``.
         progress: called with a dict per event (the GIL is released while the study runs):
             ``{"event": "stage", "message": ...}`` or ``{"event": "model_done", "protocol",
             "model", "seconds", "done", "total"}``.
@@ -886,23 +889,28 @@ def study(
         initial_state=initial_state,
         normalisation=normalisation,
         starts=int(starts),
+        variant=None if variant is None else int(variant),
     )
     with open(native["results"], encoding="utf-8") as f:
         results: Dict[str, Any] = json.load(f)
     return results
 
 
-def generate(out: PathLike, seed: int = 1, *, progress: Progress = None) -> Dict[str, Any]:
+def generate(
+    out: PathLike, seed: int = 1, *, variant: int = 0, progress: Progress = None
+) -> Dict[str, Any]:
     """Generate the thesis' reference experiments with the built-in virtual truck, as
-    ``airsus generate --out OUT --seed SEED``: data-sets 1-4 (``ds1.csv``..``ds4.csv``), a
+    ``airsus generate --out OUT --seed SEED --variant K``: data-sets 1-4 (``ds1.csv``..``ds4.csv``), a
     bellow force map, four tank discharges, their noise-free truth (``truth/``), a nominal
-    ``truck.toml`` and the study files. The same seed writes the same bytes.
+    ``truck.toml`` and the study files. The same seed writes the same bytes. ``variant``
+    picks a member of the virtual truck family (0, the reference truck; others differ in
+    laws and values, with their truth in ``truth/``).
 
     Returns ``{"study": path of study.toml (estimation on data-set 1), "study_valve": path of
     study_valve.toml (data-sets 1 and 3), "files": every file written}``.
     ``progress`` is called with ``{"event": "stage", "message": ...}`` per step.
     """
-    result = _native.generate(os.fsdecode(out), int(seed), progress=progress)
+    result = _native.generate(os.fsdecode(out), int(seed), progress=progress, variant=int(variant))
     return {
         "study": result["study"],
         "study_valve": result["study_valve"],

@@ -32,6 +32,10 @@ pub struct StudyArgs {
     /// Seed of the built-in study.
     #[arg(long, default_value_t = 1, requires = "builtin")]
     pub seed: u64,
+    /// Member of the virtual truck family the built-in study is generated with (0, the
+    /// default, is the reference truck; see `airsus generate --variant`).
+    #[arg(long, default_value_t = 0, requires = "builtin")]
+    pub variant: u32,
     /// Models to estimate (comma-separated).
     #[arg(long, value_delimiter = ',', default_values_t = study_models().iter().map(|m| (*m).to_owned()).collect::<Vec<_>>())]
     pub models: Vec<String>,
@@ -106,7 +110,7 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
             };
             run_study(&input, &options, &args.out, &progress)
         }
-        None => run_builtin(&args.out, args.seed, options, &progress),
+        None => run_builtin(&args.out, args.seed, args.variant, options, &progress),
     }
     .with_context(|| format!("running the study into {}", args.out.display()))?;
     if let Ok(bar) = bar.lock() {
