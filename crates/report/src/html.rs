@@ -615,6 +615,7 @@ mod tests {
             starts: 4,
             local_optima_losses: vec![0.012, 0.013, 0.2, 1.5],
             estimation_time_s: 0.3,
+            load_ramp_s: None,
             runs: vec![
                 run("data-set 1", "estimation", fit(95.0, 93.0)),
                 run("data-set 2", "validation", fit(91.0, 88.0)),

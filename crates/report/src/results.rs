@@ -253,6 +253,10 @@ pub struct ModelResult {
     #[serde(default)]
     pub local_optima_losses: Vec<f64>,
     pub estimation_time_s: f64,
+    /// The logged load's steps eased over this transition time, s, for estimation and
+    /// validation alike (`--load-ramp estimate`); absent when the load was used as logged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_ramp_s: Option<f64>,
     pub runs: Vec<RunFit>,
     /// The estimated truck file, relative to the output folder.
     pub truck_file: Option<String>,
@@ -274,6 +278,7 @@ impl ModelResult {
             starts: 1,
             local_optima_losses: vec![],
             estimation_time_s: 0.0,
+            load_ramp_s: None,
             runs: vec![],
             truck_file: None,
             notes: vec![],
@@ -345,6 +350,7 @@ mod tests {
                     starts: 3,
                     local_optima_losses: vec![0.01, 0.01, 0.5],
                     estimation_time_s: 0.2,
+                    load_ramp_s: Some(5.5),
                     runs: vec![RunFit {
                         run: "data-set 1".to_owned(),
                         role: "estimation".to_owned(),
@@ -490,6 +496,7 @@ mod tests {
             "protocols[].models[].estimates[].unit",
             "protocols[].models[].estimation_time_s",
             "protocols[].models[].free",
+            "protocols[].models[].load_ramp_s",
             "protocols[].models[].local_optima_losses",
             "protocols[].models[].model",
             "protocols[].models[].notes",

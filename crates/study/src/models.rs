@@ -7,7 +7,7 @@ use airsus_data::{Run, TruckParameters, ValveState, write_truck};
 use airsus_estimate::{
     GreyboxEstimate, GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, PrefixOptions,
     StartChoice, StartMethod, StopReason, estimate, estimate_initial_state, estimate_multistart,
-    resolve_start,
+    fit_load_ramp, ramp_logged_load, resolve_start,
 };
 use airsus_model::SuspensionModel;
 use airsus_report::results::{ModelResult, OutputFit, ParameterEstimate, ResidualSummary, RunFit};
@@ -108,6 +108,69 @@ fn refit_from_estimated_starts(
                 "a refit from estimated starts did not improve the fit; the equilibrium-start estimate is kept".to_owned(),
             );
             first
+        }
+    }
+}
+
+/// Eases the logged load of the estimation runs over a transition time fitted with the
+/// first fit's parameters, then refits the parameters with it; the refit is kept when it
+/// explains the eased runs better than the first fit does. Returns the estimate and the
+/// transition time (None when easing did not help or the runs have no load changes).
+fn refit_with_load_ramp(
+    first: GreyboxEstimate,
+    estimation: &[&Run],
+    problem: &GreyboxProblem<'_>,
+    options: &GreyboxOptions,
+    notes: &mut Vec<String>,
+) -> (GreyboxEstimate, Option<f64>) {
+    let changes = |run: &Run| run.inputs.wheel_load_kg.windows(2).any(|w| w[0] != w[1]);
+    if !estimation.iter().any(|r| changes(r)) {
+        return (first, None);
+    }
+    let at_first = GreyboxProblem {
+        model: &*first.estimated_model,
+        runs: estimation.to_vec(),
+        ..problem.clone()
+    };
+    let fit = match fit_load_ramp(&at_first) {
+        Ok(fit) if fit.duration_s > 0.0 => fit,
+        Ok(_) => {
+            notes.push(
+                "easing the logged load steps did not help: the load is used as logged".to_owned(),
+            );
+            return (first, None);
+        }
+        Err(e) => {
+            notes.push(format!(
+                "the load transition time could not be fitted ({e}): the load is used as logged"
+            ));
+            return (first, None);
+        }
+    };
+    let eased: Vec<Run> = estimation
+        .iter()
+        .map(|r| ramp_logged_load(r, fit.duration_s))
+        .collect();
+    let refit = GreyboxProblem {
+        model: &*first.estimated_model,
+        runs: eased.iter().collect(),
+        ..problem.clone()
+    };
+    let tau = fit.duration_s;
+    match estimate(&refit, options, &mut NoProgress) {
+        Ok(second) if second.loss_estimated < fit.loss_ramped => {
+            notes.push(format!(
+                "logged load steps eased over {tau:.2} s (fitted: loss {:.4e} as logged → {:.4e}), parameters refitted: → {:.4e}",
+                fit.loss_logged, fit.loss_ramped, second.loss_estimated
+            ));
+            (second, Some(tau))
+        }
+        Ok(_) | Err(_) => {
+            notes.push(format!(
+                "logged load steps eased over {tau:.2} s (fitted: loss {:.4e} as logged → {:.4e}); a refit did not improve it",
+                fit.loss_logged, fit.loss_ramped
+            ));
+            (first, Some(tau))
         }
     }
 }
@@ -281,6 +344,8 @@ pub fn fit_and_validate(
         count: options.starts,
         ..MultiStart::default()
     };
+    // The transition time the logged load is eased over, once estimated (None: as logged).
+    let mut load_ramp_s: Option<f64> = None;
     let estimated: Box<dyn SuspensionModel> =
         match estimate_multistart(&problem, &fit_options, &global, &mut NoProgress) {
             Err(e) => {
@@ -300,6 +365,20 @@ pub fn fit_and_validate(
                         &fit_options,
                         &mut result.notes,
                     ),
+                };
+                let est = match options.load_ramp {
+                    crate::LoadRamp::Logged => est,
+                    crate::LoadRamp::Estimate => {
+                        let (est, tau) = refit_with_load_ramp(
+                            est,
+                            &estimation,
+                            &problem,
+                            &fit_options,
+                            &mut result.notes,
+                        );
+                        load_ramp_s = tau;
+                        est
+                    }
                 };
                 result.stop_reason = Some(est.stop.to_string());
                 result.simulations = est.simulations;
@@ -357,6 +436,14 @@ pub fn fit_and_validate(
             }
         };
     result.estimation_time_s = started.elapsed().as_secs_f64();
+    result.load_ramp_s = load_ramp_s;
+    // Every run is validated with the load the models were fitted to.
+    fn fed(run: &Run, load_ramp_s: Option<f64>) -> std::borrow::Cow<'_, Run> {
+        match load_ramp_s {
+            Some(tau) => std::borrow::Cow::Owned(ramp_logged_load(run, tau)),
+            None => std::borrow::Cow::Borrowed(run),
+        }
+    }
 
     let mut truck = start.clone();
     estimated.write_parameters(&mut truck);
@@ -381,14 +468,14 @@ pub fn fit_and_validate(
                 "validation"
             }
             .to_owned(),
-            nominal: simulate_run(&*nominal, &run.run, initial)
+            nominal: simulate_run(&*nominal, &fed(&run.run, load_ramp_s), initial)
                 .ok()
                 .and_then(|r| output_fit(&run.run, &r)),
             estimated: None,
             residuals: vec![],
             error: None,
         };
-        match simulate_run(&*estimated, &run.run, initial) {
+        match simulate_run(&*estimated, &fed(&run.run, load_ramp_s), initial) {
             Ok(response) => {
                 fit.estimated = output_fit(&run.run, &response);
                 let correlations = residual_correlations(&run.run, &response);

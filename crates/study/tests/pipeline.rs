@@ -17,6 +17,7 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         initial: airsus_estimate::StartMethod::Equilibrium,
         normalisation: airsus_estimate::Normalisation::PooledSpread,
         starts: 2,
+        load_ramp: airsus_study::LoadRamp::Estimate,
     };
     let out = dir.path().join("out");
     let events = std::sync::Mutex::new(Vec::new());
@@ -76,6 +77,21 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         airsus_data::read_truck(&truck).unwrap();
     }
     let m2 = p.models.iter().find(|m| m.model == "m2").unwrap();
+    // The logged load steps were eased over a fitted transition (the virtual truck's loads
+    // ramp over 3 to 8 s while the log steps; Model 2, without slow dynamics, takes a longer
+    // one), and the study says what it did.
+    let tau = m2.load_ramp_s.expect("a load transition time for m2");
+    assert!(
+        tau > 2.0 && tau <= airsus_estimate::MAX_LOAD_RAMP_S,
+        "m2: load ramp {tau} s"
+    );
+    assert!(
+        m2.notes
+            .iter()
+            .any(|n| n.contains("logged load steps eased over")),
+        "{:?}",
+        m2.notes
+    );
     // The global stage ran: two starts, their local optima's losses best first.
     assert_eq!(m2.starts, 2);
     assert!(!m2.local_optima_losses.is_empty());
@@ -193,6 +209,7 @@ fn a_protocol_without_estimation_runs_is_a_clear_error() {
         initial: airsus_estimate::StartMethod::Equilibrium,
         normalisation: airsus_estimate::Normalisation::PooledSpread,
         starts: 1,
+        load_ramp: airsus_study::LoadRamp::Logged,
     };
     let err = run_study(&input, &options, &dir.path().join("out"), &|_| {})
         .err()
@@ -264,6 +281,7 @@ fn a_study_can_start_its_runs_from_the_first_seconds_and_says_so() {
         initial: airsus_estimate::StartMethod::Prefix,
         normalisation: airsus_estimate::Normalisation::PooledSpread,
         starts: 1,
+        load_ramp: airsus_study::LoadRamp::Logged,
     };
     let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
     let r = &outcome.results;

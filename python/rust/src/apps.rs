@@ -241,7 +241,7 @@ fn run_the_study(
 /// `study` is None). Returns `{"results": path of results.json, "report": path of report.html,
 /// "notes", "chart_failures"}`.
 #[pyfunction]
-#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, variant=None))]
+#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, variant=None, load_ramp=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn study<'py>(
     py: Python<'py>,
@@ -255,7 +255,17 @@ pub fn study<'py>(
     normalisation: Option<String>,
     starts: Option<usize>,
     variant: Option<u32>,
+    load_ramp: Option<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let load_ramp = match load_ramp.as_deref().unwrap_or("estimate") {
+        "estimate" => airsus_study::LoadRamp::Estimate,
+        "logged" => airsus_study::LoadRamp::Logged,
+        other => {
+            return Err(crate::error::to_py(anyhow::anyhow!(
+                "load_ramp `{other}`: expected `estimate` or `logged`"
+            )));
+        }
+    };
     if study_file.is_some() && (seed.is_some() || variant.is_some()) {
         return Err(crate::error::to_py(anyhow::anyhow!(
             "seed and variant apply to the built-in study only (study=None)"
@@ -273,6 +283,7 @@ pub fn study<'py>(
         )
         .or_py()?,
         starts: starts.unwrap_or(1),
+        load_ramp,
         ..StudyOptions::new(vec![])
     };
     let builtin = (seed.unwrap_or(1), variant.unwrap_or(0));

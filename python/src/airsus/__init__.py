@@ -852,6 +852,7 @@ def study(
     normalisation: str = "pooled-spread",
     starts: int = 1,
     variant: Optional[int] = None,
+    load_ramp: str = "estimate",
     progress: Progress = None,
 ) -> Dict[str, Any]:
     """Run the whole thesis pipeline, as ``airsus study STUDY.toml --out OUT``: submodel fits,
@@ -871,6 +872,9 @@ def study(
         starts: starts of each grey-box fit's global stage, as ``--starts``.
         variant: member of the virtual truck family for the built-in study (only with
             ``path=None``; default 0, the reference truck), as ``--variant``.
+        load_ramp: ``"estimate"`` (each logged load change eased over a transition time
+            fitted on the estimation runs, the parameters refitted) or ``"logged"``, as
+            ``--load-ramp``.
         progress: called with a dict per event (the GIL is released while the study runs):
             ``{"event": "stage", "message": ...}`` or ``{"event": "model_done", "protocol",
             "model", "seconds", "done", "total"}``.
@@ -890,6 +894,7 @@ def study(
         normalisation=normalisation,
         starts=int(starts),
         variant=None if variant is None else int(variant),
+        load_ramp=load_ramp,
     )
     with open(native["results"], encoding="utf-8") as f:
         results: Dict[str, Any] = json.load(f)

@@ -90,6 +90,11 @@ pub struct SimulateArgs {
     /// Length of the prefix the start is fitted to, s.
     #[arg(long, default_value_t = DEFAULT_PREFIX_S)]
     pub prefix_s: f64,
+    /// Ease every change of the logged load over this many seconds (smoothstep), as the
+    /// wheel takes a load over seconds while a log records a step; `study --load-ramp
+    /// estimate` fits it. The output file keeps the eased load.
+    #[arg(long, value_name = "SECONDS")]
+    pub load_ramp_s: Option<f64>,
 }
 
 /// `--initial-state`.
@@ -117,7 +122,16 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     inputs_read.extend(source.dbc.as_deref());
     refuse_overwriting_inputs(&args.out, &inputs_read)?;
     let loaded = read_truck_listing_defaults(&args.truck)?;
-    let run = read_run_file(&args.run, Outputs::IfPresent, &source)?;
+    let mut run = read_run_file(&args.run, Outputs::IfPresent, &source)?;
+    if let Some(tau) = args.load_ramp_s {
+        if !(tau.is_finite() && (0.0..=airsus_estimate::MAX_LOAD_RAMP_S).contains(&tau)) {
+            bail!(
+                "--load-ramp-s {tau}: expected a transition time from 0 to {} s",
+                airsus_estimate::MAX_LOAD_RAMP_S
+            );
+        }
+        run = airsus_estimate::ramp_logged_load(&run, tau);
+    }
     let model = build_any_model(&args.model, &loaded.parameters)?;
 
     let choice = match (args.initial_pressure_kpa, args.initial_height_mm) {

@@ -56,6 +56,28 @@ pub struct StudyArgs {
     /// Iteration limit of each grey-box fit.
     #[arg(long, default_value_t = 60)]
     pub max_iterations: usize,
+    /// How the logged load reaches the models: `logged` (steps stay steps) or `estimate`
+    /// (each logged change eased over a transition time fitted on the estimation runs, the
+    /// parameters refitted with it, validation runs eased alike; for logs that record a
+    /// load change as a step while the wheel takes it over seconds).
+    #[arg(long, value_enum, default_value_t = LoadRampArg::Estimate)]
+    pub load_ramp: LoadRampArg,
+}
+
+/// `--load-ramp`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LoadRampArg {
+    Logged,
+    Estimate,
+}
+
+impl From<LoadRampArg> for airsus_study::LoadRamp {
+    fn from(arg: LoadRampArg) -> Self {
+        match arg {
+            LoadRampArg::Logged => Self::Logged,
+            LoadRampArg::Estimate => Self::Estimate,
+        }
+    }
 }
 
 pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
@@ -96,6 +118,7 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
         initial: args.initial_state.into(),
         normalisation: args.normalisation.into(),
         starts: args.starts,
+        load_ramp: args.load_ramp.into(),
         ..StudyOptions::new(vec![])
     };
     let outcome = match &args.study {
