@@ -905,11 +905,11 @@ def generate(
     out: PathLike, seed: int = 1, *, variant: int = 0, progress: Progress = None
 ) -> Dict[str, Any]:
     """Generate the thesis' reference experiments with the built-in virtual truck, as
-    ``airsus generate --out OUT --seed SEED --variant K``: data-sets 1-4 (``ds1.csv``..``ds4.csv``), a
-    bellow force map, four tank discharges, their noise-free truth (``truth/``), a nominal
-    ``truck.toml`` and the study files. The same seed writes the same bytes. ``variant``
-    picks a member of the virtual truck family (0, the reference truck; others differ in
-    laws and values, with their truth in ``truth/``).
+    ``airsus generate --out OUT --seed SEED --variant K``: data-sets 1-4 (``ds1.csv`` to
+    ``ds4.csv``), a bellow force map, four tank discharges, their noise-free truth
+    (``truth/``), a nominal ``truck.toml`` and the study files. The same seed writes the same
+    bytes. ``variant`` picks a member of the virtual truck family (0, the reference truck;
+    the others differ in laws and values, with their truth in ``truth/``).
 
     Returns ``{"study": path of study.toml (estimation on data-set 1), "study_valve": path of
     study_valve.toml (data-sets 1 and 3), "files": every file written}``.
