@@ -447,32 +447,28 @@ impl ChannelSet {
             .unwrap_or(0);
         let limit = most_samples.saturating_mul(MAX_UPSAMPLING).max(1000);
         let count = grid_count(span, resample.sample_s);
-        if count > limit {
-            return Err(DataError::in_file(
+        let bad_step = |reason: String| {
+            DataError::in_file(
                 path,
                 DataErrorKind::InvalidValue {
                     key: "sample_s".to_owned(),
                     value: resample.sample_s.to_string(),
-                    reason: format!(
-                        "resampling would make {count} samples from channels of at most {most_samples} (they span {} s to {} s): check the time channels for a damaged or absolute time stamp, or choose a longer sample_s",
-                        span.0, span.1
-                    ),
+                    reason,
                 },
-            ));
+            )
+        };
+        if count > limit {
+            return Err(bad_step(format!(
+                "resampling would make {count} samples from channels of at most {most_samples} (they span {} s to {} s): check the time channels for a damaged or absolute time stamp, or choose a longer sample_s",
+                span.0, span.1
+            )));
         }
         let grid = uniform_grid(span, resample.sample_s);
         if grid.len() < 2 {
-            return Err(DataError::in_file(
-                path,
-                DataErrorKind::InvalidValue {
-                    key: "sample_s".to_owned(),
-                    value: resample.sample_s.to_string(),
-                    reason: format!(
-                        "the channels overlap from {} s to {} s only: fewer than two samples to resample onto",
-                        span.0, span.1
-                    ),
-                },
-            ));
+            return Err(bad_step(format!(
+                "the channels overlap from {} s to {} s only: fewer than two samples to resample onto",
+                span.0, span.1
+            )));
         }
         let values = chosen
             .iter()
@@ -655,6 +651,20 @@ mod tests {
         }
     }
 
+    /// `run_from_channels` on a file called `x.mf4`.
+    fn read(set: ChannelSet, outputs: Outputs, source: &RunSource) -> Result<LoadedRun, DataError> {
+        run_from_channels(set, Path::new("x.mf4"), outputs, source)
+    }
+
+    /// Maps run column `column` onto channel `channel`.
+    fn map_channel(source: &mut RunSource, column: &str, channel: &str) {
+        let channel = ChannelRef {
+            channel: channel.to_owned(),
+            unit: None,
+        };
+        source.columns.insert(column, channel).unwrap();
+    }
+
     fn source() -> RunSource {
         RunSource {
             columns: ColumnMap::parse_list(
@@ -667,8 +677,7 @@ mod tests {
 
     #[test]
     fn mapped_channels_convert_to_si() {
-        let loaded =
-            run_from_channels(set(), Path::new("x.mf4"), Outputs::Required, &source()).unwrap();
+        let loaded = read(set(), Outputs::Required, &source()).unwrap();
         let run = loaded.run;
         assert_eq!(run.inputs.wheel_load_kg, vec![3000.0; 5]);
         assert_eq!(run.outputs.as_ref().unwrap().bellow_gauge_pa[0], 350_000.0);
@@ -680,18 +689,8 @@ mod tests {
     #[test]
     fn missing_channel_names_column_and_nearest_channel() {
         let mut source = source();
-        source
-            .columns
-            .insert(
-                "pressure_kpa",
-                ChannelRef {
-                    channel: "BelowP".to_owned(),
-                    unit: None,
-                },
-            )
-            .unwrap();
-        let err =
-            run_from_channels(set(), Path::new("x.mf4"), Outputs::Required, &source).unwrap_err();
+        map_channel(&mut source, "pressure_kpa", "BelowP");
+        let err = read(set(), Outputs::Required, &source).unwrap_err();
         let text = err.to_string();
         assert!(
             text.starts_with("x.mf4: channel `BelowP` for column `pressure_kpa` is not in the file (did you mean `BellowP`?)"),
@@ -706,16 +705,14 @@ mod tests {
             "wheel_load_kg=load,height_mm=AxleHeight,pressure_kpa=BellowP[kPa]",
         )
         .unwrap();
-        let err =
-            run_from_channels(set(), Path::new("x.mf4"), Outputs::Required, &source).unwrap_err();
+        let err = read(set(), Outputs::Required, &source).unwrap_err();
         assert!(
             matches!(err.kind, DataErrorKind::UnitConflict { .. }),
             "{err}"
         );
         let mut bad = set();
         bad.channels[4].unit = Some("degC".to_owned());
-        let err = run_from_channels(bad, Path::new("x.mf4"), Outputs::Required, &self::source())
-            .unwrap_err();
+        let err = read(bad, Outputs::Required, &self::source()).unwrap_err();
         assert_eq!(
             err.to_string(),
             "x.mf4 (channel `BellowP`): unit `degC` cannot be read as column `pressure_kpa` (expected one of: kPa, Pa, hPa, MPa, bar, mbar, psi)"
@@ -725,18 +722,8 @@ mod tests {
     #[test]
     fn a_mapped_road_or_output_channel_that_is_missing_is_an_error_not_a_default() {
         let mut mapped = source();
-        mapped
-            .columns
-            .insert(
-                "road_mm",
-                ChannelRef {
-                    channel: "RoadProfile".to_owned(),
-                    unit: None,
-                },
-            )
-            .unwrap();
-        let err =
-            run_from_channels(set(), Path::new("x.mf4"), Outputs::Required, &mapped).unwrap_err();
+        map_channel(&mut mapped, "road_mm", "RoadProfile");
+        let err = read(set(), Outputs::Required, &mapped).unwrap_err();
         assert!(
             err.to_string()
                 .contains("channel `RoadProfile` for column `road_mm`"),
@@ -745,21 +732,13 @@ mod tests {
         // Outputs optional, but the map names them: a missing one is not an inputs-only run.
         let mut inputs_only = set();
         inputs_only.channels.truncate(3);
-        let err = run_from_channels(
-            inputs_only.clone(),
-            Path::new("x.mf4"),
-            Outputs::IfPresent,
-            &source(),
-        )
-        .unwrap_err();
+        let err = read(inputs_only.clone(), Outputs::IfPresent, &source()).unwrap_err();
         assert!(err.to_string().contains("for column `height_mm`"), "{err}");
         let plain = RunSource {
             columns: ColumnMap::parse_list("wheel_load_kg=load").unwrap(),
             ..RunSource::default()
         };
-        let run = run_from_channels(inputs_only, Path::new("x.mf4"), Outputs::IfPresent, &plain)
-            .unwrap()
-            .run;
+        let run = read(inputs_only, Outputs::IfPresent, &plain).unwrap().run;
         assert!(run.outputs.is_none());
     }
 
@@ -767,8 +746,7 @@ mod tests {
     fn bad_values_are_located_by_channel_and_sample() {
         let mut bad = set();
         bad.channels[1].values[3] = 7.0;
-        let err =
-            run_from_channels(bad, Path::new("x.mf4"), Outputs::Required, &source()).unwrap_err();
+        let err = read(bad, Outputs::Required, &source()).unwrap_err();
         assert_eq!(
             err.to_string(),
             "x.mf4 (channel `valve`, sample 4): expected valve state 0 (closed), 1 (fill) or 2 (exhaust), found `7`"
@@ -789,13 +767,7 @@ mod tests {
             1,
             (0..9).map(|k| k as f64).collect(),
         );
-        let err = run_from_channels(
-            two.clone(),
-            Path::new("x.mf4"),
-            Outputs::Required,
-            &source(),
-        )
-        .unwrap_err();
+        let err = read(two.clone(), Outputs::Required, &source()).unwrap_err();
         assert!(matches!(err.kind, DataErrorKind::TimeBases { .. }), "{err}");
         assert!(
             err.to_string().contains("never resamples silently"),
@@ -804,8 +776,7 @@ mod tests {
 
         let mut source = source();
         source.resample = Some(Resample::new(ResampleMethod::Linear, 0.1).unwrap());
-        let loaded =
-            run_from_channels(two, Path::new("x.mf4"), Outputs::Required, &source).unwrap();
+        let loaded = read(two, Outputs::Required, &source).unwrap();
         // Common span 0.02..0.4 s: samples at 0.02, 0.12, 0.22, 0.32.
         assert_eq!(loaded.run.len(), 4);
         let p = &loaded.run.outputs.as_ref().unwrap().bellow_gauge_pa;
@@ -824,13 +795,7 @@ mod tests {
     fn an_irregular_base_is_refused_by_sample_and_resampled_on_request() {
         let mut jittered = set();
         jittered.bases[0].time_s = vec![0.0, 0.1, 0.25, 0.3, 0.4];
-        let err = run_from_channels(
-            jittered.clone(),
-            Path::new("x.mf4"),
-            Outputs::Required,
-            &source(),
-        )
-        .unwrap_err();
+        let err = read(jittered.clone(), Outputs::Required, &source()).unwrap_err();
         assert!(
             err.to_string().starts_with(
                 "x.mf4 (channel `group 1`, sample 3): non-uniform sampling: this interval is 0.15 s"
@@ -839,9 +804,7 @@ mod tests {
         );
         let mut resampled = source();
         resampled.resample = Some(Resample::new(ResampleMethod::Zoh, 0.1).unwrap());
-        let run = run_from_channels(jittered, Path::new("x.mf4"), Outputs::Required, &resampled)
-            .unwrap()
-            .run;
+        let run = read(jittered, Outputs::Required, &resampled).unwrap().run;
         assert_eq!(run.time_s.len(), 5);
         // Held at 0.2 s: the sample of 0.1 s (the valve was 1 there).
         assert_eq!(run.inputs.valve[2], crate::ValveState::Fill);
