@@ -109,3 +109,22 @@ def test_the_prefix_start_fits_the_history_states_as_the_command_does(
     assert sim.attrs["nrmse"]["pressure_kpa"] > 90.0 > equilibrium.attrs["nrmse"]["pressure_kpa"]
     with pytest.raises(airsus.AirsusError, match="unknown start `prefx`"):
         airsus.simulate("truck", truck, run, initial_state="prefx")
+
+
+def test_an_eased_load_simulates_as_the_command_and_differs_from_the_steps(
+    reference: Path, short_run: Path, tmp_path: Path, cli
+) -> None:
+    truck = reference / "truck.toml"
+    out = tmp_path / "eased.csv"
+    cli(
+        "simulate", "--model", "m2", "--truck", truck, "--run", short_run,
+        "--out", out, "--load-ramp-s", "5",
+    )  # fmt: skip
+    expected = read_csv_exact(out)
+    eased = airsus.simulate("m2", truck, short_run, load_ramp_s=5.0)
+    assert eased["height_mm"].tolist() == expected["height_mm"]
+    assert eased["pressure_kpa"].tolist() == expected["pressure_kpa"]
+    stepped = airsus.simulate("m2", truck, short_run)
+    assert np.max(np.abs(eased["height_mm"] - stepped["height_mm"])) > 0.5
+    with pytest.raises(airsus.AirsusError, match="expected a transition time"):
+        airsus.simulate("m2", truck, short_run, load_ramp_s=-1.0)

@@ -42,5 +42,7 @@ pub use greybox::{
 pub use initial_state::{
     EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,
 };
-pub use load_ramp::{LoadRampFit, MAX_LOAD_RAMP_S, fit_load_ramp, ramp_logged_load};
+pub use load_ramp::{
+    LoadRampFit, MAX_LOAD_RAMP_S, check_load_ramp_s, fit_load_ramp, ramp_logged_load,
+};
 pub use progress::{IterationInfo, NoProgress, Observer, TerminalProgress};

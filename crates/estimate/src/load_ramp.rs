@@ -22,6 +22,17 @@ use crate::progress::NoProgress;
 /// The longest transition [`fit_load_ramp`] considers, s.
 pub const MAX_LOAD_RAMP_S: f64 = 15.0;
 
+/// Checks a transition time given by a user (`--load-ramp-s`, Python's `load_ramp_s`).
+pub fn check_load_ramp_s(duration_s: f64) -> Result<f64, String> {
+    if duration_s.is_finite() && (0.0..=MAX_LOAD_RAMP_S).contains(&duration_s) {
+        Ok(duration_s)
+    } else {
+        Err(format!(
+            "load ramp {duration_s} s: expected a transition time from 0 to {MAX_LOAD_RAMP_S} s"
+        ))
+    }
+}
+
 /// Smoothstep: 0 before the start, 1 after the end, zero slope at both.
 fn smoothstep(progress: f64) -> f64 {
     let p = progress.clamp(0.0, 1.0);
@@ -74,10 +85,12 @@ pub struct LoadRampFit {
     pub evaluations: usize,
 }
 
-/// Fits `τ` in `[0, MAX_LOAD_RAMP_S]` to `problem`'s runs with its model's parameters fixed
-/// (its free list is ignored): golden-section search on the grey-box loss, which is
-/// unimodal in `τ` around the true transition (too short keeps the jump, too long lags).
-/// Runs without load changes do not depend on `τ`.
+/// Fits `τ` in `[sample step, MAX_LOAD_RAMP_S]` to `problem`'s runs with its model's
+/// parameters fixed (its free list is ignored): golden-section search on the grey-box loss,
+/// which is unimodal in `τ` around the true transition (too short keeps the jump, too long
+/// lags). `τ = 0` (the load as logged) is kept unless easing lowers the loss by
+/// [`MIN_RELATIVE_GAIN`]. Runs without load changes do not depend on `τ`. Only a failure to
+/// simulate the logged load itself is an error.
 pub fn fit_load_ramp(problem: &GreyboxProblem<'_>) -> Result<LoadRampFit, EstimateError> {
     let options = GreyboxOptions::default();
     let mut evaluations = 0;
@@ -96,28 +109,38 @@ pub fn fit_load_ramp(problem: &GreyboxProblem<'_>) -> Result<LoadRampFit, Estima
         Ok(estimate(&fixed, &options, &mut NoProgress)?.loss_estimated)
     };
     let loss_logged = loss(0.0)?;
+    // A trial that does not simulate is a bad trial, not the end of the search.
+    let mut trial = |tau: f64| loss(tau).unwrap_or(f64::INFINITY);
+    // Below one sample step a ramp is only a one-sample delay of each change (inputs hold
+    // between samples): the search starts at the step.
+    let step_s = problem
+        .runs
+        .iter()
+        .map(|r| r.sample_time_s)
+        .fold(0.0, f64::max);
     let golden = (5f64.sqrt() - 1.0) / 2.0;
-    let (mut a, mut b) = (0.0, MAX_LOAD_RAMP_S);
+    let (mut a, mut b) = (step_s.min(MAX_LOAD_RAMP_S), MAX_LOAD_RAMP_S);
     let mut c = b - golden * (b - a);
     let mut d = a + golden * (b - a);
-    let (mut fc, mut fd) = (loss(c)?, loss(d)?);
+    let (mut fc, mut fd) = (trial(c), trial(d));
     // 16 steps shrink the bracket to 15 s × 0.618¹⁶ ≈ 7 ms.
     for _ in 0..16 {
         if fc < fd {
             b = d;
             (d, fd) = (c, fc);
             c = b - golden * (b - a);
-            fc = loss(c)?;
+            fc = trial(c);
         } else {
             a = c;
             (c, fc) = (d, fd);
             d = a + golden * (b - a);
-            fd = loss(d)?;
+            fd = trial(d);
         }
     }
     let (duration_s, loss_ramped) = if fc < fd { (c, fc) } else { (d, fd) };
-    // The logged load itself stays the answer unless easing it helps.
-    let (duration_s, loss_ramped) = if loss_ramped < loss_logged {
+    // The logged load itself stays the answer unless easing it helps by a clear margin
+    // (1 %): a continuously measured load must not be smoothed for a rounding's gain.
+    let (duration_s, loss_ramped) = if loss_ramped < (1.0 - MIN_RELATIVE_GAIN) * loss_logged {
         (duration_s, loss_ramped)
     } else {
         (0.0, loss_logged)
@@ -129,6 +152,9 @@ pub fn fit_load_ramp(problem: &GreyboxProblem<'_>) -> Result<LoadRampFit, Estima
         evaluations,
     })
 }
+
+/// The least relative loss reduction for which [`fit_load_ramp`] eases the load at all.
+pub const MIN_RELATIVE_GAIN: f64 = 0.01;
 
 #[cfg(test)]
 mod tests {

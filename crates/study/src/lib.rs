@@ -95,8 +95,10 @@ pub enum LoadRamp {
     /// default: on the built-in study (valve protocol, seed 1) it lifts the `truck`
     /// structure's held-out fits on every variant 0–3 (data-set 4 pressure 7.3 → 54.5 %,
     /// 12.7 → 67.9, −4.7 → 43.7, −41.3 → −9.4; data-set 2 by 2–4 points), at twice the
-    /// study's time. A log whose load is measured continuously fits a transition near zero
-    /// and is used as logged.
+    /// study's time. Caveat: the virtual truck's loads arrive as smoothsteps from the logged
+    /// change, the estimator's own assumption; a load that arrives linearly and 0.5 s late
+    /// is eased as well (loss cut by more than 70 %), and a continuously measured load is
+    /// left as logged (`crates/study/tests/load_ramp.rs`).
     #[default]
     Estimate,
 }

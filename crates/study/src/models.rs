@@ -356,16 +356,8 @@ pub fn fit_and_validate(
             }
             Ok((est, summary)) => {
                 // Everything reported below describes the fit whose model is validated.
-                let est = match initial {
-                    StartMethod::Equilibrium => est,
-                    StartMethod::Prefix => refit_from_estimated_starts(
-                        est,
-                        &estimation,
-                        &problem,
-                        &fit_options,
-                        &mut result.notes,
-                    ),
-                };
+                // The load transition first (from equilibrium starts, as the first fit), so
+                // that estimated starts are then fitted to the load the model is fed.
                 let est = match options.load_ramp {
                     crate::LoadRamp::Logged => est,
                     crate::LoadRamp::Estimate => {
@@ -379,6 +371,21 @@ pub fn fit_and_validate(
                         load_ramp_s = tau;
                         est
                     }
+                };
+                let eased: Vec<Run> = estimation
+                    .iter()
+                    .map(|r| ramp_logged_load(r, load_ramp_s.unwrap_or(0.0)))
+                    .collect();
+                let eased: Vec<&Run> = eased.iter().collect();
+                let est = match initial {
+                    StartMethod::Equilibrium => est,
+                    StartMethod::Prefix => refit_from_estimated_starts(
+                        est,
+                        &eased,
+                        &problem,
+                        &fit_options,
+                        &mut result.notes,
+                    ),
                 };
                 result.stop_reason = Some(est.stop.to_string());
                 result.simulations = est.simulations;
@@ -468,7 +475,8 @@ pub fn fit_and_validate(
                 "validation"
             }
             .to_owned(),
-            nominal: simulate_run(&*nominal, &fed(&run.run, load_ramp_s), initial)
+            // The start values as the user had them: the load as logged.
+            nominal: simulate_run(&*nominal, &run.run, initial)
                 .ok()
                 .and_then(|r| output_fit(&run.run, &r)),
             estimated: None,
@@ -478,7 +486,7 @@ pub fn fit_and_validate(
         match simulate_run(&*estimated, &fed(&run.run, load_ramp_s), initial) {
             Ok(response) => {
                 fit.estimated = output_fit(&run.run, &response);
-                let correlations = residual_correlations(&run.run, &response);
+                let correlations = residual_correlations(&fed(&run.run, load_ramp_s), &response);
                 fit.residuals = residual_summaries(&correlations);
                 responses.push((run.name.clone(), response, correlations));
             }

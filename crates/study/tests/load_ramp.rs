@@ -47,3 +47,66 @@ fn the_fitted_transition_lies_among_the_true_ramps_and_removes_most_of_the_loss(
         .count();
     assert!(differ <= changes * (fit.duration_s / ds1.sample_time_s).ceil() as usize);
 }
+
+/// The estimator assumes a smoothstep starting at the logged change, as the virtual truck's
+/// loads happen to ramp. A load that arrives otherwise - linearly, half a second after the
+/// log says - must still be eased well: the fit is a time scale, not a copy of the
+/// generator.
+#[test]
+fn a_load_that_arrives_linearly_and_late_is_still_eased_well() {
+    let dir = tempfile::tempdir().unwrap();
+    airsus_truck::experiments::generate(dir.path(), 3, &mut |_| {}).unwrap();
+    let logged = read_run(&dir.path().join("ds1.csv")).unwrap();
+    let truth = airsus_data::read_truck(&dir.path().join("truth/truck.toml"))
+        .unwrap()
+        .parameters;
+    let model = build_any_model("m2", &truth).unwrap();
+
+    // The felt load: each logged change arrives linearly over 4 s, starting 0.5 s late.
+    let (delay_s, duration_s) = (0.5, 4.0);
+    let load = &logged.inputs.wheel_load_kg;
+    let mut felt = logged.clone();
+    for (k, value) in felt.inputs.wheel_load_kg.iter_mut().enumerate() {
+        let t = logged.time_s[k];
+        *value = load[0]
+            + (1..load.len())
+                .filter(|&i| load[i] != load[i - 1])
+                .map(|i| {
+                    let progress = (t - logged.time_s[i] - delay_s) / duration_s;
+                    (load[i] - load[i - 1]) * progress.clamp(0.0, 1.0)
+                })
+                .sum::<f64>();
+    }
+    // Measurements: the model's response to the felt load; the log keeps its steps.
+    let inputs = airsus_sim::InputSeries::from_run(&felt).unwrap();
+    let start = airsus_sim::InitialState::from_run(&felt).unwrap();
+    let response =
+        airsus_sim::simulate(&airsus_sim::SimulationProblem::new(&*model, inputs, start)).unwrap();
+    let outputs = airsus_data::RunOutputs {
+        sensor_height_m: response.sensor_height_m,
+        bellow_gauge_pa: response.bellow_gauge_pa,
+    };
+    let mut measured = logged.clone();
+    measured.outputs = Some(outputs.clone());
+
+    // A log that records the load as it arrives (a load cell) is left as logged.
+    let mut continuous = felt.clone();
+    continuous.outputs = Some(outputs);
+    let exact = fit_load_ramp(&GreyboxProblem::new(&*model, &[&continuous], &[])).unwrap();
+    assert_eq!(exact.duration_s, 0.0, "{exact:?}");
+
+    let problem = GreyboxProblem::new(&*model, &[&measured], &[]);
+    let fit = fit_load_ramp(&problem).unwrap();
+    // A smoothstep that matches a late linear ramp best is a little longer than it.
+    assert!(
+        (3.0..=7.0).contains(&fit.duration_s),
+        "fitted {} s",
+        fit.duration_s
+    );
+    assert!(
+        fit.loss_ramped < 0.3 * fit.loss_logged,
+        "loss {} as logged, {} eased",
+        fit.loss_logged,
+        fit.loss_ramped
+    );
+}

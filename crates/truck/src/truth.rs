@@ -265,7 +265,11 @@ mod tests {
             for i in 0..=30 {
                 let h = 0.15 + 0.01 * f64::from(i);
                 let a = truck.effective_area_m2(h, 350e3);
-                assert!((0.040..0.072).contains(&a), "variant {k}: A_eff({h}) = {a}");
+                // Drawn within 0.040-0.070 m² at zero pressure, grown by up to 2.8 % at 350 kPa.
+                assert!(
+                    (0.040..0.0725).contains(&a),
+                    "variant {k}: A_eff({h}) = {a}"
+                );
                 let [a0, a1] = truck.physical.bellow.cross_section_m2;
                 assert!(a0 + a1 * h > 0.15, "variant {k}: cross-section at {h}");
             }

@@ -46,6 +46,7 @@ struct Simulated {
     nrmse: Option<(Option<f64>, Option<f64>)>,
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_simulation(
     model_name: &str,
     truck: &TruckParameters,
@@ -54,11 +55,16 @@ fn run_simulation(
     rtol: f64,
     method: Method,
     record_states: bool,
+    load_ramp_s: Option<f64>,
 ) -> anyhow::Result<Simulated> {
     if !(rtol.is_finite() && rtol > 0.0 && rtol < 1.0) {
         bail!("rtol {rtol} must be between 0 and 1");
     }
-    let run = source.load(Outputs::IfPresent)?;
+    let mut run = source.load(Outputs::IfPresent)?;
+    if let Some(tau) = load_ramp_s {
+        let tau = airsus_estimate::check_load_ramp_s(tau).map_err(anyhow::Error::msg)?;
+        run = airsus_estimate::ramp_logged_load(&run, tau);
+    }
     let model = build_any_model(model_name, truck)?;
 
     let (initial, what) = resolve_start(&*model, &run, &initial)
@@ -125,7 +131,7 @@ fn run_simulation(
 /// Returns `{"model", "initial", "time_s", "height_mm", "pressure_kpa", "states",
 /// "statistics", "nrmse_height", "nrmse_pressure"}`.
 #[pyfunction]
-#[pyo3(signature = (model, truck, run, initial_kind=None, initial_value=None, initial_state=None, rtol=None, method=None, states=false))]
+#[pyo3(signature = (model, truck, run, initial_kind=None, initial_value=None, initial_state=None, rtol=None, method=None, states=false, load_ramp_s=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -138,6 +144,7 @@ pub fn simulate<'py>(
     rtol: Option<f64>,
     method: Option<String>,
     states: bool,
+    load_ramp_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = truck.params.clone();
     drop(truck);
@@ -178,7 +185,18 @@ pub fn simulate<'py>(
     let rtol = rtol.unwrap_or(1e-6);
 
     let sim = py
-        .detach(|| run_simulation(&model, &params, &source, initial, rtol, method, states))
+        .detach(|| {
+            run_simulation(
+                &model,
+                &params,
+                &source,
+                initial,
+                rtol,
+                method,
+                states,
+                load_ramp_s,
+            )
+        })
         .or_py()?;
 
     let out = PyDict::new(py);

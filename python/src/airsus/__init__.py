@@ -395,6 +395,7 @@ def simulate(
     *,
     rtol: float = 1e-6,
     method: str = "bdf",
+    load_ramp_s: Optional[float] = None,
 ) -> pd.DataFrame:
     """Simulate a model over a run's inputs, as ``airsus simulate`` does.
 
@@ -415,6 +416,9 @@ def simulate(
         states: also return the model's states (SI units) as columns.
         rtol: relative tolerance of the adaptive solver (the command's ``--rtol``).
         method: ``bdf``, ``tr-bdf2``, ``esdirk34`` or ``tsit45`` (``--method``).
+        load_ramp_s: ease every change of the logged load over this many seconds, as the
+            wheel takes a load over seconds while a log steps (``--load-ramp-s``; a study's
+            ``load_ramp_s`` per model is the fitted value).
 
     Returns:
         A DataFrame with ``time_s``, ``height_mm``, ``pressure_kpa`` (the same numbers, to the
@@ -455,6 +459,7 @@ def simulate(
         rtol=float(rtol),
         method=method,
         states=bool(states),
+        load_ramp_s=None if load_ramp_s is None else float(load_ramp_s),
     )
     frame = pd.DataFrame(
         {

@@ -124,12 +124,8 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let loaded = read_truck_listing_defaults(&args.truck)?;
     let mut run = read_run_file(&args.run, Outputs::IfPresent, &source)?;
     if let Some(tau) = args.load_ramp_s {
-        if !(tau.is_finite() && (0.0..=airsus_estimate::MAX_LOAD_RAMP_S).contains(&tau)) {
-            bail!(
-                "--load-ramp-s {tau}: expected a transition time from 0 to {} s",
-                airsus_estimate::MAX_LOAD_RAMP_S
-            );
-        }
+        let tau = airsus_estimate::check_load_ramp_s(tau)
+            .map_err(|e| anyhow::anyhow!("--load-ramp-s: {e}"))?;
         run = airsus_estimate::ramp_logged_load(&run, tau);
     }
     let model = build_any_model(&args.model, &loaded.parameters)?;
