@@ -92,10 +92,10 @@ pub enum LoadRamp {
     /// Each logged change eased over one transition time, estimated per model on the
     /// estimation runs with its fitted parameters, then the parameters refitted
     /// ([`airsus_estimate::fit_load_ramp`]); validation runs are eased the same way. The
-    /// default: on the built-in study (valve protocol, seed 1) it lifts the `truck`
-    /// structure's held-out fits on every variant 0–3 (data-set 4 pressure 7.3 → 54.5 %,
-    /// 12.7 → 67.9, −4.7 → 43.7, −41.3 → −9.4; data-set 2 by 2–4 points), at twice the
-    /// study's time. Caveat: the virtual truck's loads arrive as smoothsteps from the logged
+    /// default: on the built-in study (valve protocol, seed 1) it lifts the best held-out
+    /// fits on variants 0–2 (data-set 4 pressure 11.8 → 57.9 %, 30.8 → 75.9, −4.7 → 39.2;
+    /// data-set 2 by 2–5 points on every variant; README) at about twice the study's time;
+    /// on variant 3 data-set 4's pressure falls (4.4 → −22.5). Caveat: the virtual truck's loads arrive as smoothsteps from the logged
     /// change, the estimator's own assumption; a load that arrives linearly and 0.5 s late
     /// is eased as well (loss cut by more than 70 %), and a continuously measured load is
     /// left as logged (`crates/study/tests/load_ramp.rs`).

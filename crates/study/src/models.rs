@@ -112,6 +112,9 @@ fn refit_from_estimated_starts(
     }
 }
 
+/// Iterations of the parameter refit after the load transition is fitted.
+const REFIT_ITERATIONS: usize = 15;
+
 /// Eases the logged load of the estimation runs over a transition time fitted with the
 /// first fit's parameters, then refits the parameters with it; the refit is kept when it
 /// explains the eased runs better than the first fit does. Returns the estimate and the
@@ -157,7 +160,12 @@ fn refit_with_load_ramp(
         ..problem.clone()
     };
     let tau = fit.duration_s;
-    match estimate(&refit, options, &mut NoProgress) {
+    // The refit starts next to the first fit's optimum: a few iterations settle it, and the
+    // study's time stays within its budget.
+    let refit_options = options
+        .clone()
+        .with_max_iterations(options.max_iterations.min(REFIT_ITERATIONS));
+    match estimate(&refit, &refit_options, &mut NoProgress) {
         Ok(second) if second.loss_estimated < fit.loss_ramped => {
             notes.push(format!(
                 "logged load steps eased over {tau:.2} s (fitted: loss {:.4e} as logged → {:.4e}), parameters refitted: → {:.4e}",
