@@ -96,7 +96,11 @@ fn refit_from_estimated_starts(
     let baseline_loss = estimate(&baseline, options, &mut NoProgress)
         .map(|e| e.loss_estimated)
         .unwrap_or(f64::INFINITY);
-    match estimate(&refit, options, &mut NoProgress) {
+    // A refit starts next to the fit it refines: a few iterations settle it.
+    let refit_options = options
+        .clone()
+        .with_max_iterations(options.max_iterations.min(REFIT_ITERATIONS));
+    match estimate(&refit, &refit_options, &mut NoProgress) {
         Ok(second) if second.loss_estimated < baseline_loss => {
             notes.push(format!(
                 "refitted from starts estimated on the first 10 s of each estimation run: loss {:.4e} → {:.4e}",
