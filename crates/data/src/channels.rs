@@ -607,14 +607,6 @@ fn resample_onto(time_s: &[f64], values: &[f64], grid: &[f64], method: ResampleM
     out
 }
 
-/// The resampling a run asked for, as results and reports state it.
-pub fn describe_resample(resample: Option<Resample>) -> String {
-    match resample {
-        None => "none".to_owned(),
-        Some(r) => format!("{} every {} s", r.method.as_str(), r.sample_s),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
