@@ -224,3 +224,50 @@ pressure_kpa = "BellowPressure"
     assert!(report.contains("How the runs were read"), "report");
     assert!(report.contains("resampled 5 channel(s)"), "report");
 }
+
+#[test]
+fn weigh_reads_a_log_without_a_wheel_load_channel_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    // run.csv without its wheel_load_kg column, as a truck's own log would be.
+    let text = std::fs::read_to_string(fixture("run.csv")).unwrap();
+    let without: String = text
+        .lines()
+        .map(|line| {
+            let mut cells: Vec<&str> = line.split(',').collect();
+            cells.remove(1);
+            cells.join(",") + "\n"
+        })
+        .collect();
+    let run = dir.path().join("no_load.csv");
+    std::fs::write(&run, without).unwrap();
+    let (stdout, stderr) = ok(&[
+        "weigh",
+        "--truck",
+        &fixture("truck.toml"),
+        "--run",
+        run.to_str().unwrap(),
+    ]);
+    assert!(stderr.contains("no wheel-load channel"), "{stderr}");
+    // The estimate is the load the run carried (3390 kg), to within the weighing's error.
+    let final_kg: f64 = stdout
+        .split("final wheel load ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no final load in {stdout}"));
+    assert!((final_kg - 3390.0).abs() < 0.03 * 3390.0, "{final_kg} kg");
+    // A simulation needs the load: the same file is refused there.
+    let out = airsus(&[
+        "simulate",
+        "--model",
+        "m2",
+        "--truck",
+        &fixture("truck.toml"),
+        "--run",
+        run.to_str().unwrap(),
+        "--out",
+        dir.path().join("sim.csv").to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("wheel_load_kg"));
+}

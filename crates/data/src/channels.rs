@@ -209,6 +209,9 @@ pub(crate) fn column_conversion(
     }
 }
 
+/// What a run without a wheel-load column says about it.
+pub(crate) const NO_LOAD_NOTE: &str = "no wheel-load channel: the load is read as 0 kg (weighing estimates it; nothing else may use it)";
+
 /// Whether a run's outputs are read: always when required; else when the file has them or
 /// the map names a channel for one (then a missing channel is an error, not a silent
 /// inputs-only run).
@@ -247,9 +250,18 @@ pub fn run_from_channels(
         wanted.push((PRESSURE, pressure));
     }
     for (column, index) in &wanted {
-        // The road may be absent (flat) unless the map names a channel for it.
-        if index.is_none() && (*column != ROAD || map.get(ROAD).is_some()) {
+        // The road may be absent (flat) unless the map names a channel for it; the load when
+        // the caller does not need it (weighing).
+        let may_be_absent = match *column {
+            ROAD => map.get(ROAD).is_none(),
+            WHEEL_LOAD => source.load_optional && map.get(WHEEL_LOAD).is_none(),
+            _ => false,
+        };
+        if index.is_none() && !may_be_absent {
             return Err(set.missing(path, column, map.channel_for(column)));
+        }
+        if index.is_none() && *column == WHEEL_LOAD {
+            notes.push(NO_LOAD_NOTE.to_owned());
         }
     }
 
@@ -732,6 +744,25 @@ mod tests {
         };
         let run = read(inputs_only, Outputs::IfPresent, &plain).unwrap().run;
         assert!(run.outputs.is_none());
+    }
+
+    #[test]
+    fn the_load_may_be_absent_only_where_the_caller_allows_it() {
+        let mut no_load = set();
+        no_load.channels.remove(0);
+        let err = read(no_load.clone(), Outputs::Required, &RunSource::default()).unwrap_err();
+        assert!(
+            err.to_string().contains("for column `wheel_load_kg`"),
+            "{err}"
+        );
+        let weighing = RunSource {
+            load_optional: true,
+            columns: ColumnMap::parse_list("height_mm=AxleHeight,pressure_kpa=BellowP").unwrap(),
+            ..RunSource::default()
+        };
+        let loaded = read(no_load, Outputs::Required, &weighing).unwrap();
+        assert_eq!(loaded.run.inputs.wheel_load_kg, vec![0.0; 5]);
+        assert_eq!(loaded.notes, vec![NO_LOAD_NOTE.to_owned()]);
     }
 
     #[test]

@@ -230,9 +230,15 @@ pub fn parse_run_from(
         Some(_) => ColumnSpec::required(map.channel_for(ROAD)),
         None => ColumnSpec::optional(ROAD, 0.0),
     };
+    // The load may be absent when the caller does not need it (weighing).
+    let load = if source.load_optional && map.get(WHEEL_LOAD).is_none() {
+        ColumnSpec::optional(WHEEL_LOAD, 0.0)
+    } else {
+        ColumnSpec::required(map.channel_for(WHEEL_LOAD))
+    };
     let mut specs = vec![
         ColumnSpec::required(map.channel_for(TIME)),
-        ColumnSpec::required(map.channel_for(WHEEL_LOAD)),
+        load,
         ColumnSpec::required(map.channel_for(VALVE)),
         ColumnSpec::required(map.channel_for(SUPPLY)),
         road,
@@ -248,6 +254,9 @@ pub fn parse_run_from(
         return crate::channels::run_from_channels(set, path, outputs, source);
     }
     let mut notes = Vec::new();
+    if table.file_columns.get(1) == Some(&None) {
+        notes.push(crate::channels::NO_LOAD_NOTE.to_owned());
+    }
     for (index, column) in ALL.iter().take(table.columns.len()).enumerate() {
         // A CSV header carries no unit: only the map's unit converts.
         let conversion =

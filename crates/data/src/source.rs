@@ -212,12 +212,19 @@ pub struct RunSource {
     pub resample: Option<Resample>,
     /// The CAN database that decodes bus-logging MDF4 files and CAN logs.
     pub dbc: Option<PathBuf>,
+    /// The wheel-load column may be absent (weighing estimates the load, and a truck's own
+    /// logs have none): it is then read as zeros and a note says so. Off by default: a model
+    /// needs the load as an input.
+    pub load_optional: bool,
 }
 
 impl RunSource {
     /// Whether the source is the contract's own: no mapping, no resampling, no CAN.
     pub fn is_plain(&self) -> bool {
-        self.columns.is_empty() && self.resample.is_none() && self.dbc.is_none()
+        self.columns.is_empty()
+            && self.resample.is_none()
+            && self.dbc.is_none()
+            && !self.load_optional
     }
 }
 

@@ -278,6 +278,7 @@ pub fn parse_study(text: &str, path: &Path) -> Result<Study, DataError> {
                 columns,
                 resample,
                 dbc: r.dbc.as_deref().map(resolve),
+                load_optional: false,
             },
         });
     }

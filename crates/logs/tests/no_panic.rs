@@ -17,6 +17,7 @@ fn source(columns: &str, dbc: bool) -> RunSource {
         columns: ColumnMap::parse_list(columns).unwrap(),
         dbc: dbc.then(|| fixture("truck.dbc")),
         resample: Some(airsus_data::Resample::new(airsus_data::ResampleMethod::Zoh, 0.1).unwrap()),
+        load_optional: false,
     }
 }
 

@@ -236,6 +236,7 @@ fn log_source(
         columns: map,
         resample,
         dbc,
+        load_optional: false,
     })
 }
 

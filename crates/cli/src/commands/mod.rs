@@ -66,6 +66,7 @@ impl RunSourceArgs {
             columns,
             resample,
             dbc: self.dbc.clone(),
+            load_optional: false,
         })
     }
 }

@@ -9,7 +9,7 @@ use airsus_apps::weigh::{
     EkfTuning, LinearCalibration, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty,
     evaluate_weighing, weigh_ekf, weigh_static, write_weigh_csv,
 };
-use airsus_data::{Outputs, read_run, read_truck};
+use airsus_data::{Outputs, RunSource, read_run, read_truck};
 
 use super::{RunSourceArgs, read_run_file};
 
@@ -28,7 +28,8 @@ pub struct WeighArgs {
     /// Truck parameter file (nominal, or identified parameters).
     #[arg(long, value_name = "T.toml")]
     pub truck: PathBuf,
-    /// Run file with height_mm and pressure_kpa (CSV, MDF4, Parquet or a CAN log).
+    /// Run file with height_mm and pressure_kpa (CSV, MDF4, Parquet or a CAN log); a wheel-load
+    /// column is not needed (it is what weighing estimates).
     #[arg(long, value_name = "R.csv")]
     pub run: PathBuf,
     /// How the run (and the calibration run) map onto the run columns.
@@ -69,7 +70,12 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
         eprintln!("note: {} not in the truck file, using {}", d.key, d.value);
     }
     let truck = loaded.parameters;
-    let run = read_run_file(&args.run, Outputs::Required, &source)?;
+    // Weighing estimates the load: a log without a wheel-load channel is weighed as it is.
+    let weighed = RunSource {
+        load_optional: true,
+        ..source.clone()
+    };
+    let run = read_run_file(&args.run, Outputs::Required, &weighed)?;
     let weigher = StaticWeigher::new(
         StaticLaw::from_truck(&truck),
         WeighingUncertainty::default(),
