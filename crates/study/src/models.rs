@@ -111,7 +111,7 @@ fn refit_from_estimated_starts(
         }
         Ok(_) | Err(_) => {
             notes.push(
-                "a refit from estimated starts did not improve the fit; the equilibrium-start estimate is kept".to_owned(),
+                "a refit from estimated starts did not improve the fit; the estimate before it is kept".to_owned(),
             );
             (first, baseline_loss)
         }
@@ -422,27 +422,33 @@ pub fn fit_and_validate(
             let est = match initial {
                 StartMethod::Equilibrium => est,
                 StartMethod::Prefix => {
+                    // Two ways into the joint fit; the notes are the chosen one's.
+                    let mut fit_notes = Vec::new();
                     let (from_fit, loss_from_fit) = refit_from_estimated_starts(
                         est,
                         &eased,
                         &problem,
                         &fit_options,
-                        &mut result.notes,
+                        &mut fit_notes,
                     );
-                    let mut other_notes = Vec::new();
+                    let mut start_notes = Vec::new();
                     match fit_from_start_value_starts(
                         &eased,
                         &problem,
                         &fit_options,
-                        &mut other_notes,
+                        &mut start_notes,
                     ) {
                         Some((from_starts, loss)) if loss < loss_from_fit => {
                             result.notes.push(format!(
-                                    "starts fitted under the start values first explain the estimation runs better (joint loss {loss_from_fit:.4e} → {loss:.4e}): that estimate is used"
-                                ));
+                                "starts fitted under the start values first explain the estimation runs better than starts fitted after an equilibrium-start fit (joint loss {loss_from_fit:.4e} → {loss:.4e}): that estimate is used"
+                            ));
+                            result.notes.extend(start_notes);
                             from_starts
                         }
-                        _ => from_fit,
+                        _ => {
+                            result.notes.extend(fit_notes);
+                            from_fit
+                        }
                     }
                 }
             };
