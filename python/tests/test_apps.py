@@ -70,6 +70,18 @@ def test_weigh_static_tracks_the_true_load(reference: Path) -> None:
     assert np.median(error) < 0.05
 
 
+def test_weigh_needs_no_wheel_load_column(reference: Path) -> None:
+    # A truck's own log carries no wheel load: weighing estimates it.
+    truck = airsus.Truck.load(reference / "truth" / "truck.toml")
+    run = airsus.read_run(reference / "ds2.csv")
+    with_load = airsus.weigh(truck, run, window_s=5.0)
+    without = airsus.weigh(truck, run.drop(columns=["wheel_load_kg"]), window_s=5.0)
+    assert without["wheel_load_kg"].tolist() == with_load["wheel_load_kg"].tolist()
+    # A simulation needs the load.
+    with pytest.raises(airsus.AirsusError, match="wheel_load_kg"):
+        airsus.simulate("m2", truck, run.drop(columns=["wheel_load_kg"]))
+
+
 def test_study_runs_the_pipeline(reference: Path, tmp_path: Path) -> None:
     events = []
     out = tmp_path / "out"

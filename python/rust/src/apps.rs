@@ -76,8 +76,13 @@ fn run_weigh(
         "ekf" => true,
         other => bail!("unknown method `{other}`; the methods are: static, ekf"),
     };
+    // Weighing estimates the load: a run without a wheel-load column is weighed as it is.
+    let weighed = airsus_data::RunSource {
+        load_optional: true,
+        ..airsus_data::RunSource::default()
+    };
     let run = source
-        .load(Outputs::Required)
+        .load_with(Outputs::Required, &weighed)
         .with_context(|| format!("reading run {}", source.label()))?;
     let weigher = StaticWeigher::new(StaticLaw::from_truck(truck), WeighingUncertainty::default());
     if !(window_s.is_finite() && window_s >= 0.0) {

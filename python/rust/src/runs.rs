@@ -18,7 +18,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use airsus_data::atomic::write_atomically;
-use airsus_data::run::{columns, parse_run};
+use airsus_data::run::{columns, parse_run, parse_run_from};
 use airsus_data::table::{ColumnSpec, NumericTable, parse_table};
 use airsus_data::{DataError, Outputs, Run};
 
@@ -88,13 +88,16 @@ impl RunSource {
     /// after the frame (a file's after its stem, as the command line names it).
     /// A file may be any log airsus reads (CSV, MDF4, Parquet), under the contract's names.
     pub fn load(&self, outputs: Outputs) -> anyhow::Result<Run> {
+        self.load_with(outputs, &airsus_data::RunSource::default())
+    }
+
+    /// The run, read as `how` says (e.g. with the wheel load optional, for weighing).
+    pub fn load_with(&self, outputs: Outputs, how: &airsus_data::RunSource) -> anyhow::Result<Run> {
         match self {
-            Self::File(path) => {
-                Ok(airsus_logs::read_run(path, outputs, &airsus_data::RunSource::default())?.run)
-            }
+            Self::File(path) => Ok(airsus_logs::read_run(path, outputs, how)?.run),
             Self::Frame { name, columns } => {
                 let bytes = frame_csv(columns)?;
-                let mut run = parse_run(&bytes, &self.path(), outputs)?;
+                let mut run = parse_run_from(&bytes, &self.path(), outputs, how)?.run;
                 run.name = name.clone();
                 Ok(run)
             }
