@@ -4,32 +4,44 @@
 //! removes most of the loss they caused. The fit does not know the ramps; it sees the
 //! logged steps and the measurements, as on a real truck.
 
-use airsus_data::read_run;
-use airsus_estimate::{GreyboxProblem, fit_load_ramp, ramp_logged_load};
+use airsus_data::{Run, TruckParameters, read_run};
+use airsus_estimate::{GreyboxProblem, LoadRampFit, fit_load_ramp, ramp_logged_load};
 use airsus_truck::models::build_any_model;
 
-#[test]
-fn the_fitted_transition_lies_among_the_true_ramps_and_removes_most_of_the_loss() {
+/// Data-set 1 of the virtual truck (seed `seed`) as logged, and the truck's true parameters.
+fn data_set_1(seed: u64) -> (Run, TruckParameters) {
     let dir = tempfile::tempdir().unwrap();
-    airsus_truck::experiments::generate(dir.path(), 2, &mut |_| {}).unwrap();
+    airsus_truck::experiments::generate(dir.path(), seed, &mut |_| {}).unwrap();
     let ds1 = read_run(&dir.path().join("ds1.csv")).unwrap();
     let truth = airsus_data::read_truck(&dir.path().join("truth/truck.toml"))
         .unwrap()
         .parameters;
-    let model = build_any_model("truck", &truth).unwrap();
-    let problem = GreyboxProblem::new(&*model, &[&ds1], &[]);
-    let fit = fit_load_ramp(&problem).unwrap();
+    (ds1, truth)
+}
+
+/// The fitted transition lies in `range` (s) and cuts the loss below `fraction` of the
+/// logged load's.
+fn assert_eases(fit: &LoadRampFit, range: std::ops::RangeInclusive<f64>, fraction: f64) {
     assert!(
-        (3.0..=8.0).contains(&fit.duration_s),
+        range.contains(&fit.duration_s),
         "fitted {} s",
         fit.duration_s
     );
     assert!(
-        fit.loss_ramped < 0.5 * fit.loss_logged,
+        fit.loss_ramped < fraction * fit.loss_logged,
         "loss {} as logged, {} eased",
         fit.loss_logged,
         fit.loss_ramped
     );
+}
+
+#[test]
+fn the_fitted_transition_lies_among_the_true_ramps_and_removes_most_of_the_loss() {
+    let (ds1, truth) = data_set_1(2);
+    let model = build_any_model("truck", &truth).unwrap();
+    let problem = GreyboxProblem::new(&*model, &[&ds1], &[]);
+    let fit = fit_load_ramp(&problem).unwrap();
+    assert_eases(&fit, 3.0..=8.0, 0.5);
     // The eased load is the log's between changes: only the transitions differ.
     let eased = ramp_logged_load(&ds1, fit.duration_s);
     let differ = eased
@@ -54,12 +66,7 @@ fn the_fitted_transition_lies_among_the_true_ramps_and_removes_most_of_the_loss(
 /// generator.
 #[test]
 fn a_load_that_arrives_linearly_and_late_is_still_eased_well() {
-    let dir = tempfile::tempdir().unwrap();
-    airsus_truck::experiments::generate(dir.path(), 3, &mut |_| {}).unwrap();
-    let logged = read_run(&dir.path().join("ds1.csv")).unwrap();
-    let truth = airsus_data::read_truck(&dir.path().join("truth/truck.toml"))
-        .unwrap()
-        .parameters;
+    let (logged, truth) = data_set_1(3);
     let model = build_any_model("m2", &truth).unwrap();
 
     // The felt load: each logged change arrives linearly over 4 s, starting 0.5 s late.
@@ -96,17 +103,6 @@ fn a_load_that_arrives_linearly_and_late_is_still_eased_well() {
     assert_eq!(exact.duration_s, 0.0, "{exact:?}");
 
     let problem = GreyboxProblem::new(&*model, &[&measured], &[]);
-    let fit = fit_load_ramp(&problem).unwrap();
     // A smoothstep that matches a late linear ramp best is a little longer than it.
-    assert!(
-        (3.0..=7.0).contains(&fit.duration_s),
-        "fitted {} s",
-        fit.duration_s
-    );
-    assert!(
-        fit.loss_ramped < 0.3 * fit.loss_logged,
-        "loss {} as logged, {} eased",
-        fit.loss_logged,
-        fit.loss_ramped
-    );
+    assert_eases(&fit_load_ramp(&problem).unwrap(), 3.0..=7.0, 0.3);
 }
