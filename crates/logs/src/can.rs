@@ -56,10 +56,6 @@ impl CanDatabase {
         Ok(Self { inner, j1939 })
     }
 
-    pub(crate) fn inner(&self) -> &falcon_mdf::CanDatabase {
-        &self.inner
-    }
-
     /// The signals a frame carries, as (message name, signal name, unit, value).
     pub fn decode<'a>(&'a self, id: u32, data: &[u8]) -> Vec<(&'a str, &'a str, &'a str, f64)> {
         let message = self.inner.message_name(id).unwrap_or_default();
@@ -146,6 +142,111 @@ pub(crate) fn add_signals<'a>(set: &mut ChannelSet, series: impl Iterator<Item =
             values: s.values.to_vec(),
         });
     }
+}
+
+/// One frame on its way to decoding.
+pub(crate) struct FrameRef<'a> {
+    /// Seconds from the log's start.
+    pub time_s: f64,
+    /// Which bus (interface, logger channel): the same identifier on two buses is two
+    /// signals.
+    pub bus: u32,
+    pub id: u32,
+    pub data: &'a [u8],
+}
+
+/// How the frames of a log fared.
+pub(crate) struct FrameCounts {
+    pub decoded: usize,
+    /// Frames of messages the DBC does not define.
+    pub unknown: usize,
+    /// Frames of defined messages too short for their signals.
+    pub short: usize,
+}
+
+impl FrameCounts {
+    pub fn describe(&self) -> String {
+        let mut skipped = Vec::new();
+        if self.unknown > 0 {
+            skipped.push(format!(
+                "{} frames of messages it does not define skipped",
+                self.unknown
+            ));
+        }
+        if self.short > 0 {
+            skipped.push(format!(
+                "{} frames too short for their signals skipped",
+                self.short
+            ));
+        }
+        format!(
+            "{} CAN frames decoded through the DBC{}",
+            self.decoded,
+            if skipped.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", skipped.join(", "))
+            }
+        )
+    }
+}
+
+/// Decodes `frames` through `database` into channels of `set`: one series per bus,
+/// message, signal and (under J1939) sender, since the same signal from two buses or two
+/// ECUs is two signals, which the column map then has to tell apart. The candump log and
+/// MDF4 bus logging both come through here.
+pub(crate) fn decode_frames<'f>(
+    set: &mut ChannelSet,
+    database: &CanDatabase,
+    frames: impl Iterator<Item = FrameRef<'f>>,
+) -> FrameCounts {
+    let mut index: HashMap<(u32, &str, &str, Option<u8>), usize> = HashMap::new();
+    let mut series: Vec<Readings> = Vec::new();
+    let mut counts = FrameCounts {
+        decoded: 0,
+        unknown: 0,
+        short: 0,
+    };
+    for frame in frames {
+        let decoded = database.decode(frame.id, frame.data);
+        if decoded.is_empty() {
+            if database.inner.message(frame.id).is_some() {
+                counts.short += 1;
+            } else {
+                counts.unknown += 1;
+            }
+            continue;
+        }
+        counts.decoded += 1;
+        let sender = database.j1939.then_some((frame.id & 0xFF) as u8);
+        for (message, signal, unit, value) in decoded {
+            let k = *index
+                .entry((frame.bus, message, signal, sender))
+                .or_insert_with(|| {
+                    series.push(Readings {
+                        message,
+                        name: signal,
+                        unit,
+                        times_s: Vec::new(),
+                        values: Vec::new(),
+                    });
+                    series.len() - 1
+                });
+            series[k].times_s.push(frame.time_s);
+            series[k].values.push(value);
+        }
+    }
+    add_signals(
+        set,
+        series.iter().map(|r| Series {
+            message: r.message,
+            name: r.name,
+            unit: r.unit,
+            timestamps: &r.times_s,
+            values: &r.values,
+        }),
+    );
+    counts
 }
 
 /// One frame of a candump log line: `(1436509052.249713) can0 18FEF100#0102030405060708`.
@@ -289,73 +390,37 @@ pub(crate) fn read_candump(path: &Path, database: &CanDatabase) -> Result<Channe
         return Err(DataError::in_file(path, DataErrorKind::Empty { needed: 2 }));
     };
 
-    // One series per bus, message, signal and (for J1939) sender: the same signal from two
-    // buses or two ECUs is two signals, which the column map then has to tell apart.
-    let mut index: HashMap<(&str, &str, &str, Option<u8>), usize> = HashMap::new();
-    let mut series: Vec<Readings> = Vec::new();
-    let (mut unknown, mut short) = (0usize, 0usize);
-    for frame in &frames {
-        let decoded = database.decode(frame.id, &frame.data);
-        if decoded.is_empty() {
-            if database.inner.message(frame.id).is_some() {
-                short += 1;
-            } else {
-                unknown += 1;
+    // Interfaces by number, in order of appearance.
+    let mut interfaces: Vec<&str> = Vec::new();
+    let refs: Vec<FrameRef> = frames
+        .iter()
+        .map(|frame| {
+            let bus = match interfaces.iter().position(|i| *i == frame.interface) {
+                Some(k) => k,
+                None => {
+                    interfaces.push(&frame.interface);
+                    interfaces.len() - 1
+                }
+            };
+            FrameRef {
+                time_s: seconds_between(start, frame.stamp),
+                bus: bus as u32,
+                id: frame.id,
+                data: &frame.data,
             }
-        }
-        let sender = database.j1939.then_some((frame.id & 0xFF) as u8);
-        for (message, signal, unit, value) in decoded {
-            let key = (frame.interface.as_str(), message, signal, sender);
-            let k = *index.entry(key).or_insert_with(|| {
-                series.push(Readings {
-                    message,
-                    name: signal,
-                    unit,
-                    times_s: Vec::new(),
-                    values: Vec::new(),
-                });
-                series.len() - 1
-            });
-            series[k].times_s.push(seconds_between(start, frame.stamp));
-            series[k].values.push(value);
-        }
-    }
+        })
+        .collect();
     let mut set = ChannelSet {
         format: "CAN log",
         ..ChannelSet::default()
     };
-    let mut skipped = Vec::new();
-    if unknown > 0 {
-        skipped.push(format!(
-            "{unknown} frames of messages it does not define skipped"
-        ));
-    }
-    if short > 0 {
-        skipped.push(format!(
-            "{short} frames too short for their signals skipped"
-        ));
-    }
+    let counts = decode_frames(&mut set, database, refs.into_iter());
     set.notes.push(format!(
-        "{} CAN frames decoded through the DBC{}; time counted from the first frame at {}.{:09} s since 1970",
-        frames.len() - unknown - short,
-        if skipped.is_empty() {
-            String::new()
-        } else {
-            format!(" ({})", skipped.join(", "))
-        },
+        "{}; time counted from the first frame at {}.{:09} s since 1970",
+        counts.describe(),
         start.0,
         start.1
     ));
-    add_signals(
-        &mut set,
-        series.iter().map(|r| Series {
-            message: r.message,
-            name: r.name,
-            unit: r.unit,
-            timestamps: &r.times_s,
-            values: &r.values,
-        }),
-    );
     Ok(set)
 }
 

@@ -143,19 +143,21 @@ pub(crate) fn read_channels(
     if !bus_groups.is_empty() {
         match database {
             Some(database) => {
-                let signals = file
-                    .decode_bus(database.inner())
-                    .map_err(|e| malformed(path, e))?;
-                can::add_signals(
-                    &mut set,
-                    signals.iter().map(|s| can::Series {
-                        message: s.message,
-                        name: s.name,
-                        unit: s.unit,
-                        timestamps: &s.timestamps,
-                        values: &s.values,
-                    }),
-                );
+                let mut all = Vec::with_capacity(bus_groups.len());
+                for group in file.can_frame_groups() {
+                    all.push(file.can_frames(group).map_err(|e| malformed(path, e))?);
+                }
+                // A logger channel within a channel group names a bus.
+                let frames = all.iter().enumerate().flat_map(|(g, frames)| {
+                    frames.iter().map(move |frame| can::FrameRef {
+                        time_s: frame.timestamp,
+                        bus: ((g as u32) << 8) | u32::from(frame.bus_channel),
+                        id: frame.id,
+                        data: frame.data,
+                    })
+                });
+                let counts = can::decode_frames(&mut set, database, frames);
+                set.notes.push(counts.describe());
             }
             None => {
                 set.hint = Some(format!(

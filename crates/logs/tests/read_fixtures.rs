@@ -219,6 +219,13 @@ fn bus_logging_mdf4_decodes_like_the_candump_log() {
     let mut want = drop_last(csv_run(), 1);
     want.time_s = want.time_s.iter().map(|t| t + run.time_s[0]).collect();
     assert_same_run(run, &want, 0.0, 1e-12);
+    // Decoded by the same path as the candump log, and counted alike.
+    let notes = loaded.notes.join("; ");
+    assert!(notes.contains("2002 CAN frames decoded"), "{notes}");
+    assert!(
+        notes.contains("1001 frames of messages it does not define skipped"),
+        "{notes}"
+    );
 
     // Without the DBC, the missing channel's error says why.
     let err = airsus_logs::read_run(
