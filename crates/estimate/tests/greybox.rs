@@ -281,6 +281,21 @@ fn a_fit_out_of_iterations_says_so_and_returns_its_best_point() {
         assert!(p.estimate.is_finite() && p.estimate >= p.lower && p.estimate <= p.upper);
     }
     assert!(result.to_string().contains("NOT converged"));
+    // The gradient says how far from a stationary point each stopped: the converged fit's
+    // is a small fraction of the one-iteration fit's.
+    let full = estimate(&problem, &GreyboxOptions::default(), &mut NoProgress).unwrap();
+    assert!(full.stop.is_converged(), "{full}");
+    let (stopped, converged) = (
+        result
+            .gradient_norm
+            .expect("a gradient after one iteration"),
+        full.gradient_norm.expect("a gradient at the estimate"),
+    );
+    assert!(
+        converged < 0.01 * stopped,
+        "gradient {converged:e} converged, {stopped:e} after one iteration"
+    );
+    assert!(full.to_string().contains("gradient norm at the estimate"));
 }
 
 #[test]

@@ -407,7 +407,13 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
             m.simulations,
             m.estimation_time_s,
             esc(&{
-                let stop = m.stop_reason.as_deref().unwrap_or("–").to_owned();
+                let mut stop = m.stop_reason.as_deref().unwrap_or("–").to_owned();
+                if let Some(g) = m.gradient_norm {
+                    stop.push_str(&format!(" (gradient {g:.1e})"));
+                }
+                if let Some(tau) = m.load_ramp_s {
+                    stop.push_str(&format!("; load eased over {tau:.1} s"));
+                }
                 match m.local_optima_losses.as_slice() {
                     [best, .., worst] if m.starts > 1 => format!(
                         "{stop}; {} starts, local optima's losses {best:.3e} to {worst:.3e}",
@@ -615,7 +621,8 @@ mod tests {
             starts: 4,
             local_optima_losses: vec![0.012, 0.013, 0.2, 1.5],
             estimation_time_s: 0.3,
-            load_ramp_s: None,
+            gradient_norm: Some(3.2e-7),
+            load_ramp_s: Some(4.25),
             runs: vec![
                 run("data-set 1", "estimation", fit(95.0, 93.0)),
                 run("data-set 2", "validation", fit(91.0, 88.0)),
@@ -751,7 +758,9 @@ mod tests {
         );
         assert!(html.contains("Table 5.11"));
         assert!(
-            html.contains("4 starts, local optima's losses 1.200e-2 to 1.500e0"),
+            html.contains(
+                "converged (gradient 3.2e-7); load eased over 4.2 s; 4 starts, local optima's losses 1.200e-2 to 1.500e0"
+            ),
             "the global stage's spread"
         );
         // Every fit beside the noise ceiling; an estimated one is marked.

@@ -253,6 +253,11 @@ pub struct ModelResult {
     #[serde(default)]
     pub local_optima_losses: Vec<f64>,
     pub estimation_time_s: f64,
+    /// The norm of the loss gradient over the free parameters at the estimate (scaled
+    /// coordinates: offsets from nominal in units of each parameter's scale); small against
+    /// the loss means a true stationary point.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gradient_norm: Option<f64>,
     /// The logged load's steps eased over this transition time, s, for estimation and
     /// validation alike (`--load-ramp estimate`); absent when the load was used as logged.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -278,6 +283,7 @@ impl ModelResult {
             starts: 1,
             local_optima_losses: vec![],
             estimation_time_s: 0.0,
+            gradient_norm: None,
             load_ramp_s: None,
             runs: vec![],
             truck_file: None,
@@ -350,6 +356,7 @@ mod tests {
                     starts: 3,
                     local_optima_losses: vec![0.01, 0.01, 0.5],
                     estimation_time_s: 0.2,
+                    gradient_norm: Some(2.5e-6),
                     load_ramp_s: Some(5.5),
                     runs: vec![RunFit {
                         run: "data-set 1".to_owned(),
@@ -496,6 +503,7 @@ mod tests {
             "protocols[].models[].estimates[].unit",
             "protocols[].models[].estimation_time_s",
             "protocols[].models[].free",
+            "protocols[].models[].gradient_norm",
             "protocols[].models[].load_ramp_s",
             "protocols[].models[].local_optima_losses",
             "protocols[].models[].model",

@@ -453,6 +453,7 @@ pub fn fit_and_validate(
                 }
             };
             result.stop_reason = Some(est.stop.to_string());
+            result.gradient_norm = est.gradient_norm;
             result.simulations = est.simulations;
             result.starts = summary.starts;
             result.local_optima_losses = summary.losses;

@@ -315,6 +315,18 @@ pub fn estimate(
         final_j = None;
     }
 
+    // How flat the loss is where the fit stopped: the norm of the gradient of the mean
+    // squared normalised residual over the parameters left free, in the scaled coordinates
+    // the solver works in. What "converged" means, as a number.
+    let gradient_norm = final_j
+        .as_ref()
+        .filter(|_| !active.is_empty() && residuals.len() == n_data)
+        .map(|j| {
+            let r = nalgebra::DVector::from_column_slice(&residuals);
+            let g = j.transpose() * r * (2.0 / n_data as f64);
+            active.iter().map(|&i| g[i] * g[i]).sum::<f64>().sqrt()
+        });
+
     // Uncertainty of the estimated parameters at the final point.
     observer.stage("uncertainty and report");
     let (after, cov) = match (&final_j, active.is_empty()) {
@@ -420,6 +432,7 @@ pub fn estimate(
         failed_simulations: ev.failures(),
         loss_nominal: loss0 / n_data as f64,
         loss_estimated: r_final.iter().map(|r| r * r).sum::<f64>() / n_data as f64,
+        gradient_norm,
         elapsed_s: started.elapsed().as_secs_f64(),
         estimated_model,
     })

@@ -154,6 +154,10 @@ pub struct GreyboxEstimate {
     /// Mean squared normalised residual at the nominal point and at the estimate.
     pub loss_nominal: f64,
     pub loss_estimated: f64,
+    /// `‖∂loss/∂z‖` at the estimate over the parameters left free, `z` the solver's scaled
+    /// coordinates (a parameter's offset from nominal in units of its scale); `None` when no
+    /// parameter was left free or the final Jacobian is missing.
+    pub gradient_norm: Option<f64>,
     pub elapsed_s: f64,
     /// The model with the estimated parameters (write it back with
     /// [`SuspensionModel::write_parameters`]).
@@ -213,6 +217,13 @@ impl fmt::Display for GreyboxEstimate {
             self.loss_nominal,
             self.loss_estimated
         )?;
+        if let Some(g) = self.gradient_norm {
+            writeln!(
+                f,
+                "gradient norm at the estimate {g:.3e} (scaled parameters; loss {:.4e})",
+                self.loss_estimated
+            )?;
+        }
         writeln!(f)?;
         writeln!(
             f,
