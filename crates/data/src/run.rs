@@ -182,8 +182,7 @@ pub fn read_run(path: &Path) -> Result<Run, DataError> {
 }
 
 pub fn read_run_with(path: &Path, outputs: Outputs) -> Result<Run, DataError> {
-    let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
-    parse_run(&bytes, path, outputs)
+    read_run_from(path, outputs, &RunSource::default()).map(|loaded| loaded.run)
 }
 
 /// Reads a run CSV file whose columns `source` maps (names, units, resampling).
