@@ -591,7 +591,9 @@ impl SuspensionModel for TruckModel {
             ValveState::Exhaust => (p_abs - c.ambient_pa) / c.r_exhaust,
             _ => 0.0,
         };
-        let into_bellow = fill - exhaust;
+        // The leak (zero on a sound truck) vents to ambient whatever the valve does.
+        let leak = c.e.leak_conductance_mol_s_pa * p_gauge.max(0.0);
+        let into_bellow = fill - exhaust - leak;
         dx[4] = into_bellow;
 
         dx[5] = if fx.heat_exchange {

@@ -72,6 +72,11 @@ pub struct EffectParameters {
     /// Relative growth of the effective area per 100 kPa of gauge pressure (the rubber wall
     /// stretching: thesis 6.1's explanation of Fig 5.7), 1/(100 kPa).
     pub area_pressure_coefficient: f64,
+    /// An air leak from the bellow circuit to ambient, `ṅ_leak = G (p_abs − p_amb)`,
+    /// mol/(s·Pa). Zero on a sound truck; the virtual fleet grows it on a few trucks
+    /// (`airsus fleet generate`). About 2e-10 loses 2 % of the circuit's air per hour at
+    /// 350 kPa gauge.
+    pub leak_conductance_mol_s_pa: f64,
 }
 
 impl Default for EffectParameters {
@@ -99,6 +104,7 @@ impl Default for EffectParameters {
             governor_band_pa: 60e3,
             lab_tank_thermal_time_constant_s: 60.0,
             area_pressure_coefficient: 0.004,
+            leak_conductance_mol_s_pa: 0.0,
         }
     }
 }
