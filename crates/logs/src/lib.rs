@@ -26,7 +26,7 @@ use airsus_data::{
 };
 
 pub use can::CanDatabase;
-pub use parquet::write_run_parquet;
+pub use parquet::{ColumnValues, TableColumn, write_run_parquet, write_table_parquet};
 
 /// The formats a run can be read from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -368,32 +368,121 @@ fn read_timestamps(
     })
 }
 
+/// The values of one column of a [`write_table_parquet`] table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ColumnValues<'a> {
+    /// DOUBLE, every row present.
+    Double(&'a [f64]),
+    /// DOUBLE, NaN written as null (a value known only at some rows).
+    NullableDouble(&'a [f64]),
+    /// INT32 (the valve state, a day number).
+    Int32(&'a [i32]),
+}
+
+impl ColumnValues<'_> {
+    fn len(&self) -> usize {
+        match self {
+            Self::Double(v) | Self::NullableDouble(v) => v.len(),
+            Self::Int32(v) => v.len(),
+        }
+    }
+}
+
+/// One column of a [`write_table_parquet`] table: its name, its unit (`""` for none) and its
+/// values.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TableColumn<'a> {
+    pub name: &'a str,
+    pub unit: &'a str,
+    pub values: ColumnValues<'a>,
+}
+
+impl<'a> TableColumn<'a> {
+    /// A DOUBLE column, every row present.
+    pub fn double(name: &'a str, unit: &'a str, values: &'a [f64]) -> Self {
+        Self {
+            name,
+            unit,
+            values: ColumnValues::Double(values),
+        }
+    }
+
+    /// A DOUBLE column with NaN written as null.
+    pub fn nullable(name: &'a str, unit: &'a str, values: &'a [f64]) -> Self {
+        Self {
+            name,
+            unit,
+            values: ColumnValues::NullableDouble(values),
+        }
+    }
+
+    /// An INT32 column without a unit.
+    pub fn int32(name: &'a str, values: &'a [i32]) -> Self {
+        Self {
+            name,
+            unit: "",
+            values: ColumnValues::Int32(values),
+        }
+    }
+}
+
 /// Writes a run as Parquet (snappy), atomically: the contract's columns and units, the valve
 /// as INT32, every other column DOUBLE, and the `units` metadata.
 pub fn write_run_parquet(path: &Path, run: &Run) -> Result<(), DataError> {
     use columns::*;
     run.check_writable(path)?;
-    let n = run.len();
-    // Schema order: time, valve, then the other columns, all DOUBLE.
-    let mut doubles = run.file_columns();
-    let valve: Vec<i32> = doubles
+    let file_columns = run.file_columns();
+    let valve: Vec<i32> = file_columns
         .iter()
-        .position(|(name, _, _)| *name == VALVE)
-        .map(|k| doubles.remove(k).2)
-        .unwrap_or_default()
-        .into_iter()
-        .map(|code| code as i32)
-        .collect();
+        .find(|(name, _, _)| *name == VALVE)
+        .map(|(_, _, codes)| codes.iter().map(|&code| code as i32).collect())
+        .unwrap_or_default();
+    // Schema order: time, valve, then the other columns.
+    let mut table: Vec<TableColumn> = Vec::with_capacity(file_columns.len());
+    for (k, (name, unit, values)) in file_columns.iter().enumerate() {
+        if k == 1 {
+            table.push(TableColumn::int32(VALVE, &valve));
+        }
+        if *name != VALVE {
+            table.push(TableColumn::double(name, unit, values));
+        }
+    }
+    write_table_parquet(path, "run", &run.name, &table)
+}
 
-    let mut message = format!("message run {{ required double {TIME}; required int32 {VALVE};");
-    for (name, _, _) in &doubles[1..] {
-        message.push_str(&format!(" required double {name};"));
+/// Writes a table as Parquet (snappy), atomically: one column per [`TableColumn`], in order,
+/// their units as the `units` metadata (the form [`read_run`] and pyarrow read), and
+/// `airsus.<kind>` = `name` in the key-value metadata. Every column must have the same length.
+pub fn write_table_parquet(
+    path: &Path,
+    kind: &str,
+    name: &str,
+    table: &[TableColumn],
+) -> Result<(), DataError> {
+    let n = table.first().map_or(0, |c| c.values.len());
+    if let Some(c) = table.iter().find(|c| c.values.len() != n) {
+        return Err(malformed(
+            path,
+            format!(
+                "column {} has {} rows where the first has {n}; nothing was written",
+                c.name,
+                c.values.len()
+            ),
+        ));
+    }
+    let mut message = format!("message {kind} {{");
+    for c in table {
+        let field = match c.values {
+            ColumnValues::Double(_) => "required double",
+            ColumnValues::NullableDouble(_) => "optional double",
+            ColumnValues::Int32(_) => "required int32",
+        };
+        message.push_str(&format!(" {field} {};", c.name));
     }
     message.push_str(" }");
-    let units: serde_json::Map<String, serde_json::Value> = doubles
+    let units: serde_json::Map<String, serde_json::Value> = table
         .iter()
-        .map(|(name, unit, _)| ((*name).to_owned(), (*unit).into()))
-        .chain(std::iter::once((VALVE.to_owned(), "".into())))
+        .map(|c| (c.name.to_owned(), c.unit.into()))
         .collect();
     let fail = |e: parquet::errors::ParquetError| malformed(path, e);
     let schema = Arc::new(parse_message_type(&message).map_err(fail)?);
@@ -405,7 +494,7 @@ pub fn write_run_parquet(path: &Path, run: &Run) -> Result<(), DataError> {
                     UNITS_KEY.to_owned(),
                     serde_json::Value::Object(units).to_string(),
                 ),
-                KeyValue::new("airsus.run".to_owned(), run.name.clone()),
+                KeyValue::new(format!("airsus.{kind}"), name.to_owned()),
             ]))
             .build(),
     );
@@ -416,21 +505,35 @@ pub fn write_run_parquet(path: &Path, run: &Run) -> Result<(), DataError> {
     while start < n.max(1) {
         let end = (start + ROW_GROUP_ROWS).min(n);
         let mut group = writer.next_row_group().map_err(fail)?;
-        let mut column = 0;
+        let mut columns = table.iter();
         while let Some(mut out) = group.next_column().map_err(fail)? {
-            // Schema order: time, valve, then the other doubles.
-            if column == 1 {
-                out.typed::<Int32Type>()
-                    .write_batch(&valve[start..end], None, None)
-                    .map_err(fail)?;
-            } else {
-                let k = if column == 0 { 0 } else { column - 1 };
-                out.typed::<DoubleType>()
-                    .write_batch(&doubles[k].2[start..end], None, None)
-                    .map_err(fail)?;
+            let Some(column) = columns.next() else {
+                return Err(malformed(
+                    path,
+                    "the schema has more columns than the table",
+                ));
+            };
+            match column.values {
+                ColumnValues::Double(v) => {
+                    out.typed::<DoubleType>()
+                        .write_batch(&v[start..end], None, None)
+                        .map_err(fail)?;
+                }
+                ColumnValues::NullableDouble(v) => {
+                    let rows = &v[start..end];
+                    let present: Vec<f64> = rows.iter().copied().filter(|x| !x.is_nan()).collect();
+                    let levels: Vec<i16> = rows.iter().map(|x| i16::from(!x.is_nan())).collect();
+                    out.typed::<DoubleType>()
+                        .write_batch(&present, Some(&levels), None)
+                        .map_err(fail)?;
+                }
+                ColumnValues::Int32(v) => {
+                    out.typed::<Int32Type>()
+                        .write_batch(&v[start..end], None, None)
+                        .map_err(fail)?;
+                }
             }
             out.close().map_err(fail)?;
-            column += 1;
         }
         group.close().map_err(fail)?;
         start = end.max(start + 1);
