@@ -7,6 +7,8 @@
 //!   Model 2 with the load as a random-walk state);
 //! - [`control`]: ride-height (level) control with the 3-state valve — which must not be
 //!   pulsed at high frequency (thesis 2.2.1) — closed-loop on any model or the virtual truck;
+//! - [`fleet`]: a virtual fleet of the truck family, each truck logging its days at 10 Hz
+//!   with a levelling controller at work, some with a growing air leak;
 //! - [`road`]: the response to road input (a bump, an ISO 8608 random road), and Model 2
 //!   linearised about its equilibrium.
 //!
@@ -14,6 +16,7 @@
 
 pub mod control;
 pub mod error;
+pub mod fleet;
 pub mod plot;
 pub mod road;
 pub mod weigh;

@@ -11,6 +11,7 @@
 
 pub mod ekf;
 pub mod evaluate;
+pub mod standstill;
 pub mod static_law;
 
 use std::io::Write;
@@ -23,6 +24,9 @@ use crate::error::{AppError, invalid};
 pub use ekf::{EkfTuning, LoadEkf, weigh_ekf};
 pub use evaluate::{
     AccuracySummary, ErrorStats, StandstillRule, evaluate_weighing, standstill_indices,
+};
+pub use standstill::{
+    Standstill, StandstillDetector, StandstillSignals, friction_state, weigh_standstills,
 };
 pub use static_law::{LoadEstimate, StaticLaw, StaticWeigher, WeighingUncertainty};
 
