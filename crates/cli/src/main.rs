@@ -66,6 +66,8 @@ enum Command {
     Road(commands::road::RoadArgs),
     /// Generate the reference experiments (data-sets 1-4, lab data, study) with the virtual truck.
     Generate(commands::generate::GenerateArgs),
+    /// Fleet-scale data: `airsus fleet generate` writes a virtual fleet as a Parquet dataset.
+    Fleet(commands::fleet::FleetArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -78,6 +80,7 @@ fn main() -> std::process::ExitCode {
         Command::Fmu(args) => commands::fmu::run(args),
         Command::Models(args) => commands::models::run(args),
         Command::Generate(args) => commands::generate::run(args),
+        Command::Fleet(args) => commands::fleet::run(args),
         Command::Greybox(args) => commands::greybox::run(args),
         Command::Fit(args) => commands::fit::run(args),
         Command::Study(args) => commands::study::run(args),

@@ -3,6 +3,7 @@
 pub mod check;
 pub mod control;
 pub mod fit;
+pub mod fleet;
 pub mod fmu;
 pub mod generate;
 pub mod greybox;
