@@ -15,6 +15,7 @@ use pyo3::prelude::*;
 
 mod apps;
 mod error;
+mod fleet;
 mod greybox;
 mod ident;
 mod progress;
@@ -42,5 +43,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(apps::study, m)?)?;
     m.add_function(wrap_pyfunction!(apps::generate, m)?)?;
     m.add_function(wrap_pyfunction!(apps::nrmse, m)?)?;
+    m.add_function(wrap_pyfunction!(fleet::standstills, m)?)?;
+    m.add_function(wrap_pyfunction!(fleet::gas_amount_mol, m)?)?;
     Ok(())
 }

@@ -103,3 +103,17 @@ def study(
 ) -> Dict[str, Any]: ...
 def generate(out: str, seed: int = 1, progress: _Progress = None) -> Dict[str, Any]: ...
 def nrmse(measured: _Array, simulated: _Array) -> float: ...
+def standstills(
+    truck: NativeTruck,
+    time_s: _Array,
+    height_mm: _Array,
+    pressure_kpa: _Array,
+    valve: _Array,
+    speed_kmh: Optional[_Array] = None,
+    segment: Optional[_Array] = None,
+    settle_s: float = 120.0,
+    min_duration_s: float = 20.0,
+) -> Dict[str, _Array]: ...
+def gas_amount_mol(
+    truck: NativeTruck, height_mm: _Array, pressure_kpa: _Array, temperature_k: _Array
+) -> _Array: ...
