@@ -27,7 +27,8 @@ python3 -m venv "$work/venv"
 # No cargo, rustc or rustup here: the wheel must install and import as it is.
 clean_path="$work/venv/bin:/usr/local/bin:/usr/bin:/bin"
 env PATH="$clean_path" "$work/venv/bin/python" -m pip install --quiet --upgrade pip
-env PATH="$clean_path" "$work/venv/bin/python" -m pip install --quiet "${wheels[0]}[test]"
+# [spark]: PySpark for the fleet jobs' tests in local mode (java comes from .ci/run).
+env PATH="$clean_path" "$work/venv/bin/python" -m pip install --quiet "${wheels[0]}[test,spark]"
 if env PATH="$clean_path" bash -c 'command -v cargo' >/dev/null; then
   echo "cargo is on the clean PATH; the no-toolchain install is not tested" >&2
   exit 1

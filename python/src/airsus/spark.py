@@ -1,0 +1,157 @@
+"""The fleet jobs on Apache Spark: ``python -m airsus.spark weigh|calibrate|leaks``.
+
+::
+
+    python -m airsus.spark calibrate --fleet FLEET --out OUT [--master local[2]]
+    python -m airsus.spark weigh --fleet FLEET --out OUT [--calibration OUT/calibrate]
+    python -m airsus.spark leaks --fleet FLEET --out OUT
+
+Each job reads the fleet's Parquet logs (``FLEET/logs``, partitioned by ``truck_id``), groups
+them by truck and applies the task's per-truck function of :mod:`airsus.fleet` with
+``applyInPandas``: the airsus wheel does the work on the executors, Spark only distributes it.
+The result is written as Parquet to ``OUT/<task>/`` (one row per standstill, per truck, or per
+truck and day; schemas in :data:`airsus.fleet.SCHEMAS`), the same rows that
+:func:`airsus.fleet.run_local` computes without Spark.
+
+On a cluster, ship a packed environment with airsus to the executors and run this file as the
+driver script (it imports airsus absolutely), e.g.::
+
+    spark-submit --master yarn --archives airsus_env.tar.gz#env \\
+        --conf spark.pyspark.python=./env/bin/python \\
+        "$(python -c 'import airsus.spark as s; print(s.__file__)')" \\
+        weigh --fleet s3a://bucket/fleet --out s3a://bucket/results
+
+(``PYSPARK_PYTHON`` must name a Python that has ``airsus`` installed on every executor.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from typing import Any, Callable, Dict, List, Optional, Sequence
+
+import pandas as pd
+
+# Absolute, so that spark-submit can run this file as the driver script.
+from airsus import fleet
+
+
+def _read_text(spark: Any, path: str) -> str:
+    """A small text file, local or on any file system Spark reads (hdfs://, s3a://)."""
+    if "://" not in path:
+        try:
+            with open(path, encoding="utf-8") as f:
+                return f.read()
+        except OSError as e:
+            raise SystemExit(f"error: cannot read {path}: {e.strerror}") from None
+    return str(spark.read.text(path, wholetext=True).first()[0])
+
+
+def session(master: Optional[str], app_name: str, conf: Sequence[str] = ()) -> Any:
+    """A Spark session. In local mode the driver binds to 127.0.0.1 and the web UI is off
+    (nothing listens beyond this machine); ``conf`` items are ``key=value``."""
+    from pyspark.sql import SparkSession
+
+    builder = SparkSession.builder.appName(app_name)
+    if master:
+        builder = builder.master(master)
+    if not master or master.startswith("local"):
+        builder = (
+            builder.config("spark.driver.host", "127.0.0.1")
+            .config("spark.driver.bindAddress", "127.0.0.1")
+            .config("spark.ui.enabled", "false")
+        )
+    builder = builder.config("spark.sql.execution.arrow.pyspark.enabled", "true")
+    for item in conf:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise SystemExit(f"error: --conf {item!r} is not key=value")
+        builder = builder.config(key, value)
+    return builder.getOrCreate()
+
+
+def _apply(
+    task: str, truck_text: str, calibration: Optional[Dict[int, Dict[str, Any]]]
+) -> Callable[[pd.DataFrame], pd.DataFrame]:
+    """The function Spark applies to each truck's rows: everything it needs travels in the
+    closure (the truck file's text, the calibrations as plain dicts)."""
+
+    def per_truck(pdf: pd.DataFrame) -> pd.DataFrame:
+        if task == "weigh":
+            return fleet.weigh_truck(pdf, truck_text, calibration)
+        return fleet.task_function(task)(pdf, truck_text)
+
+    return per_truck
+
+
+def run_job(
+    spark: Any,
+    task: str,
+    fleet_dir: str,
+    out: Optional[str] = None,
+    *,
+    calibration: Optional[str] = None,
+) -> pd.DataFrame:
+    """Runs a task over the fleet on ``spark``; writes ``out/<task>/`` when ``out`` is given
+    and returns the result collected to the driver, sorted as :func:`airsus.fleet.run_local`
+    sorts it."""
+    ddl = fleet.spark_ddl(task)
+    if out is not None and os.path.abspath(out) == os.path.abspath(fleet_dir):
+        raise SystemExit("error: the output folder is the fleet itself; choose another")
+    logs = os.path.join(fleet_dir, "logs")
+    if not os.path.isdir(logs) and "://" not in fleet_dir:
+        raise SystemExit(f"error: {fleet_dir} holds no fleet: {logs} is not a folder")
+    truck_text = _read_text(spark, os.path.join(fleet_dir, "truck.toml"))
+    cal: Optional[Dict[int, Dict[str, Any]]] = None
+    if calibration is not None:
+        if task != "weigh":
+            raise SystemExit("error: --calibration goes with weigh")
+        rows = spark.read.parquet(calibration).toPandas()
+        cal = {int(r["truck_id"]): dict(r) for _, r in rows.iterrows()}
+    frame = spark.read.parquet(logs)
+    if "truck_id" not in frame.columns:
+        raise SystemExit(f"error: {logs} is not partitioned by truck_id (truck_id=K/ folders)")
+    result = frame.groupBy("truck_id").applyInPandas(_apply(task, truck_text, cal), schema=ddl)
+    if out is not None:
+        target = os.path.join(out, task)
+        result.write.mode("overwrite").parquet(target)
+        result = spark.read.parquet(target)
+    return fleet.sort_result(task, result.toPandas())
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m airsus.spark",
+        description="airsus fleet jobs on Apache Spark: weigh, calibrate or find leaks per "
+        "truck over a fleet's Parquet logs.",
+    )
+    parser.add_argument("task", choices=fleet.TASKS)
+    parser.add_argument("--fleet", required=True, help="the fleet folder (logs/, truck.toml)")
+    parser.add_argument("--out", required=True, help="results go to OUT/<task>/ as Parquet")
+    parser.add_argument("--master", default=None, help="Spark master, e.g. local[2] or yarn")
+    parser.add_argument(
+        "--calibration",
+        default=None,
+        help="weigh: a calibrate result (OUT/calibrate) to correct each truck's loads",
+    )
+    parser.add_argument(
+        "--conf", action="append", default=[], metavar="KEY=VALUE", help="Spark settings"
+    )
+    args = parser.parse_args(argv)
+    spark = session(args.master, f"airsus-{args.task}", args.conf)
+    try:
+        result = run_job(spark, args.task, args.fleet, args.out, calibration=args.calibration)
+    finally:
+        spark.stop()
+    trucks = result["truck_id"].nunique() if len(result) else 0
+    print(
+        f"{args.task}: {len(result)} rows for {trucks} trucks -> "
+        f"{os.path.join(args.out, args.task)}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
