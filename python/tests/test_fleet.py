@@ -202,6 +202,11 @@ def test_spark_gives_the_same_numbers_as_the_local_pool(
     pd.testing.assert_frame_equal(weighed, local_results["weigh"])
     leaks = airsus_spark.run_job(spark, "leaks", str(virtual_fleet), str(out))
     pd.testing.assert_frame_equal(leaks, local_results["leaks"])
+    # Without the shuffle (each task reads its truck's files): the same rows again.
+    by_files = airsus_spark.run_job(
+        spark, "weigh", str(virtual_fleet), None, calibration=str(out / "calibrate"), mode="files"
+    )
+    pd.testing.assert_frame_equal(by_files, local_results["weigh"])
     # What Spark wrote reads back as the same rows.
     written = fleet.sort_result("weigh", pd.read_parquet(out / "weigh"))
     pd.testing.assert_frame_equal(written, local_results["weigh"])
@@ -217,6 +222,8 @@ def test_spark_gives_the_same_numbers_as_the_local_pool(
 def test_the_spark_job_refuses_bad_arguments_before_any_work(virtual_fleet: Path) -> None:
     from airsus import spark as airsus_spark
 
+    with pytest.raises(SystemExit, match="unknown mode"):
+        airsus_spark.run_job(None, "weigh", str(virtual_fleet), None, mode="shuffle")
     with pytest.raises(SystemExit, match="the fleet itself"):
         airsus_spark.run_job(None, "weigh", str(virtual_fleet), str(virtual_fleet))
     with pytest.raises(SystemExit, match="holds no fleet"):

@@ -52,7 +52,11 @@ fn a_fleet_is_written_whole_and_never_over_another() {
     .unwrap()
     .run;
     assert_eq!(run.len(), 864_000);
-    assert!((run.sample_time_s - 0.1).abs() < 1e-9, "{}", run.sample_time_s);
+    assert!(
+        (run.sample_time_s - 0.1).abs() < 1e-9,
+        "{}",
+        run.sample_time_s
+    );
     let heights = &run.outputs.as_ref().unwrap().sensor_height_m;
     assert!(heights.iter().all(|h| (0.15..0.30).contains(h)));
     assert!(

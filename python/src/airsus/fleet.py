@@ -41,6 +41,7 @@ from . import Truck, _native
 
 __all__ = [
     "LEAK_THRESHOLD_PERCENT_PER_H",
+    "LOG_COLUMNS",
     "SCHEMAS",
     "TASKS",
     "calibrate_truck",
@@ -147,6 +148,8 @@ def _truck_id(pdf: pd.DataFrame) -> int:
 
 
 _REQUIRED = ("time_s", "day", "height_mm", "pressure_kpa", "valve")
+#: Every log column a task reads (the rest, e.g. ``supply_kpa``, is not needed).
+LOG_COLUMNS = _REQUIRED + ("speed_kmh", "ambient_temp_c", "reference_load_kg")
 
 
 def _days(pdf: pd.DataFrame) -> List[Tuple[int, pd.DataFrame]]:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from typing import Any, Callable, Dict, List, Optional, Sequence
+from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence
 
 import pandas as pd
 
@@ -85,6 +85,24 @@ def _apply(
     return per_truck
 
 
+#: How the trucks' rows reach the per-truck function.
+MODES = ("groupby", "files")
+
+
+def _per_truck_files(
+    per_truck: Callable[[pd.DataFrame], pd.DataFrame],
+) -> Callable[[Iterator[pd.DataFrame]], Iterator[pd.DataFrame]]:
+    """For ``mode="files"``: each row names a truck and its folder; the executor reads the
+    truck's Parquet files itself and applies the per-truck function."""
+
+    def apply(batches: Iterator[pd.DataFrame]) -> Iterator[pd.DataFrame]:
+        for batch in batches:
+            for truck_id, folder in zip(batch["truck_id"], batch["folder"]):
+                yield per_truck(fleet.read_truck_logs(str(folder), int(truck_id)))
+
+    return apply
+
+
 def run_job(
     spark: Any,
     task: str,
@@ -92,10 +110,19 @@ def run_job(
     out: Optional[str] = None,
     *,
     calibration: Optional[str] = None,
+    mode: str = "groupby",
 ) -> pd.DataFrame:
     """Runs a task over the fleet on ``spark``; writes ``out/<task>/`` when ``out`` is given
     and returns the result collected to the driver, sorted as :func:`airsus.fleet.run_local`
-    sorts it."""
+    sorts it.
+
+    ``mode="groupby"``: Spark reads the logs and hands each truck's rows to the function
+    (``groupBy("truck_id").applyInPandas``): any file system Spark reads, at the price of a
+    shuffle of every row. ``mode="files"``: Spark distributes the list of trucks and each task
+    reads its truck's files with pyarrow (``mapInPandas``): no shuffle, for a fleet folder
+    every executor sees at the same path (local, NFS, a mounted bucket)."""
+    if mode not in MODES:
+        raise SystemExit(f"error: unknown mode {mode!r}; the modes are: {', '.join(MODES)}")
     ddl = fleet.spark_ddl(task)
     if out is not None and os.path.abspath(out) == os.path.abspath(fleet_dir):
         raise SystemExit("error: the output folder is the fleet itself; choose another")
@@ -109,10 +136,23 @@ def run_job(
             raise SystemExit("error: --calibration goes with weigh")
         rows = spark.read.parquet(calibration).toPandas()
         cal = {int(r["truck_id"]): dict(r) for _, r in rows.iterrows()}
-    frame = spark.read.parquet(logs)
-    if "truck_id" not in frame.columns:
-        raise SystemExit(f"error: {logs} is not partitioned by truck_id (truck_id=K/ folders)")
-    result = frame.groupBy("truck_id").applyInPandas(_apply(task, truck_text, cal), schema=ddl)
+    per_truck = _apply(task, truck_text, cal)
+    if mode == "files":
+        try:
+            trucks = fleet.fleet_trucks(fleet_dir)
+        except ValueError as e:
+            raise SystemExit(f"error: {e}") from None
+        listing = spark.sparkContext.parallelize(
+            [(truck_id, folder) for truck_id, folder in trucks], numSlices=len(trucks)
+        ).toDF("truck_id long, folder string")
+        result = listing.mapInPandas(_per_truck_files(per_truck), schema=ddl)
+    else:
+        frame = spark.read.parquet(logs)
+        if "truck_id" not in frame.columns:
+            raise SystemExit(f"error: {logs} is not partitioned by truck_id (truck_id=K/ folders)")
+        # Only what the tasks read crosses the shuffle.
+        wanted = [c for c in frame.columns if c in fleet.LOG_COLUMNS or c == "truck_id"]
+        result = frame.select(*wanted).groupBy("truck_id").applyInPandas(per_truck, schema=ddl)
     if out is not None:
         target = os.path.join(out, task)
         result.write.mode("overwrite").parquet(target)
@@ -136,12 +176,27 @@ def main(argv: Optional[List[str]] = None) -> int:
         help="weigh: a calibrate result (OUT/calibrate) to correct each truck's loads",
     )
     parser.add_argument(
+        "--mode",
+        choices=MODES,
+        default="groupby",
+        help="groupby: Spark reads the logs and groups them by truck (a shuffle); files: "
+        "Spark distributes the trucks and each task reads its own files (no shuffle; the "
+        "fleet folder must be at the same path on every executor)",
+    )
+    parser.add_argument(
         "--conf", action="append", default=[], metavar="KEY=VALUE", help="Spark settings"
     )
     args = parser.parse_args(argv)
     spark = session(args.master, f"airsus-{args.task}", args.conf)
     try:
-        result = run_job(spark, args.task, args.fleet, args.out, calibration=args.calibration)
+        result = run_job(
+            spark,
+            args.task,
+            args.fleet,
+            args.out,
+            calibration=args.calibration,
+            mode=args.mode,
+        )
     finally:
         spark.stop()
     trucks = result["truck_id"].nunique() if len(result) else 0
