@@ -194,19 +194,29 @@ def test_spark_gives_the_same_numbers_as_the_local_pool(
     from airsus import spark as airsus_spark
 
     out = tmp_path / "results"
-    cal = airsus_spark.run_job(spark, "calibrate", str(virtual_fleet), str(out))
+    # The form first: groupBy("truck_id").applyInPandas.
+    cal = airsus_spark.run_job(spark, "calibrate", str(virtual_fleet), str(out), mode="groupby")
     pd.testing.assert_frame_equal(cal, local_results["calibrate"])
     weighed = airsus_spark.run_job(
-        spark, "weigh", str(virtual_fleet), str(out), calibration=str(out / "calibrate")
+        spark,
+        "weigh",
+        str(virtual_fleet),
+        str(out),
+        calibration=str(out / "calibrate"),
+        mode="groupby",
     )
     pd.testing.assert_frame_equal(weighed, local_results["weigh"])
-    leaks = airsus_spark.run_job(spark, "leaks", str(virtual_fleet), str(out))
+    leaks = airsus_spark.run_job(spark, "leaks", str(virtual_fleet), str(out), mode="groupby")
     pd.testing.assert_frame_equal(leaks, local_results["leaks"])
-    # Without the shuffle (each task reads its truck's files): the same rows again.
-    by_files = airsus_spark.run_job(
-        spark, "weigh", str(virtual_fleet), None, calibration=str(out / "calibrate"), mode="files"
-    )
-    pd.testing.assert_frame_equal(by_files, local_results["weigh"])
+    # Without the shuffle (each task reads its truck's files; what auto picks on a local
+    # master): the same rows again.
+    assert airsus_spark.resolve_mode(spark, "auto", str(virtual_fleet)) == "files"
+    assert airsus_spark.resolve_mode(spark, "auto", "hdfs:///fleet") == "groupby"
+    for task, calibration in (("weigh", str(out / "calibrate")), ("leaks", None)):
+        by_files = airsus_spark.run_job(
+            spark, task, str(virtual_fleet), None, calibration=calibration, mode="files"
+        )
+        pd.testing.assert_frame_equal(by_files, local_results[task])
     # What Spark wrote reads back as the same rows.
     written = fleet.sort_result("weigh", pd.read_parquet(out / "weigh"))
     pd.testing.assert_frame_equal(written, local_results["weigh"])
