@@ -162,6 +162,8 @@ def test_a_task_takes_one_whole_truck_and_names_what_is_missing(virtual_fleet: P
     assert len(still) == 0 and list(still.columns) == [n for n, _ in fleet.SCHEMAS["weigh"]]
     with pytest.raises(ValueError, match="no fleet"):
         fleet.run_local("leaks", str(virtual_fleet / "logs"))
+    with pytest.raises(ValueError, match="overlaps the input"):
+        fleet.run_local("leaks", str(virtual_fleet), str(virtual_fleet / "logs" / "truck_id=3"))
 
 
 def _spark_available() -> bool:
@@ -234,8 +236,9 @@ def test_the_spark_job_refuses_bad_arguments_before_any_work(virtual_fleet: Path
 
     with pytest.raises(SystemExit, match="unknown mode"):
         airsus_spark.run_job(None, "weigh", str(virtual_fleet), None, mode="shuffle")
-    with pytest.raises(SystemExit, match="the fleet itself"):
-        airsus_spark.run_job(None, "weigh", str(virtual_fleet), str(virtual_fleet))
+    for out in (virtual_fleet / "logs", virtual_fleet / "logs" / "truck_id=0"):
+        with pytest.raises(SystemExit, match="overlaps the input"):
+            airsus_spark.run_job(None, "weigh", str(virtual_fleet), str(out))
     with pytest.raises(SystemExit, match="holds no fleet"):
         airsus_spark.run_job(None, "weigh", str(virtual_fleet / "truth"), None)
     with pytest.raises(SystemExit, match="goes with weigh"):

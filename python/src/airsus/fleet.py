@@ -520,6 +520,36 @@ def _one_truck(task: str, truck_text: str, calibration: Any, item: Tuple[int, st
     return task_function(task)(pdf, truck_text)
 
 
+def fleet_inputs(fleet: str, calibration: Any = None) -> List[Any]:
+    """What a task reads: the fleet's logs and truck file, and a calibration path if any
+    (results may go beside them, e.g. ``FLEET/results``, never into or over them)."""
+    return [os.path.join(fleet, "logs"), os.path.join(fleet, "truck.toml"), calibration]
+
+
+def refuse_output_over_inputs(target: str, inputs: Sequence[Any]) -> None:
+    """Refuses an output that is, holds or lies inside an input folder or file (the fleet,
+    a calibration): writing there would overwrite it or add files its next read would take
+    for logs. Remote paths (``scheme://``) are compared as written."""
+
+    def norm(p: str) -> str:
+        return p.rstrip("/") if "://" in p else os.path.realpath(p)
+
+    out = norm(target)
+    for item in inputs:
+        if not isinstance(item, str):
+            continue
+        source = norm(item)
+        try:
+            shared = os.path.commonpath([out, source])
+        except ValueError:  # different drives or a mix of absolute and relative paths
+            continue
+        if shared in (out, source):
+            raise ValueError(
+                f"the output {target} overlaps the input {item}; choose an output folder "
+                "outside the fleet and the calibration"
+            )
+
+
 def write_result(frame: pd.DataFrame, path: str) -> None:
     """Writes a result as one Parquet file, atomically (a temporary file, then a rename)."""
     folder = os.path.dirname(os.path.abspath(path))
@@ -528,6 +558,10 @@ def write_result(frame: pd.DataFrame, path: str) -> None:
     os.close(fd)
     try:
         frame.to_parquet(tmp, index=False)
+        # mkstemp makes the file private (0600): give it the permissions of a new file.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException:
         os.unlink(tmp)
@@ -548,6 +582,10 @@ def run_local(
     ``out/<task>.parquet``. ``calibration``: a calibrate result (frame or Parquet path) for
     ``weigh``. ``processes=1`` runs in this process."""
     _schema(task)
+    if out is not None:
+        refuse_output_over_inputs(
+            os.path.join(out, f"{task}.parquet"), fleet_inputs(fleet, calibration)
+        )
     trucks = fleet_trucks(fleet)
     truck_text = read_fleet_truck(fleet)
     if isinstance(calibration, str):
@@ -560,8 +598,6 @@ def run_local(
             parts = list(pool.map(work, trucks))
     result = sort_result(task, pd.concat(parts, ignore_index=True))
     if out is not None:
-        if os.path.abspath(out) == os.path.abspath(fleet):
-            raise ValueError("the output folder is the fleet itself; choose another")
         write_result(result, os.path.join(out, f"{task}.parquet"))
     return result
 

@@ -135,8 +135,13 @@ def run_job(
     if mode not in MODES:
         raise SystemExit(f"error: unknown mode {mode!r}; the modes are: {', '.join(MODES)}")
     ddl = fleet.spark_ddl(task)
-    if out is not None and os.path.abspath(out) == os.path.abspath(fleet_dir):
-        raise SystemExit("error: the output folder is the fleet itself; choose another")
+    if out is not None:
+        try:
+            fleet.refuse_output_over_inputs(
+                os.path.join(out, task), fleet.fleet_inputs(fleet_dir, calibration)
+            )
+        except ValueError as e:
+            raise SystemExit(f"error: {e}") from None
     logs = os.path.join(fleet_dir, "logs")
     if not os.path.isdir(logs) and "://" not in fleet_dir:
         raise SystemExit(f"error: {fleet_dir} holds no fleet: {logs} is not a folder")

@@ -126,14 +126,24 @@ pub fn friction_state(height_m: &[f64], sample_s: f64, presliding_m: f64, play_m
     let window = ((1.0 / sample_s).round() as usize).max(1);
     let mut z = 0.0;
     let mut out = Vec::with_capacity(height_m.len());
-    let mut sum = 0.0;
+    // The moving mean over the finite readings of the last `window` samples: a missing
+    // reading (NaN) holds the state and stays out of the mean.
+    let (mut sum, mut finite) = (0.0, 0usize);
     let mut y: Option<f64> = None;
     for (k, &h) in height_m.iter().enumerate() {
-        sum += h;
-        if k >= window {
-            sum -= height_m[k - window];
+        if h.is_finite() {
+            sum += h;
+            finite += 1;
         }
-        let mean = sum / (k + 1).min(window) as f64;
+        if k >= window && height_m[k - window].is_finite() {
+            sum -= height_m[k - window];
+            finite -= 1;
+        }
+        if !h.is_finite() || finite == 0 {
+            out.push(z);
+            continue;
+        }
+        let mean = sum / finite as f64;
         let previous = *y.get_or_insert(mean);
         // Play (backlash): the output moves only when the input leaves ±play around it.
         let played = previous.clamp(mean - play_m, mean + play_m);
@@ -296,6 +306,13 @@ mod tests {
             z.last().unwrap()
         );
         assert!(z.iter().all(|v| (-1.0..=1.0).contains(v)));
+        // A missing reading holds the state; it never panics or poisons what follows.
+        let mut gappy = h.clone();
+        gappy[after_rise - 5] = f64::NAN;
+        gappy[10] = f64::INFINITY;
+        let held = friction_state(&gappy, 0.1, 4e-3, 0.25e-3);
+        assert!(held.iter().all(|v| v.is_finite()));
+        assert!(held[after_rise] > 0.85 && *held.last().unwrap() < -0.75);
         // Without the play, the dither drags the state towards zero.
         let dithered = friction_state(&h, 0.1, 4e-3, 0.0);
         assert!(dithered[after_rise] < z[after_rise] - 0.1);

@@ -237,9 +237,12 @@ fn generate(args: &FleetGenerateArgs) -> anyhow::Result<()> {
         .with_context(|| format!("creating {}", args.out.display()))?;
     // Everything is written into a scratch folder inside DIR and moved into place at the end,
     // so a failed or interrupted run leaves no half fleet behind.
-    let scratch = args
-        .out
-        .join(format!(".fleet-partial-{}", std::process::id()));
+    // Created exclusively: a folder left by a killed run is never reused.
+    let scratch = tempfile::Builder::new()
+        .prefix(".fleet-partial-")
+        .tempdir_in(&args.out)
+        .with_context(|| format!("creating a scratch folder in {}", args.out.display()))?
+        .keep();
     let result = write_fleet(&spec, &scratch);
     let moved = result.and_then(|()| {
         for name in ["truck.toml", "logs", "truth", "fleet.toml"] {
