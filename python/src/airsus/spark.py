@@ -49,14 +49,17 @@ def _read_text(spark: Any, path: str) -> str:
 
 
 def session(master: Optional[str], app_name: str, conf: Sequence[str] = ()) -> Any:
-    """A Spark session. In local mode the driver binds to 127.0.0.1 and the web UI is off
-    (nothing listens beyond this machine); ``conf`` items are ``key=value``."""
+    """A Spark session. With a ``local[...]`` master the driver binds to 127.0.0.1 and the web
+    UI is off (nothing listens beyond this machine); without one (spark-submit's master)
+    nothing is overridden. ``conf`` items are ``key=value``."""
     from pyspark.sql import SparkSession
 
     builder = SparkSession.builder.appName(app_name)
     if master:
         builder = builder.master(master)
-    if not master or master.startswith("local"):
+    # Only when asked for local mode here: under spark-submit (master None) the cluster's
+    # executors must reach the driver at its own address.
+    if master and master.startswith("local"):
         builder = (
             builder.config("spark.driver.host", "127.0.0.1")
             .config("spark.driver.bindAddress", "127.0.0.1")
