@@ -221,6 +221,8 @@ struct DayRun<'a> {
     plan: &'a DayPlan,
     log: TruckDayLog,
     model: TruckModel,
+    /// The hour `model` was built for.
+    hour: usize,
     mode: ControllerMode,
     controller: Option<DeadbandController>,
 }
@@ -249,6 +251,15 @@ impl TruckSimulator {
             .leak
             .map_or(0.0, |leak| leak.conductance_at(mid_hour_s));
         TruckModel::new(truth, SupplyMode::Tank)
+    }
+
+    /// Rebuilds the plant when sample `k` lies in another hour than the one it was built for.
+    fn enter_hour(&self, run: &mut DayRun, day: u32, k: usize) {
+        let hour = k / SAMPLES_PER_HOUR;
+        if hour != run.hour {
+            run.model = self.model_for(run.plan, day, hour);
+            run.hour = hour;
+        }
     }
 
     fn input(plan: &DayPlan, k: usize, valve: ValveState) -> InputSample {
@@ -359,6 +370,7 @@ impl TruckSimulator {
                 ..TruckDayLog::default()
             },
             model: self.model_for(&plan, day, 0),
+            hour: 0,
             mode: ControllerMode::Asleep,
             controller: None,
         };
@@ -385,18 +397,14 @@ impl TruckSimulator {
         let mut valve = self.observe(&mut run, 0, &x);
         let mut k = 0;
         while k + 1 < n {
-            let hour = k / SAMPLES_PER_HOUR;
-            if k % SAMPLES_PER_HOUR == 0 && k > 0 {
-                run.model = self.model_for(&plan, day, hour);
-            }
+            self.enter_hour(&mut run, day, k);
             if valve != ValveState::Closed {
                 let response =
                     Self::integrate(&run, k, k + 1, valve, &x).map_err(|e| context(e, k))?;
                 x = final_state(&response).map_err(|e| context(e, k))?;
                 k += 1;
-                if k % SAMPLES_PER_HOUR == 0 {
-                    run.model = self.model_for(&plan, day, k / SAMPLES_PER_HOUR);
-                }
+                // Stepping, the sample that starts an hour is read with that hour's plant.
+                self.enter_hour(&mut run, day, k);
                 valve = self.observe(&mut run, k, &x);
                 continue;
             }
