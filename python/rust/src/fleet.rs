@@ -84,35 +84,24 @@ pub fn standstills<'py>(
             weigh_standstills(&signals, &weigher, &detector).map_err(anyhow::Error::from)
         })
         .or_py()?;
+    type Field = fn(&airsus_apps::weigh::Standstill) -> f64;
+    let fields: [(&str, Field); 10] = [
+        ("first", |s| s.first as f64),
+        ("last", |s| s.last as f64),
+        ("start_s", |s| s.start_s),
+        ("end_s", |s| s.end_s),
+        ("height_mm", |s| s.height_m * 1e3),
+        ("pressure_kpa", |s| s.gauge_pa * 1e-3),
+        ("static_load_kg", |s| s.static_load_kg),
+        ("measurement_std_kg", |s| s.measurement_std_kg),
+        ("parameter_std_kg", |s| s.parameter_std_kg),
+        ("friction_state", |s| s.friction_state),
+    ];
     let dict = PyDict::new(py);
-    let column = |f: &dyn Fn(&airsus_apps::weigh::Standstill) -> f64| -> Vec<f64> {
-        found.iter().map(f).collect()
-    };
-    dict.set_item("first", column(&|s| s.first as f64).into_pyarray(py))?;
-    dict.set_item("last", column(&|s| s.last as f64).into_pyarray(py))?;
-    dict.set_item("start_s", column(&|s| s.start_s).into_pyarray(py))?;
-    dict.set_item("end_s", column(&|s| s.end_s).into_pyarray(py))?;
-    dict.set_item("height_mm", column(&|s| s.height_m * 1e3).into_pyarray(py))?;
-    dict.set_item(
-        "pressure_kpa",
-        column(&|s| s.gauge_pa * 1e-3).into_pyarray(py),
-    )?;
-    dict.set_item(
-        "static_load_kg",
-        column(&|s| s.static_load_kg).into_pyarray(py),
-    )?;
-    dict.set_item(
-        "measurement_std_kg",
-        column(&|s| s.measurement_std_kg).into_pyarray(py),
-    )?;
-    dict.set_item(
-        "parameter_std_kg",
-        column(&|s| s.parameter_std_kg).into_pyarray(py),
-    )?;
-    dict.set_item(
-        "friction_state",
-        column(&|s| s.friction_state).into_pyarray(py),
-    )?;
+    for (name, field) in fields {
+        let column: Vec<f64> = found.iter().map(field).collect();
+        dict.set_item(name, column.into_pyarray(py))?;
+    }
     Ok(dict)
 }
 
