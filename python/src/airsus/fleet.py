@@ -32,7 +32,7 @@ import os
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from functools import partial
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 import pandas as pd
@@ -49,6 +49,7 @@ __all__ = [
     "leaks_truck",
     "read_truck_logs",
     "run_local",
+    "run_task",
     "spark_ddl",
     "weigh_truck",
 ]
@@ -218,9 +219,9 @@ def weigh_truck(
     parts: Dict[str, List[Any]] = {name: [] for name, _ in _schema("weigh")}
     for day, rows in _days(pdf):
         speed = rows["speed_kmh"] if "speed_kmh" in rows.columns else None
-        has_reference = "reference_load_kg" in rows.columns
+        known = _f64(rows["reference_load_kg"]) if "reference_load_kg" in rows.columns else None
         # Where a known load starts or ends, a standstill ends: the known part is weighed alone.
-        segment = _f64(np.isfinite(_f64(rows["reference_load_kg"]))) if has_reference else None
+        segment = None if known is None else _f64(np.isfinite(known))
         found = _native.standstills(
             law._native,
             _f64(rows["time_s"]),
@@ -234,8 +235,7 @@ def weigh_truck(
         count = len(found["start_s"])
         first = found["first"].astype(np.int64)
         last = found["last"].astype(np.int64)
-        if has_reference and count:
-            known = _f64(rows["reference_load_kg"])
+        if known is not None and count:
             reference = np.array(
                 [_known_load(known[a : b + 1]) for a, b in zip(first, last)], dtype=np.float64
             )
@@ -309,7 +309,7 @@ def calibrate_truck(pdf: pd.DataFrame, truck: Any, *, settle_s: float = 120.0) -
     covariance reported. ``method`` is ``references`` when the truck had known loads, ``prior``
     when it had none (the nominal law, with the prior's uncertainty)."""
     truck_id = _truck_id(pdf)
-    standstills = weigh_truck(pdf, truck, settle_s=settle_s)
+    standstills = weigh_truck(pdf, _as_truck(truck), settle_s=settle_s)
     known = standstills[np.isfinite(standstills["reference_load_kg"])]
     y = known["reference_load_kg"].to_numpy()
     x = _design(known["static_load_kg"], known["friction_state"], known["height_mm"])
@@ -463,17 +463,15 @@ def _slope(x: np.ndarray, y: np.ndarray) -> Tuple[float, float]:
     return slope, s2 / sxx * inflation
 
 
-_TASK_FUNCTIONS: Dict[str, Callable[..., pd.DataFrame]] = {
-    "weigh": weigh_truck,
-    "calibrate": calibrate_truck,
-    "leaks": leaks_truck,
-}
-
-
-def task_function(task: str) -> Callable[..., pd.DataFrame]:
-    """The per-truck function of a task."""
+def run_task(task: str, pdf: pd.DataFrame, truck: Any, calibration: Any = None) -> pd.DataFrame:
+    """One truck's rows through a task's function: the one place that knows which task takes
+    what (``weigh`` alone takes the calibration). The process pool and Spark both call it."""
     _schema(task)
-    return _TASK_FUNCTIONS[task]
+    if task == "weigh":
+        return weigh_truck(pdf, truck, calibration)
+    if task == "calibrate":
+        return calibrate_truck(pdf, truck)
+    return leaks_truck(pdf, truck)
 
 
 def fleet_trucks(fleet: str) -> List[Tuple[int, str]]:
@@ -514,10 +512,7 @@ def read_fleet_truck(fleet: str) -> str:
 
 def _one_truck(task: str, truck_text: str, calibration: Any, item: Tuple[int, str]) -> pd.DataFrame:
     truck_id, folder = item
-    pdf = read_truck_logs(folder, truck_id)
-    if task == "weigh":
-        return weigh_truck(pdf, truck_text, calibration)
-    return task_function(task)(pdf, truck_text)
+    return run_task(task, read_truck_logs(folder, truck_id), truck_text, calibration)
 
 
 def fleet_inputs(fleet: str, calibration: Any = None) -> List[Any]:

@@ -81,9 +81,7 @@ def _apply(
     closure (the truck file's text, the calibrations as plain dicts)."""
 
     def per_truck(pdf: pd.DataFrame) -> pd.DataFrame:
-        if task == "weigh":
-            return fleet.weigh_truck(pdf, truck_text, calibration)
-        return fleet.task_function(task)(pdf, truck_text)
+        return fleet.run_task(task, pdf, truck_text, calibration)
 
     return per_truck
 
