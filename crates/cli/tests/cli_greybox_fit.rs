@@ -43,10 +43,10 @@ fn greybox_improves_the_fit_and_writes_a_truck_file_that_loads_back() {
         est.mass.unsprung_kg
     );
     assert_ne!(
-        est.bellow.effective_area_poly_m2,
+        est.bellow.effective_area,
         airsus_data::TruckParameters::reference()
             .bellow
-            .effective_area_poly_m2
+            .effective_area
     );
 
     // The estimated parameters simulate the estimation run better than the nominal ones.

@@ -14,6 +14,7 @@ pub mod atomic;
 pub mod channels;
 pub mod error;
 pub mod lab;
+pub mod laws;
 pub mod params;
 pub mod run;
 pub mod source;
@@ -29,6 +30,7 @@ pub use error::{DataError, DataErrorKind, Location};
 pub use lab::{
     ForceMap, TankDischarge, read_discharge, read_force_map, write_discharge, write_force_map,
 };
+pub use laws::{EffectiveAreaLaw, GasVolumeLaw, LawFamily, ValveFlowLaw};
 pub use run::{
     LoadedRun, Outputs, Run, RunInputs, RunOutputs, RunPrecision, ValveState, read_run,
     read_run_with, write_run, write_run_with_precision,
@@ -36,7 +38,7 @@ pub use run::{
 pub use source::{ChannelRef, ColumnMap, Resample, ResampleMethod, RunSource};
 pub use study::{Channel, Role, Study, StudyDischarge, StudyRun, read_study, write_study};
 pub use truck::{
-    BellowParameters, DamperTable, DefaultedKey, Environment, Geometry, LoadedTruck,
-    MassParameters, SlowDynamics, TireParameters, TruckParameters, ValveParameters, read_truck,
-    truck_to_toml, write_truck,
+    BellowParameters, DamperTable, DefaultedKey, EffectValues, Environment, Geometry, LoadedTruck,
+    MassParameters, SlowDynamics, TireParameters, TruckParameters, read_truck, truck_to_toml,
+    write_truck,
 };

@@ -19,10 +19,18 @@
 //! | `ksd` (m2x) | `slow_dynamics.force_scale_n_per_m` | N/m |
 //! | `ksd` (m2xh) | `slow_dynamics.creep_stiffness_n_per_m` | N/m |
 //! | `tsd` (m2xh) | `slow_dynamics.creep_time_constant_s` | s |
+//! | `kap` | `bellow.effective_area.growth_per_100kpa` (law `polynomial_pressure`) | 1/(100 kPa) |
+//! | `c1`, `c2`, `bcr` | `valve.fill/exhaust_conductance_m3_s_pa`, `valve.critical_pressure_ratio` (law `orifice`) | m³/(s Pa), 1 |
+//! | `kc`, `tc`, `fc`, `kdahl`, `tth`, `rline` (truck) | `effects.*` | N/m, s, N, N/m, s, Pa s/mol |
+//!
+//! A law's parameters exist only while the truck file names that law (see
+//! [`crate::laws`]): a model's parameter set is built from the laws of its truck
+//! ([`law_fields`]).
 //!
 //! The bounds are the physically admissible ranges; they are deliberately wide — they exclude
 //! nonsense (negative masses, stiffness off by 1000, a unit slip), not unlikely values.
 
+use crate::laws::LawFamily;
 use crate::truck::TruckParameters;
 
 /// Description of one freeable parameter.
@@ -89,6 +97,19 @@ pub enum Field {
     SlowForceScale,
     CreepStiffness,
     CreepTimeConstant,
+    /// `κ` of the pressure-dependent effective area.
+    AreaPressureGrowth,
+    /// The orifice valve law's sonic conductances and critical ratio.
+    FillConductance,
+    ExhaustConductance,
+    CriticalPressureRatio,
+    /// The `truck` structure's wall, gas and supply-line effects (`[effects]`).
+    WallCreepStiffness,
+    WallCreepTime,
+    WallFrictionForce,
+    WallFrictionStiffness,
+    GasThermalTime,
+    LineResistance,
 }
 
 impl Field {
@@ -107,6 +128,30 @@ impl Field {
             Self::SlowForceScale => ("slow_dynamics", "force_scale_n_per_m", None),
             Self::CreepStiffness => ("slow_dynamics", "creep_stiffness_n_per_m", None),
             Self::CreepTimeConstant => ("slow_dynamics", "creep_time_constant_s", None),
+            Self::AreaPressureGrowth => ("bellow.effective_area", "growth_per_100kpa", None),
+            Self::FillConductance => ("valve", "fill_conductance_m3_s_pa", None),
+            Self::ExhaustConductance => ("valve", "exhaust_conductance_m3_s_pa", None),
+            Self::CriticalPressureRatio => ("valve", "critical_pressure_ratio", None),
+            Self::WallCreepStiffness => ("effects", "creep_stiffness_n_per_m", None),
+            Self::WallCreepTime => ("effects", "creep_time_constant_s", None),
+            Self::WallFrictionForce => ("effects", "friction_force_n", None),
+            Self::WallFrictionStiffness => ("effects", "friction_stiffness_n_per_m", None),
+            Self::GasThermalTime => ("effects", "thermal_time_constant_s", None),
+            Self::LineResistance => ("effects", "line_resistance_pa_s_per_mol", None),
+        }
+    }
+
+    /// The law family whose law carries this value, if any.
+    pub fn law_family(self) -> Option<LawFamily> {
+        match self {
+            Self::EffectiveArea(_) | Self::AreaPressureGrowth => Some(LawFamily::EffectiveArea),
+            Self::CrossSection(_) => Some(LawFamily::GasVolume),
+            Self::FillResistance
+            | Self::ExhaustResistance
+            | Self::FillConductance
+            | Self::ExhaustConductance
+            | Self::CriticalPressureRatio => Some(LawFamily::ValveFlow),
+            _ => None,
         }
     }
 
@@ -119,7 +164,8 @@ impl Field {
     }
 }
 
-/// The SPEC parameters of every model on Model 2's lever (QCM 2 and the models built on it).
+/// The SPEC parameters of every model on Model 2's lever (QCM 2 and the models built on it),
+/// with the thesis' laws; [`law_fields`] puts the truck's own laws' parameters in their place.
 pub const LEVER_MODEL_FIELDS: &[Field] = &[
     Field::EffectiveArea(0),
     Field::EffectiveArea(1),
@@ -323,7 +369,142 @@ pub const CATALOG: &[Param] = &[
         1e5,
     )
     .needing("long standstills after load changes (the slow settling)"),
+    param(
+        Field::AreaPressureGrowth,
+        "kap",
+        "1/(100 kPa)",
+        "growth of the effective area with pressure (wall stretch), law polynomial_pressure",
+        -0.1,
+        0.1,
+    )
+    .needing("loads over a range of pressures"),
+    param(
+        Field::FillConductance,
+        "c1",
+        "m3/(s Pa)",
+        "ISO 6358 sonic conductance of the fill channel, law orifice",
+        1e-11,
+        1e-6,
+    )
+    .needing("fill pulses at several supply pressures"),
+    param(
+        Field::ExhaustConductance,
+        "c2",
+        "m3/(s Pa)",
+        "ISO 6358 sonic conductance of the exhaust channel, law orifice",
+        1e-11,
+        1e-6,
+    )
+    .needing("exhaust pulses at several bellow pressures"),
+    param(
+        Field::CriticalPressureRatio,
+        "bcr",
+        "1",
+        "ISO 6358 critical pressure ratio of both channels, law orifice",
+        0.0,
+        0.9,
+    )
+    .needing("fill and exhaust pulses over a range of pressure ratios"),
+    param(
+        Field::WallCreepStiffness,
+        "kc",
+        "N/m",
+        "creep stiffness of the bellow wall (Maxwell element, truck)",
+        0.0,
+        1e6,
+    )
+    .needing("long standstills after load changes (the creep)"),
+    param(
+        Field::WallCreepTime,
+        "tc",
+        "s",
+        "creep relaxation time (truck)",
+        0.1,
+        1e4,
+    )
+    .needing("long standstills after load changes (the creep)"),
+    param(
+        Field::WallFrictionForce,
+        "fc",
+        "N",
+        "bellow wall sliding friction (Dahl, truck)",
+        0.0,
+        1e4,
+    )
+    .needing("load reversals: a fill then an exhaust, or a load on then off (the hysteresis)"),
+    param(
+        Field::WallFrictionStiffness,
+        "kdahl",
+        "N/m",
+        "pre-sliding stiffness of the wall friction (Dahl, truck)",
+        1e3,
+        1e8,
+    )
+    .needing("small reversals (the pre-sliding hysteresis)"),
+    param(
+        Field::GasThermalTime,
+        "tth",
+        "s",
+        "thermal time constant of the bellow gas (truck)",
+        0.1,
+        1e4,
+    )
+    .needing("valve pulses (the gas heats while filling and cools after)"),
+    param(
+        Field::LineResistance,
+        "rline",
+        "Pa s/mol",
+        "supply line resistance between tank and valve (truck)",
+        1e3,
+        1e9,
+    )
+    .needing("long fill pulses (the supply line drains)"),
 ];
+
+/// The fields of `fields` with every law's parameters replaced by those of `truck`'s law of
+/// that family, in place of the first field of the family (the rest of the family dropped).
+/// With the thesis' laws this is `fields` unchanged.
+pub fn law_fields(fields: &[Field], truck: &TruckParameters) -> Vec<Field> {
+    let mut out = Vec::with_capacity(fields.len() + 2);
+    let mut done: Vec<LawFamily> = Vec::new();
+    for &field in fields {
+        match field.law_family() {
+            None => out.push(field),
+            Some(family) if !done.contains(&family) => {
+                done.push(family);
+                out.extend(match family {
+                    LawFamily::EffectiveArea => truck.bellow.effective_area.fields(),
+                    LawFamily::GasVolume => truck.bellow.gas_volume.fields(),
+                    LawFamily::ValveFlow => truck.valve.fields(),
+                });
+            }
+            Some(_) => {}
+        }
+    }
+    out
+}
+
+/// The names that play the same part as `name` under the other laws of its family (a valve
+/// channel's flow coefficient: `rflow1` and `c1`, `rflow2` and `c2`), `name` first; just
+/// `name` when it has none. A default free set written with the thesis' names thereby fits
+/// a model under any law.
+pub fn same_part_names(name: &'static str) -> Vec<&'static str> {
+    let Some(param) = CATALOG.iter().find(|p| p.info.name == name) else {
+        return vec![name];
+    };
+    let mut names = vec![name];
+    for channel in crate::laws::VALVE_CHANNELS {
+        if channel.contains(&param.field) {
+            names.extend(
+                channel
+                    .iter()
+                    .map(|f| f.param().info.name)
+                    .filter(|n| *n != name),
+            );
+        }
+    }
+    names
+}
 
 /// The catalogue entries for `fields`, in that order.
 pub fn select(fields: &[Field]) -> Vec<Param> {
@@ -341,42 +522,73 @@ pub fn spec_field(name: &str) -> Option<Field> {
         .map(|p| p.field)
 }
 
+/// The value of `field` in `truck`; NaN when `truck` has no such value (a law's parameter
+/// under another law, an optional value not given).
 pub fn get(truck: &TruckParameters, field: Field) -> f64 {
-    match field {
-        Field::EffectiveArea(i) => truck.bellow.effective_area_poly_m2[i],
-        Field::CrossSection(i) => truck.bellow.cross_section_m2[i],
-        Field::Unsprung => truck.mass.unsprung_kg,
-        Field::LeverInertia => truck.mass.lever_inertia_kg_m2,
-        Field::HingeFriction => truck.bellow.hinge_friction_n_s_per_m,
-        Field::TireStiffness => truck.tire.stiffness_n_per_m,
-        Field::LeverCompliance => truck.geometry.lever_compliance_m_per_n,
-        Field::FillResistance => truck.valve.fill_resistance_pa_s_per_mol,
-        Field::ExhaustResistance => truck.valve.exhaust_resistance_pa_s_per_mol,
-        Field::SlowForceScale => truck.slow_dynamics.force_scale.unwrap_or(f64::NAN),
-        Field::CreepStiffness => truck
-            .slow_dynamics
-            .creep_stiffness_n_per_m
-            .unwrap_or(f64::NAN),
-        Field::CreepTimeConstant => truck
-            .slow_dynamics
-            .creep_time_constant_s
-            .unwrap_or(f64::NAN),
-    }
+    let e = &truck.effects;
+    let value = match field.law_family() {
+        Some(LawFamily::EffectiveArea) => {
+            return truck.bellow.effective_area.get(field).unwrap_or(f64::NAN);
+        }
+        Some(LawFamily::GasVolume) => {
+            return truck.bellow.gas_volume.get(field).unwrap_or(f64::NAN);
+        }
+        Some(LawFamily::ValveFlow) => return truck.valve.get(field).unwrap_or(f64::NAN),
+        None => match field {
+            Field::Unsprung => Some(truck.mass.unsprung_kg),
+            Field::LeverInertia => Some(truck.mass.lever_inertia_kg_m2),
+            Field::HingeFriction => Some(truck.bellow.hinge_friction_n_s_per_m),
+            Field::TireStiffness => Some(truck.tire.stiffness_n_per_m),
+            Field::LeverCompliance => Some(truck.geometry.lever_compliance_m_per_n),
+            Field::SlowForceScale => truck.slow_dynamics.force_scale,
+            Field::CreepStiffness => truck.slow_dynamics.creep_stiffness_n_per_m,
+            Field::CreepTimeConstant => truck.slow_dynamics.creep_time_constant_s,
+            Field::WallCreepStiffness => e.creep_stiffness_n_per_m,
+            Field::WallCreepTime => e.creep_time_constant_s,
+            Field::WallFrictionForce => e.friction_force_n,
+            Field::WallFrictionStiffness => e.friction_stiffness_n_per_m,
+            Field::GasThermalTime => e.thermal_time_constant_s,
+            Field::LineResistance => e.line_resistance_pa_s_per_mol,
+            _ => None,
+        },
+    };
+    value.unwrap_or(f64::NAN)
 }
 
-pub fn set(truck: &mut TruckParameters, field: Field, value: f64) {
-    match field {
-        Field::EffectiveArea(i) => truck.bellow.effective_area_poly_m2[i] = value,
-        Field::CrossSection(i) => truck.bellow.cross_section_m2[i] = value,
-        Field::Unsprung => truck.mass.unsprung_kg = value,
-        Field::LeverInertia => truck.mass.lever_inertia_kg_m2 = value,
-        Field::HingeFriction => truck.bellow.hinge_friction_n_s_per_m = value,
-        Field::TireStiffness => truck.tire.stiffness_n_per_m = value,
-        Field::LeverCompliance => truck.geometry.lever_compliance_m_per_n = value,
-        Field::FillResistance => truck.valve.fill_resistance_pa_s_per_mol = value,
-        Field::ExhaustResistance => truck.valve.exhaust_resistance_pa_s_per_mol = value,
-        Field::SlowForceScale => truck.slow_dynamics.force_scale = Some(value),
-        Field::CreepStiffness => truck.slow_dynamics.creep_stiffness_n_per_m = Some(value),
-        Field::CreepTimeConstant => truck.slow_dynamics.creep_time_constant_s = Some(value),
-    }
+/// Stores `value` as `field` of `truck`; `false` when `truck`'s laws have no such parameter
+/// (nothing is changed then).
+pub fn set(truck: &mut TruckParameters, field: Field, value: f64) -> bool {
+    let slot = match field.law_family() {
+        Some(LawFamily::EffectiveArea) => return truck.bellow.effective_area.set(field, value),
+        Some(LawFamily::GasVolume) => return truck.bellow.gas_volume.set(field, value),
+        Some(LawFamily::ValveFlow) => return truck.valve.set(field, value),
+        None => match field {
+            Field::Unsprung => &mut truck.mass.unsprung_kg,
+            Field::LeverInertia => &mut truck.mass.lever_inertia_kg_m2,
+            Field::HingeFriction => &mut truck.bellow.hinge_friction_n_s_per_m,
+            Field::TireStiffness => &mut truck.tire.stiffness_n_per_m,
+            Field::LeverCompliance => &mut truck.geometry.lever_compliance_m_per_n,
+            Field::SlowForceScale => {
+                truck.slow_dynamics.force_scale = Some(value);
+                return true;
+            }
+            Field::CreepStiffness => {
+                truck.slow_dynamics.creep_stiffness_n_per_m = Some(value);
+                return true;
+            }
+            Field::CreepTimeConstant => {
+                truck.slow_dynamics.creep_time_constant_s = Some(value);
+                return true;
+            }
+            other => match truck.effects.slot(other) {
+                Some(slot) => {
+                    *slot = Some(value);
+                    return true;
+                }
+                None => return false,
+            },
+        },
+    };
+    *slot = value;
+    true
 }

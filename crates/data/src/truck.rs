@@ -15,7 +15,8 @@ use serde::Deserialize;
 
 use crate::atomic::write_text_atomically;
 use crate::error::{DataError, DataErrorKind, Location};
-use crate::params::Field;
+use crate::laws::{EffectiveAreaLaw, GasVolumeLaw, LawTable, ValveFlowLaw, check_declared};
+use crate::params::{Field, get};
 use crate::toml_file::{
     TableSchema, check_finite, check_keys, deserialize, find_key_line, parse_toml,
 };
@@ -77,20 +78,63 @@ pub struct DamperTable {
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct BellowParameters {
-    /// `p0..p4` of `A_eff(h) = Σ p_i h^i` (eq 5.4), h in m, area in m².
-    pub effective_area_poly_m2: [f64; 5],
-    /// `A0, A1` of the mean cross-section `A(h) = A0 + A1 h` (eq 5.1), m² and m.
-    pub cross_section_m2: [f64; 2],
+    /// The effective area `A_eff` (eq 3.16), a law: the thesis' quartic in height `p0..p4`
+    /// (eq 5.4), or another ([`crate::laws`]).
+    pub effective_area: EffectiveAreaLaw,
+    /// The gas volume `V(h)` (eq 3.17), a law: the thesis' `h (A0 + A1 h)` (eq 5.1), or
+    /// another.
+    pub gas_volume: GasVolumeLaw,
     /// `k_f`: hinge friction, N s/m (QCM 1).
     pub hinge_friction_n_s_per_m: f64,
 }
 
-#[derive(Debug, Clone, PartialEq)]
-pub struct ValveParameters {
-    /// `R_flow1`, fill channel, Pa s/mol (eq 3.19).
-    pub fill_resistance_pa_s_per_mol: f64,
-    /// `R_flow2`, exhaust channel, Pa s/mol (eq 3.19).
-    pub exhaust_resistance_pa_s_per_mol: f64,
+/// The `truck` structure's wall, gas and supply-line parameters: the optional section
+/// `[effects]` (ours, like `[slow_dynamics]`), every key optional. `None`: not given; the
+/// structure then uses its built-in value. Thesis models ignore the section.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EffectValues {
+    /// `kc`: creep stiffness of the bellow wall (Maxwell element), N/m.
+    pub creep_stiffness_n_per_m: Option<f64>,
+    /// `tc`: its relaxation time, s.
+    pub creep_time_constant_s: Option<f64>,
+    /// `fc`: the wall's sliding friction (Dahl), N.
+    pub friction_force_n: Option<f64>,
+    /// `kdahl`: its pre-sliding stiffness, N/m.
+    pub friction_stiffness_n_per_m: Option<f64>,
+    /// `tth`: thermal time constant of the bellow gas, s.
+    pub thermal_time_constant_s: Option<f64>,
+    /// `rline`: supply line resistance between tank and valve, Pa s/mol.
+    pub line_resistance_pa_s_per_mol: Option<f64>,
+}
+
+impl EffectValues {
+    /// Every value with its field, in file order.
+    pub fn entries(&self) -> [(Field, Option<f64>); 6] {
+        [
+            (Field::WallCreepStiffness, self.creep_stiffness_n_per_m),
+            (Field::WallCreepTime, self.creep_time_constant_s),
+            (Field::WallFrictionForce, self.friction_force_n),
+            (
+                Field::WallFrictionStiffness,
+                self.friction_stiffness_n_per_m,
+            ),
+            (Field::GasThermalTime, self.thermal_time_constant_s),
+            (Field::LineResistance, self.line_resistance_pa_s_per_mol),
+        ]
+    }
+
+    /// The slot of one of these values; `None` for any other field.
+    pub fn slot(&mut self, field: Field) -> Option<&mut Option<f64>> {
+        Some(match field {
+            Field::WallCreepStiffness => &mut self.creep_stiffness_n_per_m,
+            Field::WallCreepTime => &mut self.creep_time_constant_s,
+            Field::WallFrictionForce => &mut self.friction_force_n,
+            Field::WallFrictionStiffness => &mut self.friction_stiffness_n_per_m,
+            Field::GasThermalTime => &mut self.thermal_time_constant_s,
+            Field::LineResistance => &mut self.line_resistance_pa_s_per_mol,
+            _ => return None,
+        })
+    }
 }
 
 /// The slow-dynamics OE block of Model 2 extended (thesis 4.2.1, Tables 5.4/5.5).
@@ -181,10 +225,13 @@ pub struct TruckParameters {
     pub tire: TireParameters,
     pub damper: DamperTable,
     pub bellow: BellowParameters,
-    pub valve: ValveParameters,
+    /// The valve's flow law: the thesis' linear resistances (eq 3.19) or another.
+    pub valve: ValveFlowLaw,
     pub slow_dynamics: SlowDynamics,
     /// Model 3's OE block (optional section `[model3]`; default thesis Tables 5.6–5.8).
     pub model3: Model3Oe,
+    /// The `truck` structure's effects (optional section `[effects]`).
+    pub effects: EffectValues,
 }
 
 impl TruckParameters {
@@ -217,16 +264,19 @@ impl TruckParameters {
                 force_n: vec![-6000.0, -4000.0, -1500.0, 0.0, 3000.0, 9000.0, 13000.0],
             },
             bellow: BellowParameters {
-                effective_area_poly_m2: [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941],
-                cross_section_m2: [0.250, -0.0310],
+                effective_area: EffectiveAreaLaw::polynomial([
+                    -0.0289, 0.8362, -3.0698, 4.9616, -2.9941,
+                ]),
+                gas_volume: GasVolumeLaw::cross_section([0.250, -0.0310]),
                 hinge_friction_n_s_per_m: 0.1,
             },
-            valve: ValveParameters {
-                fill_resistance_pa_s_per_mol: 2.5e6,
-                exhaust_resistance_pa_s_per_mol: 1.5e6,
+            valve: ValveFlowLaw::LinearResistance {
+                fill_pa_s_per_mol: 2.5e6,
+                exhaust_pa_s_per_mol: 1.5e6,
             },
             slow_dynamics: SlowDynamics::default(),
             model3: Model3Oe::default(),
+            effects: EffectValues::default(),
         }
     }
 }
@@ -260,6 +310,7 @@ const SCHEMA: &[TableSchema] = &[
             "valve",
             "slow_dynamics",
             "model3",
+            "effects",
         ],
     },
     TableSchema {
@@ -293,13 +344,21 @@ const SCHEMA: &[TableSchema] = &[
             "effective_area_poly_m2",
             "cross_section_m2",
             "hinge_friction_n_s_per_m",
+            // Tagged law tables (`[bellow.effective_area]`, `[bellow.gas_volume]`), and
+            // `[valve]`, check their keys by their law (`crate::laws`).
+            "effective_area",
+            "gas_volume",
         ],
     },
     TableSchema {
-        name: "valve",
+        name: "effects",
         keys: &[
-            "fill_resistance_pa_s_per_mol",
-            "exhaust_resistance_pa_s_per_mol",
+            "creep_stiffness_n_per_m",
+            "creep_time_constant_s",
+            "friction_force_n",
+            "friction_stiffness_n_per_m",
+            "thermal_time_constant_s",
+            "line_resistance_pa_s_per_mol",
         ],
     },
     TableSchema {
@@ -367,12 +426,18 @@ struct FileBellow {
     effective_area_poly_m2: Option<Vec<f64>>,
     cross_section_m2: Option<Vec<f64>>,
     hinge_friction_n_s_per_m: Option<f64>,
+    effective_area: Option<toml::Table>,
+    gas_volume: Option<toml::Table>,
 }
 
 #[derive(Deserialize, Default)]
-struct FileValve {
-    fill_resistance_pa_s_per_mol: Option<f64>,
-    exhaust_resistance_pa_s_per_mol: Option<f64>,
+struct FileEffects {
+    creep_stiffness_n_per_m: Option<f64>,
+    creep_time_constant_s: Option<f64>,
+    friction_force_n: Option<f64>,
+    friction_stiffness_n_per_m: Option<f64>,
+    thermal_time_constant_s: Option<f64>,
+    line_resistance_pa_s_per_mol: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -405,9 +470,11 @@ struct TruckFile {
     tire: Option<FileTire>,
     damper: Option<FileDamper>,
     bellow: Option<FileBellow>,
-    valve: Option<FileValve>,
+    /// Read by its law ([`ValveFlowLaw`]), from the parsed table.
+    valve: Option<toml::Table>,
     slow_dynamics: Option<FileSlow>,
     model3: Option<FileModel3>,
+    effects: Option<FileEffects>,
 }
 
 /// Reads and checks a truck parameter file.
@@ -496,28 +563,51 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
     let damper = ctx.damper(damper_file)?;
 
     let bellow_file = file.bellow.unwrap_or_default();
-    let effective_area_poly_m2: [f64; 5] = ctx.estimable_array(
-        "bellow",
-        "effective_area_poly_m2",
+    let effective_area = match (
         bellow_file.effective_area_poly_m2,
-        reference.bellow.effective_area_poly_m2,
-    )?;
-    let cross_section_m2: [f64; 2] = ctx.estimable_array(
-        "bellow",
-        "cross_section_m2",
-        bellow_file.cross_section_m2,
-        reference.bellow.cross_section_m2,
-    )?;
-    for (i, &value) in effective_area_poly_m2.iter().enumerate() {
-        ctx.check_param(Field::EffectiveArea(i), value)?;
-    }
-    for (i, &value) in cross_section_m2.iter().enumerate() {
-        ctx.check_param(Field::CrossSection(i), value)?;
-    }
-    ctx.check_areas(&effective_area_poly_m2, &cross_section_m2)?;
+        &bellow_file.effective_area,
+    ) {
+        (Some(_), Some(_)) => {
+            return Err(ctx.given_twice("effective_area_poly_m2", "effective_area"));
+        }
+        (None, Some(table)) => {
+            EffectiveAreaLaw::from_table(&ctx.law_table("bellow.effective_area", table))?
+        }
+        (poly, None) => {
+            let poly: [f64; 5] = ctx.estimable_array(
+                "bellow",
+                "effective_area_poly_m2",
+                poly,
+                *reference.bellow.effective_area.coefficients_m2(),
+            )?;
+            for (i, &value) in poly.iter().enumerate() {
+                ctx.check_param(Field::EffectiveArea(i), value)?;
+            }
+            EffectiveAreaLaw::polynomial(poly)
+        }
+    };
+    let gas_volume = match (bellow_file.cross_section_m2, &bellow_file.gas_volume) {
+        (Some(_), Some(_)) => return Err(ctx.given_twice("cross_section_m2", "gas_volume")),
+        (None, Some(table)) => {
+            GasVolumeLaw::from_table(&ctx.law_table("bellow.gas_volume", table))?
+        }
+        (cross, None) => {
+            let cross: [f64; 2] = ctx.estimable_array(
+                "bellow",
+                "cross_section_m2",
+                cross,
+                *reference.bellow.gas_volume.coefficients_m2(),
+            )?;
+            for (i, &value) in cross.iter().enumerate() {
+                ctx.check_param(Field::CrossSection(i), value)?;
+            }
+            GasVolumeLaw::cross_section(cross)
+        }
+    };
+    ctx.check_areas(&effective_area, &gas_volume)?;
     let bellow = BellowParameters {
-        effective_area_poly_m2,
-        cross_section_m2,
+        effective_area,
+        gas_volume,
         hinge_friction_n_s_per_m: ctx.estimable_param(
             Field::HingeFriction,
             bellow_file.hinge_friction_n_s_per_m,
@@ -525,18 +615,51 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
         )?,
     };
 
-    let valve_file = file.valve.unwrap_or_default();
-    let valve = ValveParameters {
-        fill_resistance_pa_s_per_mol: ctx.estimable_param(
-            Field::FillResistance,
-            valve_file.fill_resistance_pa_s_per_mol,
-            reference.valve.fill_resistance_pa_s_per_mol,
-        )?,
-        exhaust_resistance_pa_s_per_mol: ctx.estimable_param(
-            Field::ExhaustResistance,
-            valve_file.exhaust_resistance_pa_s_per_mol,
-            reference.valve.exhaust_resistance_pa_s_per_mol,
-        )?,
+    let valve = match &file.valve {
+        Some(table) if table.contains_key("law") => {
+            ValveFlowLaw::from_table(&ctx.law_table("valve", table))?
+        }
+        // The SPEC's form: the thesis' resistances, each estimable.
+        table => {
+            let empty = toml::Table::new();
+            let table = table.as_ref().unwrap_or(&empty);
+            let law_table = LawTable {
+                section: "valve",
+                table,
+                text,
+                path,
+            };
+            law_table.check_keys(ValveFlowLaw::LAWS[0].keys, ValveFlowLaw::LAWS[0].tag)?;
+            let mut valve = reference.valve;
+            for field in valve.fields() {
+                let (_, key, _) = field.location();
+                let given = law_table.optional_number(key)?;
+                let value = ctx.estimable_param(field, given, get(&reference, field))?;
+                valve.set(field, value);
+            }
+            valve
+        }
+    };
+
+    let effects = match file.effects {
+        None => EffectValues::default(),
+        Some(e) => {
+            let mut values = EffectValues::default();
+            let given = [
+                e.creep_stiffness_n_per_m,
+                e.creep_time_constant_s,
+                e.friction_force_n,
+                e.friction_stiffness_n_per_m,
+                e.thermal_time_constant_s,
+                e.line_resistance_pa_s_per_mol,
+            ];
+            for ((field, _), value) in EffectValues::default().entries().into_iter().zip(given) {
+                if let (Some(v), Some(slot)) = (value, values.slot(field)) {
+                    *slot = Some(ctx.check_param(field, v)?);
+                }
+            }
+            values
+        }
     };
 
     let slow_dynamics = match file.slow_dynamics {
@@ -562,6 +685,7 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
             valve,
             slow_dynamics,
             model3,
+            effects,
         },
         defaulted: ctx.defaulted,
     })
@@ -631,25 +755,14 @@ impl Ctx<'_> {
     /// key (with the index for an array element), the value and the range.
     fn check_param(&self, field: Field, value: f64) -> Result<f64, DataError> {
         let (section, key, index) = field.location();
-        let info = &field.param().info;
-        if info.admits(value) {
-            return Ok(value);
-        }
-        let shown = match index {
-            Some(i) => format!("{key}[{i}]"),
-            None => key.to_owned(),
-        };
-        Err(DataError::new(
+        check_declared(
             self.location(section, key),
-            DataErrorKind::InvalidValue {
-                key: format!("{section}.{shown}"),
-                value: value.to_string(),
-                reason: format!(
-                    "outside the admissible range of `{}` ({}), {} to {} {}; check the unit",
-                    info.name, info.description, info.lower, info.upper, info.unit
-                ),
-            },
-        ))
+            section,
+            key,
+            index,
+            field,
+            value,
+        )
     }
 
     fn required_param(&self, field: Field, value: Option<f64>) -> Result<f64, DataError> {
@@ -781,27 +894,49 @@ impl Ctx<'_> {
 
     /// An area law that is not positive anywhere over the reference bellow's stroke
     /// (0.2–0.45 m) is broken; thesis Table 5.2's `p1 = 0.08362` is the known example.
-    fn check_areas(&self, poly: &[f64; 5], cross: &[f64; 2]) -> Result<(), DataError> {
+    fn check_areas(&self, area: &EffectiveAreaLaw, volume: &GasVolumeLaw) -> Result<(), DataError> {
         let heights = (0..=25).map(|i| 0.2 + 0.01 * f64::from(i));
-        let effective = |h: f64| poly.iter().rev().fold(0.0, |acc, p| acc * h + p);
-        if heights.clone().all(|h| effective(h) <= 0.0) {
+        if heights.clone().all(|h| area.area_m2(h, 0.0) <= 0.0) {
+            let (section, key) = match area {
+                EffectiveAreaLaw::Polynomial { .. } => ("bellow", "effective_area_poly_m2"),
+                _ => ("bellow.effective_area", "coefficients_m2"),
+            };
             return Err(self.invalid(
-                "bellow",
-                "effective_area_poly_m2",
-                format!("{poly:?}"),
+                section,
+                key,
+                format!("{:?}", area.coefficients_m2()),
                 "the effective area is not positive anywhere between 0.2 and 0.45 m bellow height (thesis Table 5.2 misprints p1 = 0.08362; the correct value is 0.8362)".to_owned(),
             ));
         }
-        if heights.clone().all(|h| cross[0] + cross[1] * h <= 0.0) {
+        if heights.clone().all(|h| volume.cross_section_m2(h) <= 0.0) {
             return Err(self.invalid(
                 "bellow",
                 "cross_section_m2",
-                format!("{cross:?}"),
+                format!("{:?}", volume.coefficients_m2()),
                 "the cross-section A0 + A1 h is not positive anywhere between 0.2 and 0.45 m"
                     .to_owned(),
             ));
         }
         Ok(())
+    }
+
+    /// A law given both in the SPEC's form and as a tagged table.
+    fn given_twice(&self, spec_key: &str, table: &str) -> DataError {
+        self.invalid(
+            "bellow",
+            table,
+            format!("[bellow.{table}]"),
+            format!("the law is also given as `bellow.{spec_key}`; give it once, either way"),
+        )
+    }
+
+    fn law_table<'t>(&'t self, section: &'t str, table: &'t toml::Table) -> LawTable<'t> {
+        LawTable {
+            section,
+            table,
+            text: self.text,
+            path: self.path,
+        }
     }
 
     fn slow_dynamics(&self, s: FileSlow) -> Result<SlowDynamics, DataError> {
@@ -909,7 +1044,68 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
     let e = &p.environment;
     let g = &p.geometry;
     let sd = &p.slow_dynamics;
-    let sections: [TomlSection; 8] = [
+    // A thesis law is written in the SPEC's form, any other as a tagged table.
+    let mut bellow_entries: Vec<TomlEntry> = Vec::new();
+    let mut law_tables: Vec<TomlSection> = Vec::new();
+    let law_header = |tag: &'static str| ("law", format!("{tag:?}"), "");
+    match p.bellow.effective_area.tagged_entries() {
+        None => bellow_entries.push((
+            "effective_area_poly_m2",
+            format!("{:?}", p.bellow.effective_area.coefficients_m2()),
+            "p0..p4 (est)",
+        )),
+        Some(entries) => law_tables.push((
+            "bellow.effective_area",
+            "effective-area law",
+            std::iter::once(law_header(p.bellow.effective_area.tag()))
+                .chain(entries)
+                .collect(),
+        )),
+    }
+    match p.bellow.gas_volume.tagged_entries() {
+        None => bellow_entries.push((
+            "cross_section_m2",
+            format!("{:?}", p.bellow.gas_volume.coefficients_m2()),
+            "A0, A1 (est)",
+        )),
+        Some(entries) => law_tables.push((
+            "bellow.gas_volume",
+            "gas-volume law",
+            std::iter::once(law_header(p.bellow.gas_volume.tag()))
+                .chain(entries)
+                .collect(),
+        )),
+    }
+    bellow_entries.push((
+        "hinge_friction_n_s_per_m",
+        f(p.bellow.hinge_friction_n_s_per_m),
+        "k_f (est)",
+    ));
+    let valve_entries: Vec<TomlEntry> = match (p.valve.tagged_entries(), &p.valve) {
+        (Some(entries), law) => std::iter::once(law_header(law.tag()))
+            .chain(entries)
+            .collect(),
+        (
+            None,
+            ValveFlowLaw::LinearResistance {
+                fill_pa_s_per_mol,
+                exhaust_pa_s_per_mol,
+            },
+        ) => vec![
+            (
+                "fill_resistance_pa_s_per_mol",
+                f(*fill_pa_s_per_mol),
+                "R_flow1 (est)",
+            ),
+            (
+                "exhaust_resistance_pa_s_per_mol",
+                f(*exhaust_pa_s_per_mol),
+                "R_flow2 (est)",
+            ),
+        ],
+        (None, law) => vec![law_header(law.tag())],
+    };
+    let mut sections: Vec<TomlSection> = vec![
         (
             "environment",
             "",
@@ -964,43 +1160,8 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
                 ("force_n", format!("{:?}", p.damper.force_n), ""),
             ],
         ),
-        (
-            "bellow",
-            "",
-            vec![
-                (
-                    "effective_area_poly_m2",
-                    format!("{:?}", p.bellow.effective_area_poly_m2),
-                    "p0..p4 (est)",
-                ),
-                (
-                    "cross_section_m2",
-                    format!("{:?}", p.bellow.cross_section_m2),
-                    "A0, A1 (est)",
-                ),
-                (
-                    "hinge_friction_n_s_per_m",
-                    f(p.bellow.hinge_friction_n_s_per_m),
-                    "k_f (est)",
-                ),
-            ],
-        ),
-        (
-            "valve",
-            "",
-            vec![
-                (
-                    "fill_resistance_pa_s_per_mol",
-                    f(p.valve.fill_resistance_pa_s_per_mol),
-                    "R_flow1 (est)",
-                ),
-                (
-                    "exhaust_resistance_pa_s_per_mol",
-                    f(p.valve.exhaust_resistance_pa_s_per_mol),
-                    "R_flow2 (est)",
-                ),
-            ],
-        ),
+        ("bellow", "", bellow_entries),
+        ("valve", "", valve_entries),
         (
             "slow_dynamics",
             "Model 2 extended: OE from load to F_ext (thesis Table 5.5)",
@@ -1027,6 +1188,13 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
         ],
     );
     let mut s = String::new();
+    // The law tables go right after `[bellow]` and `[valve]`; `[slow_dynamics]` stays last,
+    // its optional keys follow below.
+    let after_valve = sections
+        .iter()
+        .position(|(n, _, _)| *n == "valve")
+        .map_or(0, |i| i + 1);
+    sections.splice(after_valve..after_valve, law_tables);
     for (name, comment, entries) in sections {
         if !s.is_empty() {
             s.push('\n');
@@ -1035,18 +1203,7 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
             "" => writeln!(s, "[{name}]"),
             c => writeln!(s, "[{name}]  # {c}"),
         };
-        let width = entries
-            .iter()
-            .map(|(k, v, _)| k.len() + v.len() + 3)
-            .max()
-            .unwrap_or(0);
-        for (key, value, comment) in entries {
-            let line = format!("{key} = {value}");
-            let _ = match comment {
-                "" => writeln!(s, "{line}"),
-                c => writeln!(s, "{line:width$}  # {c}"),
-            };
-        }
+        write_entries(&mut s, entries);
     }
     let _ = match sd.force_scale {
         Some(k) => writeln!(s, "force_scale_n_per_m = {k:?}  # k_sd (est)"),
@@ -1071,6 +1228,30 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
     }
     let (name, comment, entries) = model3;
     let _ = writeln!(s, "\n[{name}]  # {comment}");
+    write_entries(&mut s, entries);
+    // The truck structure's effects (ours): written only when a value is set, so files of
+    // the thesis' models stay as the SPEC shows them.
+    let effects: Vec<TomlEntry> = p
+        .effects
+        .entries()
+        .into_iter()
+        .filter_map(|(field, value)| {
+            let info = &field.param().info;
+            value.map(|v| (field.location().1, f(v), info.name))
+        })
+        .collect();
+    if !effects.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n[effects]  # the truck structure's wall, gas and supply line"
+        );
+        write_entries(&mut s, effects);
+    }
+    s
+}
+
+/// `key = value  # comment` lines, the comments aligned.
+fn write_entries(s: &mut String, entries: Vec<TomlEntry>) {
     let width = entries
         .iter()
         .map(|(k, v, _)| k.len() + v.len() + 3)
@@ -1083,7 +1264,6 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
             c => writeln!(s, "{line:width$}  # {c}"),
         };
     }
-    s
 }
 
 /// Writes a truck file atomically.
@@ -1283,6 +1463,113 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         let reference = parse(SPEC_EXAMPLE).unwrap().parameters;
         assert_eq!(reference.model3, Model3Oe::default());
         assert_eq!(reference.model3.load_f, [-1.84, 0.8404]);
+    }
+
+    /// The SPEC example with the `[bellow]` and `[valve]` sections replaced.
+    fn with_laws(bellow_and_valve: &str) -> String {
+        let head = SPEC_EXAMPLE.split("[bellow]").next().unwrap();
+        format!("{head}{bellow_and_valve}")
+    }
+
+    /// `truck.toml:N:` for the first line of `text` that starts with `start`.
+    fn at_line(text: &str, start: &str) -> String {
+        let n = text.lines().position(|l| l.starts_with(start)).unwrap() + 1;
+        format!("truck.toml:{n}:")
+    }
+
+    #[test]
+    fn laws_load_from_tagged_tables_and_round_trip() {
+        let text = with_laws(
+            "[bellow]\nhinge_friction_n_s_per_m = 0.1\n\
+             [bellow.effective_area]\nlaw = \"polynomial_pressure\"\n\
+             coefficients_m2 = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941]\ngrowth_per_100kpa = 0.004\n\
+             [bellow.gas_volume]\nlaw = \"cross_section\"\ncoefficients_m2 = [0.262, -0.04]\n\
+             [valve]\nlaw = \"orifice\"\nfill_conductance_m3_s_pa = 5e-9\n\
+             exhaust_conductance_m3_s_pa = 1.2e-8\ncritical_pressure_ratio = 0.4\n\
+             [effects]\nfriction_force_n = 150.0\n",
+        );
+        let loaded = parse(&text).unwrap();
+        let p = &loaded.parameters;
+        assert_eq!(
+            p.bellow.effective_area,
+            EffectiveAreaLaw::PressurePolynomial {
+                coefficients_m2: [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941],
+                growth_per_100kpa: 0.004
+            }
+        );
+        assert_eq!(p.bellow.gas_volume.coefficients_m2(), &[0.262, -0.04]);
+        assert_eq!(p.valve.tag(), "orifice");
+        assert_eq!(p.effects.friction_force_n, Some(150.0));
+        assert_eq!(p.effects.creep_stiffness_n_per_m, None);
+        assert!(loaded.defaulted.is_empty(), "{:?}", loaded.defaulted);
+        let written = truck_to_toml(p);
+        assert!(written.contains("[bellow.effective_area]"), "{written}");
+        assert!(written.contains("law = \"orifice\""), "{written}");
+        // The thesis' volume law is written in the SPEC's form.
+        assert!(
+            written.contains("cross_section_m2 = [0.262, -0.04]"),
+            "{written}"
+        );
+        assert_eq!(&parse(&written).unwrap().parameters, p);
+        // The SPEC form is the thesis' laws, and is written as such.
+        let spec = parse(SPEC_EXAMPLE).unwrap().parameters;
+        assert_eq!(spec.valve.tag(), "linear_resistance");
+        assert_eq!(spec.bellow.effective_area.tag(), "polynomial");
+        assert!(!truck_to_toml(&spec).contains("law ="));
+        // A tagged thesis law loads too.
+        let tagged = with_laws(
+            "[bellow.effective_area]\nlaw = \"polynomial\"\n\
+             coefficients_m2 = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941]\n\
+             [valve]\nlaw = \"linear_resistance\"\nfill_resistance_pa_s_per_mol = 2.5e6\n\
+             exhaust_resistance_pa_s_per_mol = 1.5e6\n",
+        );
+        let t = parse(&tagged).unwrap().parameters;
+        assert_eq!(t.bellow.effective_area, spec.bellow.effective_area);
+        assert_eq!(t.valve, spec.valve);
+    }
+
+    #[test]
+    fn law_errors_name_the_line_the_key_and_the_choices() {
+        let unknown = with_laws("[valve]\nlaw = \"poiseuille\"\n");
+        let err = parse(&unknown).unwrap_err().to_string();
+        assert!(err.starts_with(&at_line(&unknown, "law")), "{err}");
+        assert!(
+            err.contains("`linear_resistance`") && err.contains("`orifice`"),
+            "{err}"
+        );
+
+        let wrong_key =
+            with_laws("[valve]\nlaw = \"orifice\"\nfill_resistance_pa_s_per_mol = 2.5e6\n");
+        let err = parse(&wrong_key).unwrap_err().to_string();
+        assert!(err.starts_with(&at_line(&wrong_key, "fill_res")), "{err}");
+        assert!(
+            err.contains("valve.fill_resistance_pa_s_per_mol (law \"orifice\")"),
+            "{err}"
+        );
+
+        let missing = with_laws("[valve]\nlaw = \"orifice\"\nfill_conductance_m3_s_pa = 5e-9\n");
+        let err = parse(&missing).unwrap_err().to_string();
+        assert!(err.contains("valve.exhaust_conductance_m3_s_pa"), "{err}");
+
+        let out_of_range = with_laws(
+            "[bellow.effective_area]\nlaw = \"polynomial_pressure\"\n\
+             coefficients_m2 = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941]\ngrowth_per_100kpa = 4.0\n",
+        );
+        let err = parse(&out_of_range).unwrap_err().to_string();
+        assert!(err.starts_with(&at_line(&out_of_range, "growth")), "{err}");
+        assert!(
+            err.contains("bellow.effective_area.growth_per_100kpa"),
+            "{err}"
+        );
+        assert!(err.contains("-0.1 to 0.1 1/(100 kPa)"), "{err}");
+
+        let twice = with_laws(
+            "[bellow]\neffective_area_poly_m2 = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941]\n\
+             [bellow.effective_area]\nlaw = \"polynomial\"\n\
+             coefficients_m2 = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941]\n",
+        );
+        let err = parse(&twice).unwrap_err().to_string();
+        assert!(err.contains("give it once"), "{err}");
     }
 
     #[test]

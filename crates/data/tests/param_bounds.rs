@@ -4,9 +4,9 @@
 
 use std::path::Path;
 
-use airsus_data::params::{CATALOG, set};
+use airsus_data::params::{CATALOG, Field, get, set};
 use airsus_data::truck::parse_truck;
-use airsus_data::{TruckParameters, truck_to_toml};
+use airsus_data::{EffectiveAreaLaw, TruckParameters, ValveFlowLaw, truck_to_toml};
 
 fn reference_with_optional_keys() -> TruckParameters {
     let mut truck = TruckParameters::reference();
@@ -16,15 +16,48 @@ fn reference_with_optional_keys() -> TruckParameters {
     truck
 }
 
+/// The same with the other laws and every `[effects]` value, so each declared parameter has
+/// a home in one of the two trucks.
+fn reference_with_other_laws() -> TruckParameters {
+    let mut truck = reference_with_optional_keys();
+    truck.bellow.effective_area = EffectiveAreaLaw::PressurePolynomial {
+        coefficients_m2: *truck.bellow.effective_area.coefficients_m2(),
+        growth_per_100kpa: 0.004,
+    };
+    truck.valve = ValveFlowLaw::Orifice {
+        fill_conductance_m3_s_pa: 5e-9,
+        exhaust_conductance_m3_s_pa: 1.2e-8,
+        critical_pressure_ratio: 0.4,
+    };
+    for (field, value) in [
+        (Field::WallCreepStiffness, 18e3),
+        (Field::WallCreepTime, 25.0),
+        (Field::WallFrictionForce, 120.0),
+        (Field::WallFrictionStiffness, 2e4),
+        (Field::GasThermalTime, 20.0),
+        (Field::LineResistance, 4e5),
+    ] {
+        assert!(set(&mut truck, field, value));
+    }
+    truck
+}
+
 #[test]
 fn every_declared_parameter_is_range_checked_at_load_with_its_declared_bounds() {
     let path = Path::new("truck.toml");
-    let reference = reference_with_optional_keys();
-    let text = truck_to_toml(&reference);
-    let loaded = parse_truck(&text, path).expect("the reference truck loads");
-    assert_eq!(loaded.parameters, reference);
+    let trucks = [reference_with_optional_keys(), reference_with_other_laws()];
+    for truck in &trucks {
+        let text = truck_to_toml(truck);
+        let loaded = parse_truck(&text, path).expect("the reference truck loads");
+        assert_eq!(&loaded.parameters, truck, "{text}");
+    }
 
     for param in CATALOG {
+        // The first truck whose laws have this parameter.
+        let reference = trucks
+            .iter()
+            .find(|t| !get(t, param.field).is_nan())
+            .unwrap_or_else(|| panic!("`{}` has a home in neither truck", param.info.name));
         let info = &param.info;
         let (section, key, index) = param.field.location();
         let shown = match index {
@@ -39,7 +72,7 @@ fn every_declared_parameter_is_range_checked_at_load_with_its_declared_bounds() 
         let above = info.upper * 2.0;
         for outside in [below, above] {
             let mut truck = reference.clone();
-            set(&mut truck, param.field, outside);
+            assert!(set(&mut truck, param.field, outside));
             let err = parse_truck(&truck_to_toml(&truck), path)
                 .expect_err(&format!("{shown} = {outside} must be refused"))
                 .to_string();

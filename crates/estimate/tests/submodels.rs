@@ -33,7 +33,7 @@ fn cross_section_shape_from_a_closed_valve_run() {
     );
     // Start from a wrong shape: the fit must find a1/a0 = −0.031/0.250 again.
     let mut start = truck.clone();
-    start.bellow.cross_section_m2 = [0.250, -0.06];
+    *start.bellow.gas_volume.coefficients_m2_mut() = [0.250, -0.06];
     let fit = fit_cross_section(&est, &[&val], &start, &CrossSectionOptions::default()).unwrap();
     let ratio = -0.031 / 0.250;
     assert!(fit.converged);
@@ -62,7 +62,10 @@ fn cross_section_shape_from_a_closed_valve_run() {
     assert!((fit.a0_m2 - 0.25).abs() < 0.01, "{}", fit.a0_m2);
     let mut t = truck.clone();
     fit.write_to(&mut t);
-    assert_eq!(t.bellow.cross_section_m2, [fit.a0_m2, fit.a1_m]);
+    assert_eq!(
+        t.bellow.gas_volume.coefficients_m2(),
+        &[fit.a0_m2, fit.a1_m]
+    );
 }
 
 #[test]
@@ -129,7 +132,7 @@ fn effective_area_polynomial_from_a_force_map() {
     assert!(fit.area_nrmse_percent > 95.0, "{}", fit.area_nrmse_percent);
     let mut t = TruckParameters::reference();
     fit.write_to(&mut t).unwrap();
-    assert_eq!(t.bellow.effective_area_poly_m2.to_vec(), fit.poly);
+    assert_eq!(t.bellow.effective_area.coefficients_m2().to_vec(), fit.poly);
     // Too few heights for a quartic.
     let few = ForceMap {
         bellow_height_m: vec![0.2, 0.25, 0.3, 0.35],
@@ -201,10 +204,11 @@ fn flow_resistances_from_exact_exponential_discharges() {
         assert!(f.nrmse_percent.unwrap() > 99.0, "{f:?}");
     }
     let mut t = truck.clone();
-    t.valve.fill_resistance_pa_s_per_mol = 1.0e6;
+    let fill_field = airsus_data::params::Field::FillResistance;
+    airsus_data::params::set(&mut t, fill_field, 1.0e6);
     fit.write_to(&mut t);
     assert_eq!(
-        t.valve.fill_resistance_pa_s_per_mol,
+        airsus_data::params::get(&t, fill_field),
         fill.resistance_pa_s_per_mol
     );
 }

@@ -2,12 +2,11 @@
 //! from [`TruckParameters`] so that the right-hand sides only multiply and add, and the static
 //! equilibrium solver every model's `initial_state` uses.
 
-use airsus_data::TruckParameters;
+use airsus_data::{EffectiveAreaLaw, GasVolumeLaw, TruckParameters, ValveFlowLaw};
 
 use crate::model::{InitialCondition, InputSample, ModelError};
 use crate::submodels::{
-    Damper, air_amount_mol, air_flow_mol_s, bellow_volume_m3, effective_area_clamped_m2,
-    first_upward_crossing_m, lever_gain, pressure_abs_pa, sensor_height_m,
+    Damper, air_amount_mol, first_upward_crossing_m, lever_gain, pressure_abs_pa, sensor_height_m,
 };
 
 /// Smallest sprung mass a model uses, kg. A wheel load below the unsprung mass (a wheel
@@ -24,6 +23,8 @@ pub(crate) struct Corner {
     pub gravity_m_s2: f64,
     /// `R T`, J/mol (isothermal gas, thesis 3.1.3).
     pub rt_j_mol: f64,
+    /// `T`, K: the gas and the supply air are at ambient temperature (thesis 3.1.3).
+    pub temperature_k: f64,
     pub ambient_pa: f64,
     pub h0_m: f64,
     pub l1_m: f64,
@@ -40,10 +41,9 @@ pub(crate) struct Corner {
     pub lever_inertia_kg_m2: f64,
     pub tire_n_per_m: f64,
     pub friction_n_s_per_m: f64,
-    pub area_poly: [f64; 5],
-    pub cross_section: [f64; 2],
-    pub fill_resistance: f64,
-    pub exhaust_resistance: f64,
+    pub area: EffectiveAreaLaw,
+    pub volume: GasVolumeLaw,
+    pub valve: ValveFlowLaw,
     pub damper: Damper,
 }
 
@@ -63,6 +63,7 @@ impl Corner {
         Self {
             gravity_m_s2: truck.environment.gravity_m_s2,
             rt_j_mol: truck.environment.gas_constant_j_mol_k * truck.environment.temperature_k,
+            temperature_k: truck.environment.temperature_k,
             ambient_pa: truck.environment.ambient_pressure_pa,
             h0_m: g.h0_m,
             l1_m: g.l1_m,
@@ -75,10 +76,9 @@ impl Corner {
             lever_inertia_kg_m2: truck.mass.lever_inertia_kg_m2,
             tire_n_per_m: truck.tire.stiffness_n_per_m,
             friction_n_s_per_m: truck.bellow.hinge_friction_n_s_per_m,
-            area_poly: truck.bellow.effective_area_poly_m2,
-            cross_section: truck.bellow.cross_section_m2,
-            fill_resistance: truck.valve.fill_resistance_pa_s_per_mol,
-            exhaust_resistance: truck.valve.exhaust_resistance_pa_s_per_mol,
+            area: truck.bellow.effective_area.clone(),
+            volume: truck.bellow.gas_volume.clone(),
+            valve: truck.valve,
             damper: Damper::new(&truck.damper),
         }
     }
@@ -107,30 +107,31 @@ impl Corner {
             amount_mol,
             1.0,
             self.rt_j_mol,
-            bellow_volume_m3(&self.cross_section, bellow_height_m),
+            self.volume.volume_m3(bellow_height_m),
         )
     }
 
     /// Bellow force, N (eq 3.16), and absolute pressure, Pa. The effective area is held
     /// constant outside [`crate::submodels::EFFECTIVE_AREA_RANGE_M`] (see
-    /// [`effective_area_clamped_m2`]).
+    /// [`EffectiveAreaLaw::area_clamped_m2`]).
     pub fn bellow_force_n(&self, bellow_height_m: f64, amount_mol: f64) -> (f64, f64) {
         let p_abs = self.pressure_abs_pa(bellow_height_m, amount_mol);
+        let gauge = p_abs - self.ambient_pa;
         (
-            (p_abs - self.ambient_pa) * effective_area_clamped_m2(&self.area_poly, bellow_height_m),
+            gauge * self.area.area_clamped_m2(bellow_height_m, gauge),
             p_abs,
         )
     }
 
-    /// Valve air flow into the circuit, mol/s (eq 3.19).
+    /// Valve air flow into the circuit, mol/s (eq 3.19 or the truck file's valve law), the
+    /// supply air and the bellow gas at ambient temperature.
     pub fn air_flow_mol_s(&self, bellow_abs_pa: f64, u: &InputSample) -> f64 {
-        air_flow_mol_s(
+        self.valve.flow_mol_s(
             u.valve,
             bellow_abs_pa,
             u.supply_gauge_pa + self.ambient_pa,
             self.ambient_pa,
-            self.fill_resistance,
-            self.exhaust_resistance,
+            self.temperature_k,
         )
     }
 
@@ -231,8 +232,8 @@ impl Corner {
                     ));
                 }
                 let target_m2 = force_n / gauge_pa;
-                let h = self.rising_root(target_m2).ok_or_else(|| {
-                    let (h_max, a_max) = self.max_effective_area();
+                let h = self.rising_root(target_m2, gauge_pa).ok_or_else(|| {
+                    let (h_max, a_max) = self.max_effective_area(gauge_pa);
                     fail(
                         what,
                         format!(
@@ -260,21 +261,21 @@ impl Corner {
                         ),
                     ));
                 }
-                let area = effective_area_clamped_m2(&self.area_poly, h);
-                if area <= 0.0 {
+                let Some(gauge_pa) = self.area.gauge_for_force_pa(h, force_n) else {
                     return Err(fail(
                         what,
                         format!(
-                            "the effective area is {area:.5} m² at bellow height {:.1} mm",
+                            "the effective area is {:.5} m² at bellow height {:.1} mm",
+                            self.area.area_clamped_m2(h, 0.0),
                             h * 1e3
                         ),
                     ));
-                }
-                (h, force_n / area)
+                };
+                (h, gauge_pa)
             }
         };
         let p_abs = gauge_pa + self.ambient_pa;
-        let volume = bellow_volume_m3(&self.cross_section, bellow_height_m);
+        let volume = self.volume.volume_m3(bellow_height_m);
         Ok(Equilibrium {
             bellow_height_m,
             amount_mol: air_amount_mol(p_abs, volume, 1.0, self.rt_j_mol),
@@ -283,22 +284,22 @@ impl Corner {
         })
     }
 
-    /// Lowest `h` in (0, max] with `A_eff(h) = target` and `A_eff` rising there.
-    fn rising_root(&self, target_m2: f64) -> Option<f64> {
+    /// Lowest `h` in (0, max] with `A_eff(h, p) = target` and `A_eff` rising there.
+    fn rising_root(&self, target_m2: f64, gauge_pa: f64) -> Option<f64> {
         first_upward_crossing_m(
-            |h| effective_area_clamped_m2(&self.area_poly, h) - target_m2,
+            |h| self.area.area_clamped_m2(h, gauge_pa) - target_m2,
             self.max_bellow_height_m(),
             SEARCH_STEP_M,
         )
     }
 
     /// Largest effective area over the lever's range and where it occurs (for error messages).
-    fn max_effective_area(&self) -> (f64, f64) {
+    fn max_effective_area(&self, gauge_pa: f64) -> (f64, f64) {
         let n = (self.max_bellow_height_m() / SEARCH_STEP_M) as usize;
         (1..=n)
             .map(|i| {
                 let h = i as f64 * SEARCH_STEP_M;
-                (h, effective_area_clamped_m2(&self.area_poly, h))
+                (h, self.area.area_clamped_m2(h, gauge_pa))
             })
             .fold((0.0, f64::NEG_INFINITY), |best, x| {
                 if x.1 > best.1 { x } else { best }

@@ -35,13 +35,31 @@ pub struct ModelEntry {
 }
 
 impl ModelEntry {
-    /// The parameters a grey-box fit frees by default on runs with or without valve action.
-    pub fn free_parameters(&self, valve_action: bool) -> Vec<&'static str> {
+    /// The parameters a grey-box fit frees by default on runs with or without valve action,
+    /// for `model` (built by this entry). The sets name the thesis' laws; a name the model
+    /// lacks becomes the parameter that plays its part under the model's law (`rflow1` → `c1`
+    /// under an orifice valve law).
+    pub fn free_parameters(
+        &self,
+        valve_action: bool,
+        model: &dyn SuspensionModel,
+    ) -> Vec<&'static str> {
         let mut free = self.default_free.to_vec();
         if valve_action {
             free.extend_from_slice(self.valve_free);
         }
-        free
+        let has = |name: &str| model.parameter_info().iter().any(|i| i.name == name);
+        let mut resolved: Vec<&'static str> = Vec::with_capacity(free.len());
+        for name in free {
+            if let Some(name) = crate::params::same_part_names(name)
+                .into_iter()
+                .find(|n| has(n))
+                && !resolved.contains(&name)
+            {
+                resolved.push(name);
+            }
+        }
+        resolved
     }
 }
 

@@ -78,7 +78,7 @@ impl Model1 {
         Self {
             truck: truck.clone(),
             corner: Corner::new(truck),
-            params: ParamSet::new(NAME, FIELDS),
+            params: ParamSet::new(NAME, FIELDS, truck),
         }
     }
 
@@ -105,6 +105,10 @@ impl SuspensionModel for Model1 {
 
     fn states(&self) -> &[StateInfo] {
         STATES
+    }
+
+    fn truck_parameters(&self) -> Option<&TruckParameters> {
+        Some(&self.truck)
     }
 
     fn parameter_info(&self) -> &[ParameterInfo] {

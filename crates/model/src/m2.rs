@@ -150,7 +150,7 @@ impl Model2 {
             name: "m2",
             truck: truck.clone(),
             corner: Corner::new(truck),
-            params: ParamSet::new("m2", FIELDS),
+            params: ParamSet::new("m2", FIELDS, truck),
             slow: SlowForce::None,
             states: BASE_STATES.to_vec(),
         }
@@ -196,7 +196,7 @@ impl Model2 {
         Ok(Self {
             name: "m2x",
             corner: Corner::new(&truck),
-            params: ParamSet::new("m2x", &fields),
+            params: ParamSet::new("m2x", &fields, &truck),
             slow: SlowForce::LoadOe {
                 block,
                 ksd_n_per_m: ksd,
@@ -226,7 +226,7 @@ impl Model2 {
         Self {
             name: "m2xh",
             corner: Corner::new(&truck),
-            params: ParamSet::new("m2xh", &fields),
+            params: ParamSet::new("m2xh", &fields, &truck),
             slow: SlowForce::Creep {
                 ksd_n_per_m: ksd,
                 tau_s: tau,
@@ -307,6 +307,10 @@ impl SuspensionModel for Model2 {
 
     fn states(&self) -> &[StateInfo] {
         &self.states
+    }
+
+    fn truck_parameters(&self) -> Option<&TruckParameters> {
+        Some(&self.truck)
     }
 
     fn parameter_info(&self) -> &[ParameterInfo] {

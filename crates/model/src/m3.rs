@@ -107,7 +107,7 @@ impl Model3 {
         Ok(Self {
             truck: truck.clone(),
             corner: Corner::new(truck),
-            params: ParamSet::new(NAME, FIELDS),
+            params: ParamSet::new(NAME, FIELDS, truck),
             block,
             states,
         })
@@ -149,6 +149,10 @@ impl SuspensionModel for Model3 {
 
     fn states(&self) -> &[StateInfo] {
         &self.states
+    }
+
+    fn truck_parameters(&self) -> Option<&TruckParameters> {
+        Some(&self.truck)
     }
 
     fn parameter_info(&self) -> &[ParameterInfo] {

@@ -8,7 +8,7 @@
 //!
 //! All quantities are SI: kg, m, s, Pa (gauge where named so), mol.
 
-use airsus_data::{TruckParameters, ValveState};
+use airsus_data::{LawFamily, TruckParameters, ValveState};
 
 /// Inputs at one instant (SPEC §3: `m_tot`, `u`, `p_supply`, `z_r`). The simulator holds them
 /// constant between samples (zero-order hold) and restarts the solver where they jump.
@@ -199,13 +199,37 @@ pub trait SuspensionModel: BoxClone + Send + Sync + std::fmt::Debug {
     fn initial_state(&self, u: &InputSample, ic: &InitialCondition)
     -> Result<Vec<f64>, ModelError>;
 
+    /// The truck parameters the model was built on and holds its parameters in (its laws
+    /// included); `None` for a model that keeps its own (the simulator's reference models).
+    fn truck_parameters(&self) -> Option<&TruckParameters> {
+        None
+    }
+
     /// Writes this model's parameters into `truck`, so that grey-box results can be saved as a
     /// truck file (`airsus_data::write_truck`). Parameters the model does not have are left
     /// untouched.
     ///
     /// Written once: every parameter goes to its declared truck-file home
-    /// ([`ParameterInfo::field`]); parameters without one are skipped.
+    /// ([`ParameterInfo::field`]); parameters without one are skipped. A law the model's
+    /// parameters belong to replaces `truck`'s law of that family (a model under an orifice
+    /// valve law writes an orifice law, whatever law `truck` had).
     fn write_parameters(&self, truck: &mut TruckParameters) {
+        if let Some(own) = self.truck_parameters() {
+            let families: Vec<_> = self
+                .parameter_info()
+                .iter()
+                .filter_map(|i| i.field.and_then(|f| f.law_family()))
+                .collect();
+            for family in families {
+                match family {
+                    LawFamily::EffectiveArea => {
+                        truck.bellow.effective_area = own.bellow.effective_area.clone();
+                    }
+                    LawFamily::GasVolume => truck.bellow.gas_volume = own.bellow.gas_volume.clone(),
+                    LawFamily::ValveFlow => truck.valve = own.valve,
+                }
+            }
+        }
         // Each parameter's own truck-file home (`ksd` is the OE force scale in `m2x`, the
         // creep stiffness in `m2xh`): never looked up by name.
         for info in self.parameter_info() {

@@ -3,6 +3,7 @@
 
 mod common;
 
+use airsus_data::params::{Field, get};
 use airsus_data::{TruckParameters, ValveState};
 use airsus_model::{InitialCondition, InputSample, ModelError, build_model};
 use common::*;
@@ -11,7 +12,7 @@ const MODELS: &[&str] = &["m1", "m2", "m2x", "m2xh", "m3"];
 
 /// `A_eff` written out again here (not the crate's function): eq 5.4.
 fn area(truck: &TruckParameters, h: f64) -> f64 {
-    let p = truck.bellow.effective_area_poly_m2;
+    let p = *truck.bellow.effective_area.coefficients_m2();
     p[0] + p[1] * h + p[2] * h * h + p[3] * h.powi(3) + p[4] * h.powi(4)
 }
 
@@ -27,7 +28,7 @@ fn bellow_from_sensor(truck: &TruckParameters, sensor_m: f64, load_kg: f64) -> f
 }
 
 fn volume(truck: &TruckParameters, h: f64) -> f64 {
-    let a = truck.bellow.cross_section_m2;
+    let a = *truck.bellow.gas_volume.coefficients_m2();
     h * (a[0] + a[1] * h)
 }
 
@@ -344,13 +345,15 @@ fn integrated_valve_flow_equals_the_change_in_air_amount() {
                 valve,
                 ..input(load)
             };
+            let (r_fill, r_exhaust) = (
+                get(&truck, Field::FillResistance),
+                get(&truck, Field::ExhaustResistance),
+            );
             let flow = |x: &[f64]| {
                 let p = model.output(x, &u).bellow_gauge_pa + amb;
                 match valve {
-                    ValveState::Fill => {
-                        (u.supply_gauge_pa + amb - p) / truck.valve.fill_resistance_pa_s_per_mol
-                    }
-                    _ => -(p - amb) / truck.valve.exhaust_resistance_pa_s_per_mol,
+                    ValveState::Fill => (u.supply_gauge_pa + amb - p) / r_fill,
+                    _ => -(p - amb) / r_exhaust,
                 }
             };
             let dt = 1e-4;

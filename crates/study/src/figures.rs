@@ -4,7 +4,7 @@
 
 use airsus_data::{Channel, TruckParameters};
 use airsus_estimate::submodel::derivative::savitzky_golay_slope;
-use airsus_model::submodels::{bellow_height_from_sensor_m, bellow_volume_m3, effective_area_m2};
+use airsus_model::submodels::bellow_height_from_sensor_m;
 use airsus_report::chart::{Chart, Panel, Series, SeriesStyle};
 use airsus_sim::SimulationResponse;
 
@@ -182,7 +182,7 @@ pub fn force_map_chart(input: &StudyInput, truck: &TruckParameters) -> Option<Ch
             x: grid.iter().map(|h| h * 1e3).collect(),
             y: grid
                 .iter()
-                .map(|&h| p * effective_area_m2(&truck.bellow.effective_area_poly_m2, h) * 1e-3)
+                .map(|&h| p * truck.bellow.effective_area.area_m2(h, p) * 1e-3)
                 .collect(),
             style: SeriesStyle::Line,
             color: i,
@@ -219,13 +219,21 @@ pub fn discharge_chart(input: &StudyInput, truck: &TruckParameters) -> Option<Ch
             let slope = savitzky_golay_slope(&d.discharge.tank_gauge_pa, ts, half_window);
             let scale = d.tank_volume_m3 / (r_gas * d.temperature_k);
             let t: Vec<f64> = d.discharge.time_s[half_window..half_window + slope.len()].to_vec();
-            let resistance = match d.channel {
-                Channel::Fill => truck.valve.fill_resistance_pa_s_per_mol,
-                Channel::Exhaust => truck.valve.exhaust_resistance_pa_s_per_mol,
-            };
+            let ambient = truck.environment.ambient_pressure_pa;
             let model: Vec<f64> = d.discharge.tank_gauge_pa[half_window..half_window + slope.len()]
                 .iter()
-                .map(|p| p / resistance)
+                .map(|p| match d.channel {
+                    Channel::Fill => {
+                        truck
+                            .valve
+                            .fill_flow_mol_s(p + ambient, ambient, d.temperature_k)
+                    }
+                    Channel::Exhaust => {
+                        truck
+                            .valve
+                            .exhaust_flow_mol_s(p + ambient, ambient, d.temperature_k)
+                    }
+                })
                 .collect();
             Panel {
                 title: format!(
@@ -243,7 +251,7 @@ pub fn discharge_chart(input: &StudyInput, truck: &TruckParameters) -> Option<Ch
                         slope.iter().map(|s| -s * scale).collect(),
                         7,
                     ),
-                    line("fitted resistance (eq 3.19)", &t, model, 1),
+                    line("fitted valve law (eq 3.19)", &t, model, 1),
                 ],
                 band: None,
             }
@@ -291,8 +299,7 @@ pub fn pressure_height_chart(input: &StudyInput, truck: &TruckParameters) -> Opt
             style: SeriesStyle::Dots,
             color: i,
         });
-        let pv = (out.bellow_gauge_pa[0] + ambient)
-            * bellow_volume_m3(&truck.bellow.cross_section_m2, h_b[0]);
+        let pv = (out.bellow_gauge_pa[0] + ambient) * truck.bellow.gas_volume.volume_m3(h_b[0]);
         let (lo, hi) = h_b
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
@@ -306,9 +313,7 @@ pub fn pressure_height_chart(input: &StudyInput, truck: &TruckParameters) -> Opt
             x: grid.iter().map(|h| h * 1e3).collect(),
             y: grid
                 .iter()
-                .map(|&h| {
-                    (pv / bellow_volume_m3(&truck.bellow.cross_section_m2, h) - ambient) * 1e-3
-                })
+                .map(|&h| (pv / truck.bellow.gas_volume.volume_m3(h) - ambient) * 1e-3)
                 .collect(),
             style: SeriesStyle::Line,
             color: i,

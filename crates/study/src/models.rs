@@ -367,7 +367,7 @@ pub fn fit_and_validate(
     // The registry's default set (thesis "Estimation 2"), plus the valve-action parameters when the
     // estimation runs have valve action.
     let free = model_entry(model_name)
-        .map(|entry| entry.free_parameters(valve_action))
+        .map(|entry| entry.free_parameters(valve_action, &*nominal))
         .unwrap_or_default();
     result.free = free.iter().map(|s| (*s).to_owned()).collect();
     let mut problem =

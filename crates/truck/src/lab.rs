@@ -5,7 +5,7 @@ use airsus_data::{Channel, ForceMap, TankDischarge};
 use diffsol::{DenseMatrix, NalgebraMat, OdeBuilder, OdeSolverMethod};
 
 use crate::error::TruckError;
-use crate::physics::{GasEnergyBalance, gas_temperature_rate, iso6358_molar_flow};
+use crate::physics::{GasEnergyBalance, gas_temperature_rate};
 use crate::sensors::{NoiseSource, SensorSpec};
 
 use crate::truth::VirtualTruck;
@@ -92,26 +92,16 @@ pub fn simulate_discharge(
     let e = &truck.effect_parameters;
     let (r_gas, ambient) = (env.gas_constant_j_mol_k, env.ambient_pressure_pa);
     let volume = test.tank_volume_m3;
-    let (conductance, resistance) = match test.channel {
-        Channel::Fill => (
-            e.fill_conductance_m3_s_pa,
-            truck.physical.valve.fill_resistance_pa_s_per_mol,
-        ),
-        Channel::Exhaust => (
-            e.exhaust_conductance_m3_s_pa,
-            truck.physical.valve.exhaust_resistance_pa_s_per_mol,
-        ),
-    };
-    let orifice = truck.effects.orifice_flow;
+    let valve = truck.valve_law();
+    let channel = test.channel;
     let heat = truck.effects.heat_exchange;
     let wall = test.temperature_k;
     let rhs = move |x: &[f64], _p: &[f64], _t: f64, dx: &mut [f64]| {
         let (n, t) = (x[0].max(0.0), if heat { x[1] } else { wall });
         let p = n * r_gas * t / volume;
-        let out = if orifice {
-            iso6358_molar_flow(conductance, e.critical_pressure_ratio, p, ambient, t)
-        } else {
-            (p - ambient) / resistance
+        let out = match channel {
+            Channel::Fill => valve.fill_flow_mol_s(p, ambient, t),
+            Channel::Exhaust => valve.exhaust_flow_mol_s(p, ambient, t),
         };
         dx[0] = -out;
         dx[1] = if heat {
@@ -257,7 +247,9 @@ mod tests {
         let t = test(Channel::Fill);
         let p = simulate_discharge(&truck, &t).unwrap();
         let rt = 8.314462618 * 293.15;
-        let tau = t.tank_volume_m3 * truck.physical.valve.fill_resistance_pa_s_per_mol / rt;
+        let tau = t.tank_volume_m3
+            * airsus_data::params::get(&truck.physical, airsus_data::params::Field::FillResistance)
+            / rt;
         for (k, &pk) in p.iter().enumerate().step_by(50) {
             let expected = 800e3 * (-(k as f64) * 0.05 / tau).exp();
             assert!(

@@ -18,12 +18,11 @@
 //! The bellow force is `F = p_g A_eff(h_b, p_g) + k_c (s − h_b) − F_dahl`, with the effective
 //! area stretching with pressure (`A_eff = A_poly(h)(1 + κ p_g / 100 kPa)`).
 
-use airsus_data::{TruckParameters, ValveState};
+use airsus_data::{EffectiveAreaLaw, GasVolumeLaw, TruckParameters, ValveFlowLaw, ValveState};
 use airsus_model::mechanics::{LeverBody, LeverForces, lever_accelerations};
-use airsus_model::params::{Field, ParamSet};
+use airsus_model::params::{Field, LEVER_MODEL_FIELDS, ParamSet};
 use airsus_model::submodels::{
-    Damper, bellow_volume_m3, effective_area_clamped_m2, first_upward_crossing_m, lever_gain,
-    sensor_height_m, tire_force_n,
+    Damper, first_upward_crossing_m, lever_gain, sensor_height_m, tire_force_n,
 };
 use airsus_model::{
     InitialCondition, InputSample, MIN_SPRUNG_MASS_KG, ModelError, OutputSample, ParameterInfo,
@@ -31,8 +30,7 @@ use airsus_model::{
 };
 
 use crate::physics::{
-    GasEnergyBalance, dahl_force_rate, gas_temperature_rate, iso6358_molar_flow,
-    maxwell_position_rate, smoothstep,
+    GasEnergyBalance, dahl_force_rate, gas_temperature_rate, maxwell_position_rate, smoothstep,
 };
 use crate::truth::{EffectParameters, VirtualTruck};
 
@@ -60,142 +58,30 @@ pub enum SupplyMode {
     Tank,
 }
 
-/// The SPEC names it shares with Model 2: the same lever, bellow, tire and valve.
-const SPEC_FIELDS: &[Field] = airsus_model::params::LEVER_MODEL_FIELDS;
-
-/// A parameter of the extra effects: its description and where it lives.
-struct EffectParam {
-    info: ParameterInfo,
-    get: fn(&EffectParameters) -> f64,
-    set: fn(&mut EffectParameters, f64),
-}
-
-impl EffectParam {
-    /// The same, saying what data determine it.
-    const fn needing(mut self, needs: &'static str) -> Self {
-        self.info.needs = needs;
-        self
-    }
-}
-
-const fn effect(
-    name: &'static str,
-    unit: &'static str,
-    description: &'static str,
-    lower: f64,
-    upper: f64,
-    get: fn(&EffectParameters) -> f64,
-    set: fn(&mut EffectParameters, f64),
-) -> EffectParam {
-    EffectParam {
-        info: ParameterInfo::new(name, unit, description, (lower, upper), None),
-        get,
-        set,
-    }
-}
-
-/// The truck model's own parameter names (beyond the SPEC §5 names it shares).
-const EFFECT_PARAMS: &[EffectParam] = &[
-    effect(
-        "kc",
-        "N/m",
-        "creep stiffness of the bellow wall (Maxwell element)",
-        0.0,
-        1e6,
-        |e| e.creep_stiffness_n_per_m,
-        |e, v| e.creep_stiffness_n_per_m = v,
-    )
-    .needing("long standstills after load changes (the creep)"),
-    effect(
-        "tc",
-        "s",
-        "creep relaxation time",
-        0.1,
-        1e4,
-        |e| e.creep_time_constant_s,
-        |e, v| e.creep_time_constant_s = v,
-    )
-    .needing("long standstills after load changes (the creep)"),
-    effect(
-        "fc",
-        "N",
-        "bellow wall sliding friction (Dahl)",
-        0.0,
-        1e4,
-        |e| e.friction_force_n,
-        |e, v| e.friction_force_n = v,
-    )
-    .needing("load reversals: a fill then an exhaust, or a load on then off (the hysteresis)"),
-    effect(
-        "kdahl",
-        "N/m",
-        "pre-sliding stiffness of the wall friction (Dahl)",
-        1e3,
-        1e8,
-        |e| e.friction_stiffness_n_per_m,
-        |e, v| e.friction_stiffness_n_per_m = v,
-    )
-    .needing("small reversals (the pre-sliding hysteresis)"),
-    effect(
-        "tth",
-        "s",
-        "thermal time constant of the bellow gas",
-        0.1,
-        1e4,
-        |e| e.thermal_time_constant_s,
-        |e, v| e.thermal_time_constant_s = v,
-    )
-    .needing("valve pulses (the gas heats while filling and cools after)"),
-    effect(
-        "c1",
-        "m3/(s Pa)",
-        "ISO 6358 sonic conductance of the fill channel",
-        1e-11,
-        1e-6,
-        |e| e.fill_conductance_m3_s_pa,
-        |e, v| e.fill_conductance_m3_s_pa = v,
-    )
-    .needing("fill pulses at several supply pressures"),
-    effect(
-        "c2",
-        "m3/(s Pa)",
-        "ISO 6358 sonic conductance of the exhaust channel",
-        1e-11,
-        1e-6,
-        |e| e.exhaust_conductance_m3_s_pa,
-        |e, v| e.exhaust_conductance_m3_s_pa = v,
-    )
-    .needing("exhaust pulses at several bellow pressures"),
-    effect(
-        "bcr",
-        "1",
-        "ISO 6358 critical pressure ratio of both channels",
-        0.0,
-        0.9,
-        |e| e.critical_pressure_ratio,
-        |e, v| e.critical_pressure_ratio = v,
-    )
-    .needing("fill and exhaust pulses over a range of pressure ratios"),
-    effect(
-        "rline",
-        "Pa s/mol",
-        "supply line resistance between tank and valve",
-        1e3,
-        1e9,
-        |e| e.line_resistance_pa_s_per_mol,
-        |e, v| e.line_resistance_pa_s_per_mol = v,
-    )
-    .needing("long fill pulses (the supply line drains)"),
-    effect(
-        "kap",
-        "1/(100 kPa)",
-        "growth of the effective area with pressure (wall stretch)",
-        -0.1,
-        0.1,
-        |e| e.area_pressure_coefficient,
-        |e, v| e.area_pressure_coefficient = v,
-    )
-    .needing("loads over a range of pressures"),
+/// Model 2's parameters (under the truck's laws: the area stretching with pressure, `kap`,
+/// and an orifice valve, `c1`, `c2`, `bcr`), then the wall, gas and supply-line effects of
+/// the `[effects]` section. Every one is declared once, in `airsus_data::params`.
+const FIELDS: &[Field] = &[
+    LEVER_MODEL_FIELDS[0],
+    LEVER_MODEL_FIELDS[1],
+    LEVER_MODEL_FIELDS[2],
+    LEVER_MODEL_FIELDS[3],
+    LEVER_MODEL_FIELDS[4],
+    LEVER_MODEL_FIELDS[5],
+    LEVER_MODEL_FIELDS[6],
+    LEVER_MODEL_FIELDS[7],
+    LEVER_MODEL_FIELDS[8],
+    LEVER_MODEL_FIELDS[9],
+    LEVER_MODEL_FIELDS[10],
+    LEVER_MODEL_FIELDS[11],
+    LEVER_MODEL_FIELDS[12],
+    LEVER_MODEL_FIELDS[13],
+    Field::WallCreepStiffness,
+    Field::WallCreepTime,
+    Field::WallFrictionForce,
+    Field::WallFrictionStiffness,
+    Field::GasThermalTime,
+    Field::LineResistance,
 ];
 
 /// The virtual truck behind the model trait.
@@ -203,8 +89,7 @@ const EFFECT_PARAMS: &[EffectParam] = &[
 pub struct TruckModel {
     truth: VirtualTruck,
     supply: SupplyMode,
-    spec_params: ParamSet,
-    infos: Vec<ParameterInfo>,
+    params: ParamSet,
     c: Consts,
 }
 
@@ -226,11 +111,10 @@ struct Consts {
     inertia: f64,
     tire: f64,
     friction: f64,
-    area_poly: [f64; 5],
-    cross: [f64; 2],
+    area: EffectiveAreaLaw,
+    volume: GasVolumeLaw,
+    valve: ValveFlowLaw,
     damper: Damper,
-    r_fill: f64,
-    r_exhaust: f64,
     e: EffectParameters,
 }
 
@@ -264,18 +148,16 @@ impl Consts {
             inertia: p.mass.lever_inertia_kg_m2,
             tire: p.tire.stiffness_n_per_m,
             friction: p.bellow.hinge_friction_n_s_per_m,
-            area_poly: p.bellow.effective_area_poly_m2,
-            cross: p.bellow.cross_section_m2,
+            area: p.bellow.effective_area.clone(),
+            volume: p.bellow.gas_volume.clone(),
+            valve: p.valve,
             damper: Damper::new(&p.damper),
-            r_fill: p.valve.fill_resistance_pa_s_per_mol,
-            r_exhaust: p.valve.exhaust_resistance_pa_s_per_mol,
             e,
         }
     }
 
     fn effective_area_m2(&self, h_m: f64, gauge_pa: f64) -> f64 {
-        effective_area_clamped_m2(&self.area_poly, h_m)
-            * (1.0 + self.e.area_pressure_coefficient * gauge_pa / 1e5)
+        self.area.area_clamped_m2(h_m, gauge_pa)
     }
 
     fn sprung_kg(&self, load_kg: f64) -> f64 {
@@ -284,20 +166,14 @@ impl Consts {
 }
 
 impl TruckModel {
-    pub fn new(truth: VirtualTruck, supply: SupplyMode) -> Self {
-        let spec_params = ParamSet::new("truck", SPEC_FIELDS);
-        let infos = spec_params
-            .infos()
-            .iter()
-            .cloned()
-            .chain(EFFECT_PARAMS.iter().map(|p| p.info.clone()))
-            .collect();
+    pub fn new(mut truth: VirtualTruck, supply: SupplyMode) -> Self {
+        truth.resolve_laws();
+        let params = ParamSet::new("truck", FIELDS, &truth.physical);
         let c = Consts::new(&truth);
         Self {
             truth,
             supply,
-            spec_params,
-            infos,
+            params,
             c,
         }
     }
@@ -307,8 +183,9 @@ impl TruckModel {
         Self::new(VirtualTruck::reference(), SupplyMode::Measured)
     }
 
-    /// The `truck` model structure started from a truck file's nominal values (effects at
-    /// their built-in defaults), as the grey-box estimator would start it.
+    /// The `truck` model structure started from a truck file's values: its laws where it
+    /// names other laws than the thesis', its `[effects]` values where it gives them, the
+    /// built-in effects elsewhere (see [`VirtualTruck::resolve_laws`]), as the grey-box estimator would start it.
     pub fn from_truck_parameters(truck: &TruckParameters) -> Self {
         let mut truth = VirtualTruck::reference();
         truth.physical = truck.clone();
@@ -373,7 +250,7 @@ impl TruckModel {
         }
         let tire_compression = u.wheel_load_kg * c.g / c.tire;
         let axle = u.road_height_m - tire_compression;
-        let n = (gauge_pa + c.ambient_pa) * bellow_volume_m3(&c.cross, h_b) / c.rt;
+        let n = (gauge_pa + c.ambient_pa) * c.volume.volume_m3(h_b) / c.rt;
         let supply_abs = u.supply_gauge_pa + c.ambient_pa;
         Ok(vec![
             axle + c.h0_m + c.l1_m * sin_a,
@@ -428,21 +305,13 @@ impl TruckModel {
                         "the lever cannot reach it".to_owned(),
                     ));
                 }
-                let a0 = effective_area_clamped_m2(&c.area_poly, h);
-                if a0 <= 0.0 {
-                    return Err(fail(
+                match c.area.gauge_for_force_pa(h, force) {
+                    Some(p) => Ok((h, p)),
+                    None => Err(fail(
                         format!("sensor height {:.1} mm", height_m * 1e3),
                         "the effective area is not positive there".to_owned(),
-                    ));
+                    )),
                 }
-                // p A0 (1 + κ p / 1e5) = F: a quadratic in p; its positive root.
-                let k = c.e.area_pressure_coefficient / 1e5;
-                let p = if k.abs() < 1e-18 {
-                    force / a0
-                } else {
-                    (-a0 + (a0 * a0 + 4.0 * k * a0 * force).max(0.0).sqrt()) / (2.0 * k * a0)
-                };
-                Ok((h, p))
             }
             InitialCondition::BellowPressure { gauge_pa } => {
                 let what = format!("bellow pressure {:.1} kPa", gauge_pa / 1e3);
@@ -466,6 +335,7 @@ impl TruckModel {
     }
 
     fn rebuild(&mut self) {
+        self.truth.resolve_laws();
         self.c = Consts::new(&self.truth);
     }
 }
@@ -483,40 +353,20 @@ impl SuspensionModel for TruckModel {
         STATES
     }
 
+    fn truck_parameters(&self) -> Option<&TruckParameters> {
+        Some(&self.truth.physical)
+    }
+
     fn parameter_info(&self) -> &[ParameterInfo] {
-        &self.infos
+        self.params.infos()
     }
 
     fn parameter(&self, name: &str) -> Result<f64, ModelError> {
-        match EFFECT_PARAMS.iter().find(|p| p.info.name == name) {
-            Some(p) => Ok((p.get)(&self.truth.effect_parameters)),
-            None => self
-                .spec_params
-                .get(&self.truth.physical, name)
-                .map_err(|e| self.widen(e)),
-        }
+        self.params.get(&self.truth.physical, name)
     }
 
     fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        match EFFECT_PARAMS.iter().find(|p| p.info.name == name) {
-            Some(p) => {
-                if !p.info.admits(value) {
-                    return Err(ModelError::ParameterOutOfRange {
-                        model: "truck".to_owned(),
-                        name: name.to_owned(),
-                        value,
-                        lower: p.info.lower,
-                        upper: p.info.upper,
-                        unit: p.info.unit.to_owned(),
-                    });
-                }
-                (p.set)(&mut self.truth.effect_parameters, value);
-            }
-            None => self
-                .spec_params
-                .set(&mut self.truth.physical, name, value)
-                .map_err(|e| self.widen(e))?,
-        }
+        self.params.set(&mut self.truth.physical, name, value)?;
         self.rebuild();
         Ok(())
     }
@@ -529,7 +379,7 @@ impl SuspensionModel for TruckModel {
         let h_b = c.h0_m + c.l12_m * sin_a;
         let h_b_dot = c.l12_m * cos_a * alpha_dot;
         let temperature = self.gas_temperature_k(x);
-        let volume = bellow_volume_m3(&c.cross, h_b);
+        let volume = c.volume.volume_m3(h_b);
         let p_abs = x[4] * c.gas_constant * temperature / volume;
         let p_gauge = p_abs - c.ambient_pa;
         let creep_force = c.e.creep_stiffness_n_per_m * (x[6] - h_b);
@@ -567,28 +417,13 @@ impl SuspensionModel for TruckModel {
         } else {
             tank_pa
         };
+        // The fill channel's check valve (no backflow) is part of every valve law.
         let fill = match u.valve {
-            // A check valve in the fill channel stops backflow from bellow to supply.
-            ValveState::Fill if fx.orifice_flow => iso6358_molar_flow(
-                c.e.fill_conductance_m3_s_pa,
-                c.e.critical_pressure_ratio,
-                line_pa,
-                p_abs,
-                c.ambient_t_k,
-            )
-            .max(0.0),
-            ValveState::Fill => ((line_pa - p_abs) / c.r_fill).max(0.0),
+            ValveState::Fill => c.valve.fill_flow_mol_s(line_pa, p_abs, c.ambient_t_k),
             _ => 0.0,
         };
         let exhaust = match u.valve {
-            ValveState::Exhaust if fx.orifice_flow => iso6358_molar_flow(
-                c.e.exhaust_conductance_m3_s_pa,
-                c.e.critical_pressure_ratio,
-                p_abs,
-                c.ambient_pa,
-                temperature,
-            ),
-            ValveState::Exhaust => (p_abs - c.ambient_pa) / c.r_exhaust,
+            ValveState::Exhaust => c.valve.exhaust_flow_mol_s(p_abs, c.ambient_pa, temperature),
             _ => 0.0,
         };
         // The leak (zero on a sound truck) vents to ambient whatever the valve does.
@@ -597,7 +432,7 @@ impl SuspensionModel for TruckModel {
         dx[4] = into_bellow;
 
         dx[5] = if fx.heat_exchange {
-            let dv_dh = c.cross[0] + 2.0 * c.cross[1] * h_b;
+            let dv_dh = c.volume.volume_slope_m2(h_b);
             gas_temperature_rate(
                 &GasEnergyBalance {
                     amount_mol: x[4],
@@ -657,8 +492,7 @@ impl SuspensionModel for TruckModel {
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample {
         let c = &self.c;
         let h_b = self.bellow_height_m(x);
-        let p_abs =
-            x[4] * c.gas_constant * self.gas_temperature_k(x) / bellow_volume_m3(&c.cross, h_b);
+        let p_abs = x[4] * c.gas_constant * self.gas_temperature_k(x) / c.volume.volume_m3(h_b);
         OutputSample {
             sensor_height_m: sensor_height_m(
                 c.h0_m,
@@ -678,26 +512,5 @@ impl SuspensionModel for TruckModel {
         ic: &InitialCondition,
     ) -> Result<Vec<f64>, ModelError> {
         self.equilibrium_with_friction(u, ic, 0.0)
-    }
-}
-
-impl TruckModel {
-    /// Unknown-name errors list both the SPEC names and the truck's own.
-    fn widen(&self, err: ModelError) -> ModelError {
-        match err {
-            ModelError::UnknownParameter { name, .. } => {
-                let valid: Vec<String> = self.infos.iter().map(|i| i.name.to_owned()).collect();
-                ModelError::UnknownParameter {
-                    model: "truck".to_owned(),
-                    suggestion: airsus_data::error::nearest_name(
-                        &name,
-                        valid.iter().map(String::as_str),
-                    ),
-                    name,
-                    valid,
-                }
-            }
-            other => other,
-        }
     }
 }

@@ -47,15 +47,15 @@ pub fn all_model_names() -> Vec<(&'static str, &'static str)> {
 }
 
 /// What a grey-box fit of `model` frees by default on `runs`: the registry's set, plus the
-/// valve-action parameters (flow law, gas volume scale) when a run has valve action. The
-/// flag says whether they were added.
+/// valve-action parameters (flow law, gas volume scale) when a run has valve action, under
+/// the model's laws. The flag says whether they were added.
 pub fn default_free(
-    model: &str,
+    model: &dyn SuspensionModel,
     runs: &[&airsus_data::Run],
 ) -> Result<(Vec<&'static str>, bool), ModelError> {
     let valve_action = runs.iter().any(|r| r.valve_action());
     Ok((
-        model_entry(model)?.free_parameters(valve_action),
+        model_entry(model.name())?.free_parameters(valve_action, model),
         valve_action,
     ))
 }
@@ -133,7 +133,7 @@ mod tests {
             let model = build_any_model(entry.name, &truck).unwrap();
             assert_eq!(model.name(), entry.name);
             // Every default free parameter is one the model has.
-            for name in entry.free_parameters(true) {
+            for name in entry.free_parameters(true, &*model) {
                 model
                     .parameter(name)
                     .unwrap_or_else(|e| panic!("{}: {e}", entry.name));
@@ -175,12 +175,9 @@ mod tests {
                     model.parameter(info.name).unwrap(),
                     back.parameter(info.name).unwrap(),
                 );
-                // The truck structure's effects have no truck-file key yet (issue #11, laws as
-                // values); every thesis model's parameter has one.
-                if airsus_data::params::spec_field(info.name).is_none() {
-                    assert_eq!(entry.name, "truck", "{}", info.name);
-                    continue;
-                }
+                // Every parameter has a truck-file home, the truck structure's laws and
+                // effects included.
+                assert!(info.field.is_some(), "{} {}", entry.name, info.name);
                 assert_eq!(written, read, "{} {}", entry.name, info.name);
             }
         }

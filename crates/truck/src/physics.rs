@@ -10,66 +10,14 @@
 //!   height changes the thesis saw in data-sets 1–2 and attributed to the folding rubber wall
 //!   (thesis 6.1).
 
-/// Molar mass of dry air, kg/mol.
-pub const AIR_MOLAR_MASS_KG_MOL: f64 = 0.028_965;
+// The orifice law is a valve-flow law of the truck file (`airsus_data::laws`); the gas
+// energy balance below uses its air constants.
+pub use airsus_data::laws::{
+    AIR_MOLAR_MASS_KG_MOL, ISO6358_REFERENCE_DENSITY_KG_M3, ISO6358_REFERENCE_TEMPERATURE_K,
+    LAMINAR_PRESSURE_RATIO, iso6358_molar_flow,
+};
 /// Heat capacity ratio of air.
 pub const AIR_GAMMA: f64 = 1.4;
-/// ISO 6358 reference state: density 1.185 kg/m³ at 293.15 K and 100 kPa.
-pub const ISO6358_REFERENCE_DENSITY_KG_M3: f64 = 1.185;
-pub const ISO6358_REFERENCE_TEMPERATURE_K: f64 = 293.15;
-
-/// Pressure ratio above which the flow is treated as laminar (linear in the pressure
-/// difference). ISO 6358's subsonic law `√(1 − x²)` has an infinite slope at `p_down = p_up`,
-/// which no ODE solver likes and no real valve shows; ISO 6358-3 introduces the same kind of
-/// laminar range near equilibrium.
-pub const LAMINAR_PRESSURE_RATIO: f64 = 0.995;
-
-/// Molar flow through a pneumatic component from `p_a` to `p_b` (both absolute, Pa), positive
-/// when air flows from a to b (ISO 6358-1:2013, eqs 1–2):
-///
-/// - choked, `r = p_down/p_up ≤ b`: `q_m = C p_up ρ0 √(T0/T_up)`;
-/// - subsonic, `b < r`: `q_m = C p_up ρ0 √(T0/T_up) √(1 − ((r − b)/(1 − b))²)`;
-/// - laminar near `r = 1` (see [`LAMINAR_PRESSURE_RATIO`]): linear in `1 − r`, continuous.
-///
-/// `conductance_m3_s_pa` is the sonic conductance `C` in m³/(s·Pa) (1 dm³/(s·bar) = 1e-8),
-/// `critical_ratio` is `b`. The upstream gas is at `t_up_k`.
-pub fn iso6358_molar_flow(
-    conductance_m3_s_pa: f64,
-    critical_ratio: f64,
-    p_a_pa: f64,
-    p_b_pa: f64,
-    t_up_k: f64,
-) -> f64 {
-    let (p_up, p_down, sign) = if p_a_pa >= p_b_pa {
-        (p_a_pa, p_b_pa, 1.0)
-    } else {
-        (p_b_pa, p_a_pa, -1.0)
-    };
-    if p_up <= 0.0 || conductance_m3_s_pa <= 0.0 {
-        return 0.0;
-    }
-    let b = critical_ratio.clamp(0.0, LAMINAR_PRESSURE_RATIO - 1e-3);
-    let subsonic = |r: f64| -> f64 {
-        if r <= b {
-            1.0
-        } else {
-            let x = (r - b) / (1.0 - b);
-            (1.0 - x * x).max(0.0).sqrt()
-        }
-    };
-    let r = (p_down / p_up).clamp(0.0, 1.0);
-    let shape = if r > LAMINAR_PRESSURE_RATIO {
-        subsonic(LAMINAR_PRESSURE_RATIO) * (1.0 - r) / (1.0 - LAMINAR_PRESSURE_RATIO)
-    } else {
-        subsonic(r)
-    };
-    let mass_flow = conductance_m3_s_pa
-        * p_up
-        * ISO6358_REFERENCE_DENSITY_KG_M3
-        * (ISO6358_REFERENCE_TEMPERATURE_K / t_up_k.max(1.0)).sqrt()
-        * shape;
-    sign * mass_flow / AIR_MOLAR_MASS_KG_MOL
-}
 
 /// Inputs of [`gas_temperature_rate`], SI units.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -2,7 +2,8 @@
 //! differ from the SPEC's nominal reference truck (so estimation has something to find), plus
 //! the effects the thesis models lack (SPEC §6), each switchable.
 
-use airsus_data::TruckParameters;
+use airsus_data::params::Field;
+use airsus_data::{EffectiveAreaLaw, TruckParameters, ValveFlowLaw};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::Distribution;
@@ -126,18 +127,18 @@ impl VirtualTruck {
         let mut physical = TruckParameters::reference();
         physical.mass.unsprung_kg = 560.0;
         physical.mass.lever_inertia_kg_m2 = 170.0;
-        let p = physical.bellow.effective_area_poly_m2;
+        let p = *physical.bellow.effective_area.coefficients_m2();
         // 3 % larger, and tilted about 0.3 m by -0.01 m²/m: the area falls a little more
         // with height than the lab fit says.
         let (scale, tilt, pivot_m) = (1.03, -0.01, 0.3);
-        physical.bellow.effective_area_poly_m2 = [
+        *physical.bellow.effective_area.coefficients_m2_mut() = [
             p[0] * scale - tilt * pivot_m,
             p[1] * scale + tilt,
             p[2] * scale,
             p[3] * scale,
             p[4] * scale,
         ];
-        physical.bellow.cross_section_m2 = [0.262, -0.040];
+        *physical.bellow.gas_volume.coefficients_m2_mut() = [0.262, -0.040];
         physical.bellow.hinge_friction_n_s_per_m = 0.0;
         Self {
             physical,
@@ -171,7 +172,7 @@ impl VirtualTruck {
 
         // Effective area: scale, tilt and curvature about 0.3 m, redrawn until plausible
         // over the whole stroke (a few draws at most; the fallback keeps the reference).
-        let p = nominal.physical.bellow.effective_area_poly_m2;
+        let p = *nominal.physical.bellow.effective_area.coefficients_m2();
         for _ in 0..20 {
             let (scale, tilt, bend, pivot) = (
                 uniform(0.94, 1.07),
@@ -193,23 +194,26 @@ impl VirtualTruck {
                 (0.040..0.070).contains(&a)
             });
             if plausible {
-                physical.bellow.effective_area_poly_m2 = candidate;
+                *physical.bellow.effective_area.coefficients_m2_mut() = candidate;
                 break;
             }
         }
         effects.area_pressure_coefficient = uniform(0.0, 0.008);
 
         // Gas volume A(h) = A0 + A1 h: scale and slope.
-        let [a0, _] = nominal.physical.bellow.cross_section_m2;
-        physical.bellow.cross_section_m2 = [a0 * uniform(0.9, 1.12), uniform(-0.06, -0.015)];
+        let [a0, _] = *nominal.physical.bellow.gas_volume.coefficients_m2();
+        *physical.bellow.gas_volume.coefficients_m2_mut() =
+            [a0 * uniform(0.9, 1.12), uniform(-0.06, -0.015)];
 
         // Valve: the law, then its coefficients.
         if k % 4 == 3 {
             truck.effects.orifice_flow = false;
         }
-        let v = &mut physical.valve;
-        v.fill_resistance_pa_s_per_mol *= uniform(0.75, 1.35);
-        v.exhaust_resistance_pa_s_per_mol *= uniform(0.75, 1.35);
+        // The family's linear resistances (the law of every fourth variant).
+        for field in [Field::FillResistance, Field::ExhaustResistance] {
+            let value = airsus_data::params::get(physical, field) * uniform(0.75, 1.35);
+            airsus_data::params::set(physical, field, value);
+        }
         effects.fill_conductance_m3_s_pa *= uniform(0.7, 1.4);
         effects.exhaust_conductance_m3_s_pa *= uniform(0.7, 1.4);
         effects.critical_pressure_ratio = uniform(0.3, 0.5);
@@ -234,9 +238,67 @@ impl VirtualTruck {
         truck
     }
 
+    /// The truck's laws and effect values as the structure uses them: the truck file's where it
+    /// names them, the built-in effects' elsewhere. A file with the thesis' laws gets the
+    /// structure's own: the area stretching with pressure and, while the orifice effect is on, an
+    /// ISO 6358 valve. Both copies (`physical` and `effect_parameters`) then agree.
+    pub fn resolve_laws(&mut self) {
+        let orifice_flow = self.effects.orifice_flow;
+        let e = &mut self.effect_parameters;
+        let p = &mut self.physical;
+        if let EffectiveAreaLaw::Polynomial { coefficients_m2 } = p.bellow.effective_area {
+            p.bellow.effective_area = EffectiveAreaLaw::PressurePolynomial {
+                coefficients_m2,
+                growth_per_100kpa: e.area_pressure_coefficient,
+            };
+        }
+        if orifice_flow && matches!(p.valve, ValveFlowLaw::LinearResistance { .. }) {
+            p.valve = ValveFlowLaw::Orifice {
+                fill_conductance_m3_s_pa: e.fill_conductance_m3_s_pa,
+                exhaust_conductance_m3_s_pa: e.exhaust_conductance_m3_s_pa,
+                critical_pressure_ratio: e.critical_pressure_ratio,
+            };
+        }
+        let slots: [(Field, &mut f64); 6] = [
+            (Field::WallCreepStiffness, &mut e.creep_stiffness_n_per_m),
+            (Field::WallCreepTime, &mut e.creep_time_constant_s),
+            (Field::WallFrictionForce, &mut e.friction_force_n),
+            (
+                Field::WallFrictionStiffness,
+                &mut e.friction_stiffness_n_per_m,
+            ),
+            (Field::GasThermalTime, &mut e.thermal_time_constant_s),
+            (Field::LineResistance, &mut e.line_resistance_pa_s_per_mol),
+        ];
+        for (field, built_in) in slots {
+            if let Some(slot) = p.effects.slot(field) {
+                *built_in = slot.unwrap_or(*built_in);
+                *slot = Some(*built_in);
+            }
+        }
+        e.area_pressure_coefficient = p.bellow.effective_area.growth_per_100kpa();
+        if let ValveFlowLaw::Orifice {
+            fill_conductance_m3_s_pa,
+            exhaust_conductance_m3_s_pa,
+            critical_pressure_ratio,
+        } = p.valve
+        {
+            e.fill_conductance_m3_s_pa = fill_conductance_m3_s_pa;
+            e.exhaust_conductance_m3_s_pa = exhaust_conductance_m3_s_pa;
+            e.critical_pressure_ratio = critical_pressure_ratio;
+        }
+    }
+
+    /// The valve law the truck's air flows by (see [`Self::resolve_laws`]).
+    pub fn valve_law(&self) -> ValveFlowLaw {
+        let mut truck = self.clone();
+        truck.resolve_laws();
+        truck.physical.valve
+    }
+
     /// The true effective area at bellow height `h_m` and gauge pressure `p_gauge_pa`, m².
     pub fn effective_area_m2(&self, h_m: f64, p_gauge_pa: f64) -> f64 {
-        let poly = &self.physical.bellow.effective_area_poly_m2;
+        let poly = self.physical.bellow.effective_area.coefficients_m2();
         let base = poly.iter().rev().fold(0.0, |acc, c| acc * h_m + c);
         base * (1.0 + self.effect_parameters.area_pressure_coefficient * p_gauge_pa / 1e5)
     }
@@ -276,7 +338,7 @@ mod tests {
                     (0.040..0.0725).contains(&a),
                     "variant {k}: A_eff({h}) = {a}"
                 );
-                let [a0, a1] = truck.physical.bellow.cross_section_m2;
+                let [a0, a1] = *truck.physical.bellow.gas_volume.coefficients_m2();
                 assert!(a0 + a1 * h > 0.15, "variant {k}: cross-section at {h}");
             }
             // The file the study starts from must still load: every value in its bounds.
@@ -308,7 +370,8 @@ mod tests {
             bellow,
             293.15,
         );
-        let fill_linear = (supply - bellow) / nominal.valve.fill_resistance_pa_s_per_mol;
+        let fill_linear =
+            (supply - bellow) / airsus_data::params::get(&nominal, Field::FillResistance);
         assert!(
             (fill / fill_linear - 1.0).abs() < 0.25,
             "fill {fill} vs {fill_linear}"
@@ -320,7 +383,8 @@ mod tests {
             ambient,
             293.15,
         );
-        let exhaust_linear = (bellow - ambient) / nominal.valve.exhaust_resistance_pa_s_per_mol;
+        let exhaust_linear =
+            (bellow - ambient) / airsus_data::params::get(&nominal, Field::ExhaustResistance);
         assert!(
             (exhaust / exhaust_linear - 1.0).abs() < 0.25,
             "exhaust {exhaust} vs {exhaust_linear}"

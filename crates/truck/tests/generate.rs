@@ -250,8 +250,8 @@ fn a_variant_is_generated_from_its_own_truth_and_the_same_nominal_start() {
         .parameters;
     assert_eq!(truth.mass.unsprung_kg, variant.physical.mass.unsprung_kg);
     assert_eq!(
-        truth.bellow.effective_area_poly_m2,
-        variant.physical.bellow.effective_area_poly_m2
+        truth.bellow.effective_area,
+        variant.physical.bellow.effective_area
     );
     let effects = std::fs::read_to_string(dir.path().join("truth/effects.toml")).unwrap();
     assert!(

@@ -1,6 +1,6 @@
 //! The virtual truck model: equilibrium, reduction to Model 2, and the effects it adds.
 
-use airsus_data::{TruckParameters, ValveState};
+use airsus_data::{EffectiveAreaLaw, TruckParameters, ValveFlowLaw, ValveState};
 use airsus_model::{InitialCondition, InputSample, SuspensionModel, build_model};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, SolverOptions, simulate};
 use airsus_truck::model::{SupplyMode, TruckModel};
@@ -58,7 +58,51 @@ fn initial_state_is_a_static_equilibrium_in_both_supply_modes() {
 
 #[test]
 fn with_every_effect_off_the_truck_is_model_2() {
-    let physical = TruckParameters::reference();
+    assert_truck_without_effects_is_model_2(TruckParameters::reference());
+}
+
+/// The thesis models take the other laws as values: Model 2 on a truck file with an orifice
+/// valve and an effective area that stretches with pressure is the truck structure (a
+/// separate implementation of the lever, the equilibrium and the gas) under those laws.
+#[test]
+fn model_2_under_the_orifice_and_pressure_area_laws_is_the_truck_under_them() {
+    let mut physical = TruckParameters::reference();
+    physical.bellow.effective_area = EffectiveAreaLaw::PressurePolynomial {
+        coefficients_m2: *physical.bellow.effective_area.coefficients_m2(),
+        growth_per_100kpa: 0.006,
+    };
+    physical.valve = ValveFlowLaw::Orifice {
+        fill_conductance_m3_s_pa: 4e-9,
+        exhaust_conductance_m3_s_pa: 1.1e-8,
+        critical_pressure_ratio: 0.35,
+    };
+    let m2 = build_model("m2", &physical).unwrap();
+    let names: Vec<&str> = m2.parameter_info().iter().map(|p| p.name).collect();
+    for name in ["kap", "c1", "c2", "bcr"] {
+        assert!(names.contains(&name), "{name} missing from {names:?}");
+    }
+    assert!(!names.contains(&"rflow1"), "{names:?}");
+    // The registry's valve-action set names the thesis' resistances; under the orifice
+    // law they become the conductances.
+    let entry = airsus_truck::models::model_entry("m2").unwrap();
+    let free = entry.free_parameters(true, &*m2);
+    assert!(free.contains(&"c1") && free.contains(&"c2") && !free.contains(&"rflow1"));
+    // The law's pressure dependence moves the equilibrium: the same height needs less
+    // pressure than under the plain quartic.
+    let u = sample(3350.0, ValveState::Closed);
+    let ic = InitialCondition::SensorHeight { height_m: 0.22 };
+    let plain = build_model("m2", &TruckParameters::reference()).unwrap();
+    let p_stretch = m2
+        .output(&m2.initial_state(&u, &ic).unwrap(), &u)
+        .bellow_gauge_pa;
+    let p_plain = plain
+        .output(&plain.initial_state(&u, &ic).unwrap(), &u)
+        .bellow_gauge_pa;
+    assert!(p_stretch < p_plain - 1e3, "{p_stretch} vs {p_plain}");
+    assert_truck_without_effects_is_model_2(physical);
+}
+
+fn assert_truck_without_effects_is_model_2(physical: TruckParameters) {
     let mut truth = VirtualTruck::reference();
     truth.physical = physical.clone();
     truth.effects = Effects::NONE;
@@ -215,11 +259,12 @@ fn parameters_include_the_spec_names_and_the_effects() {
     let mut model = TruckModel::reference();
     let names: Vec<&str> = model.parameter_info().iter().map(|p| p.name).collect();
     for n in [
-        "p0", "a1", "m2", "ig", "kw", "rflow1", "kc", "tc", "fc", "tth", "c1", "c2", "bcr",
-        "rline", "kap",
+        "p0", "a1", "m2", "ig", "kw", "kc", "tc", "fc", "tth", "c1", "c2", "bcr", "rline", "kap",
     ] {
         assert!(names.contains(&n), "{n} missing from {names:?}");
     }
+    // The structure's valve is an orifice: the linear law's resistances are not its own.
+    assert!(!names.contains(&"rflow1"), "{names:?}");
     model.set_parameter("c2", 2e-8).unwrap();
     assert_eq!(model.parameter("c2").unwrap(), 2e-8);
     assert!(model.set_parameter("bcr", 1.5).is_err());

@@ -67,7 +67,7 @@ fn run_greybox(
     let run_refs: Vec<&_> = runs.iter().collect();
 
     let free_names: Vec<String> = if settings.free.is_empty() {
-        let (names, _) = default_free(model_name, &run_refs)?;
+        let (names, _) = default_free(&*model, &run_refs)?;
         names.iter().map(|n| (*n).to_owned()).collect()
     } else {
         settings.free.clone()

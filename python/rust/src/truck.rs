@@ -123,7 +123,13 @@ impl NativeTruck {
                 info.unit
             )));
         }
-        params::set(&mut self.params, param.field, value);
+        if !params::set(&mut self.params, param.field, value) {
+            return Err(crate::error::to_py(anyhow::anyhow!(
+                "truck parameter `{name}` belongs to another law than this truck's (its valve law is `{}`, its effective-area law `{}`)",
+                self.params.valve.tag(),
+                self.params.bellow.effective_area.tag()
+            )));
+        }
         Ok(())
     }
 

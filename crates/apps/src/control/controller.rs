@@ -27,8 +27,7 @@
 //!   `γ ≤ 1` under-corrects on purpose (the flow law and the gas temperature are uncertain: an
 //!   overshoot costs a reversal, an undershoot only a second pulse in the same direction).
 
-use airsus_data::{TruckParameters, ValveState};
-use airsus_model::submodels::bellow_volume_m3;
+use airsus_data::{GasVolumeLaw, TruckParameters, ValveFlowLaw, ValveState};
 
 use crate::weigh::StaticLaw;
 
@@ -269,27 +268,28 @@ impl LevelController for DeadbandController {
     }
 }
 
-/// What the predictive controller knows of the truck: the static law, the gas volume law and
-/// the valve resistances (nominal or identified parameters).
+/// What the predictive controller knows of the truck: the static law, the gas-volume law and
+/// the valve law (nominal or identified parameters).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ValveModel {
     pub law: StaticLaw,
-    pub cross_section_m2: [f64; 2],
+    pub volume: GasVolumeLaw,
+    pub valve: ValveFlowLaw,
+    /// The gas and supply air temperature, K, and `R T`, J/mol.
+    pub temperature_k: f64,
     pub rt_j_mol: f64,
     pub ambient_pa: f64,
-    pub fill_resistance_pa_s_per_mol: f64,
-    pub exhaust_resistance_pa_s_per_mol: f64,
 }
 
 impl ValveModel {
     pub fn from_truck(truck: &TruckParameters) -> Self {
         Self {
             law: StaticLaw::from_truck(truck),
-            cross_section_m2: truck.bellow.cross_section_m2,
+            volume: truck.bellow.gas_volume.clone(),
+            valve: truck.valve,
+            temperature_k: truck.environment.temperature_k,
             rt_j_mol: truck.environment.gas_constant_j_mol_k * truck.environment.temperature_k,
             ambient_pa: truck.environment.ambient_pressure_pa,
-            fill_resistance_pa_s_per_mol: truck.valve.fill_resistance_pa_s_per_mol,
-            exhaust_resistance_pa_s_per_mol: truck.valve.exhaust_resistance_pa_s_per_mol,
         }
     }
 
@@ -309,22 +309,23 @@ impl ValveModel {
         }
         let p_target = (load - law.unsprung_kg) * law.gravity_m_s2 / (law.lever_gain * area_target);
         let amount = |gauge: f64, h: f64| {
-            (gauge + self.ambient_pa) * bellow_volume_m3(&self.cross_section_m2, h) / self.rt_j_mol
+            (gauge + self.ambient_pa) * self.volume.volume_m3(h) / self.rt_j_mol
         };
         let dn = amount(p_target, h_target) - amount(reading.bellow_gauge_pa, h_now);
         let p_mean_abs = 0.5 * (p_target + reading.bellow_gauge_pa) + self.ambient_pa;
-        let (direction, flow) = if dn > 0.0 {
-            let supply_abs = reading.supply_gauge_pa + self.ambient_pa;
-            (
-                ValveState::Fill,
-                (supply_abs - p_mean_abs) / self.fill_resistance_pa_s_per_mol,
-            )
+        let direction = if dn > 0.0 {
+            ValveState::Fill
         } else {
-            (
-                ValveState::Exhaust,
-                -(p_mean_abs - self.ambient_pa) / self.exhaust_resistance_pa_s_per_mol,
-            )
+            ValveState::Exhaust
         };
+        // The flow at the mean pressure of the pulse, by the truck's valve law.
+        let flow = self.valve.flow_mol_s(
+            direction,
+            p_mean_abs,
+            reading.supply_gauge_pa + self.ambient_pa,
+            self.ambient_pa,
+            self.temperature_k,
+        );
         if !(flow.is_finite() && flow != 0.0 && flow.signum() == dn.signum()) {
             return None;
         }

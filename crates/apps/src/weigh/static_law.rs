@@ -30,8 +30,8 @@
 //! Averaging `N` samples divides the measurement part by `√N` (white noise, the quantisation
 //! dithered by it); the parameter part does not average out. Both are reported.
 
-use airsus_data::TruckParameters;
-use airsus_model::submodels::{effective_area_clamped_m2, lever_gain};
+use airsus_data::{EffectiveAreaLaw, TruckParameters};
+use airsus_model::submodels::lever_gain;
 use airsus_truck::truth::VirtualTruck;
 
 use crate::error::AppError;
@@ -49,15 +49,13 @@ pub struct StaticLaw {
     pub lever_compliance_m_per_n: f64,
     /// `m2`, kg.
     pub unsprung_kg: f64,
-    /// `p0..p4` of eq 5.4, m².
-    pub area_poly_m2: [f64; 5],
-    /// `κ`: relative growth of the effective area per 100 kPa gauge (the rubber wall
-    /// stretching). Zero in the thesis structure; the virtual truck has 0.004.
-    pub area_pressure_coefficient: f64,
+    /// The effective-area law: eq 5.4 in the thesis structure, or the truck file's (the
+    /// virtual truck's stretches with pressure, κ = 0.004).
+    pub area: EffectiveAreaLaw,
 }
 
 impl StaticLaw {
-    /// The law in the thesis structure with a truck file's parameters (κ = 0).
+    /// The law with a truck file's parameters and effective-area law.
     pub fn from_truck(truck: &TruckParameters) -> Self {
         let g = &truck.geometry;
         Self {
@@ -67,8 +65,7 @@ impl StaticLaw {
             max_bellow_height_m: g.h0_m + g.l1_m + g.l2_m,
             lever_compliance_m_per_n: g.lever_compliance_m_per_n,
             unsprung_kg: truck.mass.unsprung_kg,
-            area_poly_m2: truck.bellow.effective_area_poly_m2,
-            area_pressure_coefficient: 0.0,
+            area: truck.bellow.effective_area.clone(),
         }
     }
 
@@ -76,7 +73,10 @@ impl StaticLaw {
     /// dependence of the effective area (what a perfect static model would know).
     pub fn from_virtual_truck(truck: &VirtualTruck) -> Self {
         Self {
-            area_pressure_coefficient: truck.effect_parameters.area_pressure_coefficient,
+            area: EffectiveAreaLaw::PressurePolynomial {
+                coefficients_m2: *truck.physical.bellow.effective_area.coefficients_m2(),
+                growth_per_100kpa: truck.effect_parameters.area_pressure_coefficient,
+            },
             ..Self::from_truck(&truck.physical)
         }
     }
@@ -95,8 +95,7 @@ impl StaticLaw {
 
     /// `A_eff(h, p)`, m² (eq 5.4, held constant outside the trusted range, times the stretch).
     pub fn effective_area_m2(&self, bellow_height_m: f64, gauge_pa: f64) -> f64 {
-        effective_area_clamped_m2(&self.area_poly_m2, bellow_height_m)
-            * (1.0 + self.area_pressure_coefficient * gauge_pa / 1e5)
+        self.area.area_clamped_m2(bellow_height_m, gauge_pa)
     }
 
     /// The wheel load `m_tot` that the measured height and pressure carry in statics, kg.

@@ -165,7 +165,7 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     let run_refs: Vec<&_> = runs.iter().collect();
 
     let free_names: Vec<String> = if args.free.is_empty() {
-        let (names, valve_action) = default_free(&args.model, &run_refs)?;
+        let (names, valve_action) = default_free(&*model, &run_refs)?;
         eprintln!(
             "freeing {}'s default set{}: {}",
             args.model,

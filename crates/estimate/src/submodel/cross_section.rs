@@ -25,8 +25,9 @@
 //! validation run with `c` fixed and that run's own `C` (its own amount of air) fitted by
 //! least squares in closed form.
 
+use airsus_data::GasVolumeLaw;
 use airsus_data::{Run, TruckParameters, ValveState};
-use airsus_model::submodels::{bellow_height_from_sensor_m, cross_section_m2};
+use airsus_model::submodels::bellow_height_from_sensor_m;
 use airsus_validate::nrmse_percent;
 use serde::Serialize;
 
@@ -95,7 +96,8 @@ pub struct CrossSectionFit {
 impl CrossSectionFit {
     /// Writes `A0`, `A1` into a truck.
     pub fn write_to(&self, truck: &mut TruckParameters) {
-        truck.bellow.cross_section_m2 = [self.a0_m2, self.a1_m];
+        // The fit is of the thesis' law (eq 5.1): it replaces whatever law the truck had.
+        truck.bellow.gas_volume = GasVolumeLaw::cross_section([self.a0_m2, self.a1_m]);
     }
 }
 
@@ -197,7 +199,7 @@ pub fn fit_cross_section(
             ),
         });
     }
-    let nominal = truck.bellow.cross_section_m2;
+    let nominal = *truck.bellow.gas_volume.coefficients_m2();
     let mut c = nominal[1] / nominal[0];
     let Some((mut big_c, mut rss)) = best_constant(&h, &p, c) else {
         return Err(EstimateError::InsufficientData {
@@ -317,9 +319,8 @@ pub fn fit_cross_section(
         nrmse_validation_percent.push((v.name.clone(), nrmse));
     }
     // Sanity: the fitted law must give a positive cross-section over the run.
-    if !(cross_section_m2(&[a0, c * a0], h_min) > 0.0
-        && cross_section_m2(&[a0, c * a0], h_max) > 0.0)
-    {
+    let fitted = GasVolumeLaw::cross_section([a0, c * a0]);
+    if !(fitted.cross_section_m2(h_min) > 0.0 && fitted.cross_section_m2(h_max) > 0.0) {
         return Err(EstimateError::InsufficientData {
             fit: FIT,
             reason: format!("the fitted shape c = {c} 1/m gives a non-positive cross-section"),

@@ -68,7 +68,8 @@ impl EffectiveAreaFit {
                 self.poly.len().saturating_sub(1)
             ))
         })?;
-        truck.bellow.effective_area_poly_m2 = poly;
+        // The fit is of the thesis' law (eq 5.4): it replaces whatever law the truck had.
+        truck.bellow.effective_area = airsus_data::EffectiveAreaLaw::polynomial(poly);
         Ok(())
     }
 }

@@ -20,7 +20,8 @@
 //! noise). The real discharge is neither isothermal nor Poiseuille (the gas cools as it
 //! expands, an orifice chokes): the NRMSE shows how far the linear law carries.
 
-use airsus_data::{Channel, Role, TankDischarge, TruckParameters};
+use airsus_data::params::Field;
+use airsus_data::{Channel, Role, TankDischarge, TruckParameters, ValveFlowLaw};
 use airsus_validate::nrmse_percent;
 use serde::Serialize;
 
@@ -89,13 +90,29 @@ pub struct ValveFit {
 }
 
 impl ValveFit {
-    /// Writes the fitted resistances into a truck (a channel without a fit is left alone).
+    /// Writes the fitted resistances into a truck: the linear-resistance valve law (eq 3.19).
+    /// A channel without a fit is left alone; a truck under another valve law gets the
+    /// linear law only when both channels were fitted (half a law is no law), else keeps its
+    /// own.
     pub fn write_to(&self, truck: &mut TruckParameters) {
-        if let Some(f) = &self.fill {
-            truck.valve.fill_resistance_pa_s_per_mol = f.resistance_pa_s_per_mol;
+        let fitted = [
+            (Field::FillResistance, &self.fill),
+            (Field::ExhaustResistance, &self.exhaust),
+        ];
+        if !matches!(truck.valve, ValveFlowLaw::LinearResistance { .. }) {
+            let (Some(f), Some(e)) = (&self.fill, &self.exhaust) else {
+                return;
+            };
+            truck.valve = ValveFlowLaw::LinearResistance {
+                fill_pa_s_per_mol: f.resistance_pa_s_per_mol,
+                exhaust_pa_s_per_mol: e.resistance_pa_s_per_mol,
+            };
+            return;
         }
-        if let Some(e) = &self.exhaust {
-            truck.valve.exhaust_resistance_pa_s_per_mol = e.resistance_pa_s_per_mol;
+        for (field, fit) in fitted {
+            if let Some(fit) = fit {
+                truck.valve.set(field, fit.resistance_pa_s_per_mol);
+            }
         }
     }
 }

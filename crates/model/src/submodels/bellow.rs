@@ -1,42 +1,16 @@
 //! Bellow force, thesis eq 3.16 with the effective-area polynomial of eq 5.4.
 
-/// Effective area `A_eff(h) = p0 + p1 h + p2 h² + p3 h³ + p4 h⁴`, m² (thesis eq 5.4), `h` the
-/// bellow height in m, `poly = [p0, p1, p2, p3, p4]`.
-///
-/// Thesis Table 5.2 prints `p1 = 0.08362`; the correct value is `0.8362` (SPEC §2), which gives
-/// 0.050–0.056 m² over the 0.2–0.45 m stroke. The polynomial was fitted over the lab stroke
-/// only; outside it, it is an extrapolation (it turns negative below about 0.04 m and above
-/// about 0.75 m).
-pub fn effective_area_m2(poly: &[f64; 5], height_m: f64) -> f64 {
-    // Horner's scheme: four multiply-adds.
-    poly.iter().rev().fold(0.0, |acc, p| acc * height_m + p)
-}
+// The thesis' effective-area law (eq 5.4) is a value of the truck file
+// (`airsus_data::laws::EffectiveAreaLaw`); its polynomial is evaluated there, once.
+pub use airsus_data::laws::{
+    EFFECTIVE_AREA_RANGE_M, polynomial_area_m2 as effective_area_m2,
+    polynomial_area_slope_m as effective_area_slope_m,
+};
 
-/// Heights between which the full models trust the effective-area polynomial, m: the lab
-/// stroke (0.2–0.45 m, thesis Fig 5.8) widened by 0.15 m on each side.
-pub const EFFECTIVE_AREA_RANGE_M: (f64, f64) = (0.05, 0.60);
-
-/// [`effective_area_m2`] with the height clamped to [`EFFECTIVE_AREA_RANGE_M`]: outside it the
-/// area is held at its end value.
-///
-/// Why: a quartic fitted over 0.2–0.45 m diverges outside. Far out (above ~0.75 m) it turns
-/// negative and then falls like `-3 h⁴`; with a gauge pressure that also turns negative as the
-/// volume grows, the "force" then pushes the bellow further apart without bound — a wheel in
-/// the air (Model 1 has no geometric limit on the bellow stroke) ran away to infinity. Holding
-/// the area constant is what a rolling-lobe bellow does near its ends, keeps the force a
-/// function of height only (so energy is still conserved), and leaves the model unchanged
-/// over the whole working stroke.
+/// The quartic of eq 5.4 with the height clamped to [`EFFECTIVE_AREA_RANGE_M`], as every law
+/// is evaluated ([`airsus_data::laws::EffectiveAreaLaw::area_clamped_m2`]).
 pub fn effective_area_clamped_m2(poly: &[f64; 5], height_m: f64) -> f64 {
-    effective_area_m2(
-        poly,
-        height_m.clamp(EFFECTIVE_AREA_RANGE_M.0, EFFECTIVE_AREA_RANGE_M.1),
-    )
-}
-
-/// `dA_eff/dh`, m (derivative of eq 5.4), for stiffness and equilibrium checks.
-pub fn effective_area_slope_m(poly: &[f64; 5], height_m: f64) -> f64 {
-    let h = height_m;
-    poly[1] + h * (2.0 * poly[2] + h * (3.0 * poly[3] + h * 4.0 * poly[4]))
+    airsus_data::laws::EffectiveAreaLaw::polynomial(*poly).area_clamped_m2(height_m, 0.0)
 }
 
 /// Bellow force, N, thesis eq 3.16: `F_ab = (p_abs - p_amb) A_eff(h)`. Positive pushes the

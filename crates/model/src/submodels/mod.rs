@@ -3,6 +3,9 @@
 //! All take and return SI quantities (m, m/s, N, Pa, mol, K). Pressures are absolute where
 //! the name says `abs` and gauge (relative to ambient) where it says `gauge`. The full models
 //! compose these; tests check each against hand-computed values.
+//!
+//! The laws a truck file chooses between — effective area, gas volume, valve flow — are
+//! values of `airsus_data::laws`; the models evaluate them through those values.
 
 pub mod bellow;
 pub mod damper;
@@ -10,7 +13,6 @@ pub mod friction;
 pub mod gas;
 pub mod lever;
 pub mod tire;
-pub mod valve;
 
 pub use bellow::{
     EFFECTIVE_AREA_RANGE_M, bellow_force_n, effective_area_clamped_m2, effective_area_m2,
@@ -18,10 +20,9 @@ pub use bellow::{
 };
 pub use damper::Damper;
 pub use friction::hinge_friction_n;
-pub use gas::{air_amount_mol, bellow_volume_m3, cross_section_m2, pressure_abs_pa};
+pub use gas::{MIN_VOLUME_M3, air_amount_mol, pressure_abs_pa};
 pub use lever::{
     axle_height_from_bellow_m, bellow_height_from_angle_m, bellow_height_from_axle_m,
     bellow_height_from_sensor_m, lever_gain, sensor_height_m,
 };
 pub use tire::tire_force_n;
-pub use valve::air_flow_mol_s;
