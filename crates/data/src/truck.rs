@@ -281,6 +281,19 @@ impl TruckParameters {
     }
 }
 
+// So that a model's parameter store can hold the truck itself or something around it.
+impl AsRef<TruckParameters> for TruckParameters {
+    fn as_ref(&self) -> &TruckParameters {
+        self
+    }
+}
+
+impl AsMut<TruckParameters> for TruckParameters {
+    fn as_mut(&mut self) -> &mut TruckParameters {
+        self
+    }
+}
+
 /// A loaded truck file: the parameters and the *est* keys the file left out, each filled with
 /// the reference truck's value (or, for `lever_inertia_kg_m2`, `m2 * l1²`).
 #[derive(Debug, Clone, PartialEq)]

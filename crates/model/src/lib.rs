@@ -33,6 +33,6 @@ pub use m1::Model1;
 pub use m2::Model2;
 pub use m3::Model3;
 pub use model::{
-    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, StateInfo, StateRole,
-    SuspensionModel,
+    InitialCondition, InputSample, ModelError, NamedParameters, OutputSample, ParameterInfo,
+    StateInfo, StateRole, SuspensionModel,
 };

@@ -33,10 +33,10 @@ use airsus_data::TruckParameters;
 
 use crate::corner::Corner;
 use crate::model::{
-    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, StateInfo, StateRole,
+    InitialCondition, InputSample, ModelError, NamedParameters, OutputSample, StateInfo, StateRole,
     SuspensionModel,
 };
-use crate::params::{Field, ParamSet};
+use crate::params::{Field, TruckParams};
 use crate::submodels::tire_force_n;
 
 const NAME: &str = "m1";
@@ -68,23 +68,21 @@ const FIELDS: &[Field] = &[
 /// Model 1 (QCM 1). Build with [`Model1::new`] or `build_model("m1", ..)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model1 {
-    truck: TruckParameters,
     corner: Corner,
-    params: ParamSet,
+    params: TruckParams,
 }
 
 impl Model1 {
     pub fn new(truck: &TruckParameters) -> Self {
         Self {
-            truck: truck.clone(),
             corner: Corner::new(truck),
-            params: ParamSet::new(NAME, FIELDS, truck),
+            params: TruckParams::new(NAME, FIELDS, truck.clone()),
         }
     }
 
     /// The parameters as a truck (everything, not just the freeable subset).
     pub fn truck(&self) -> &TruckParameters {
-        &self.truck
+        self.params.truck()
     }
 
     /// Bellow height of state `x`, m (eq 2.1 on `h_axle = x1 - x2`).
@@ -107,22 +105,16 @@ impl SuspensionModel for Model1 {
         STATES
     }
 
-    fn truck_parameters(&self) -> Option<&TruckParameters> {
-        Some(&self.truck)
+    fn parameters(&self) -> &dyn NamedParameters {
+        &self.params
     }
 
-    fn parameter_info(&self) -> &[ParameterInfo] {
-        self.params.infos()
+    fn parameters_mut(&mut self) -> &mut dyn NamedParameters {
+        &mut self.params
     }
 
-    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
-        self.params.get(&self.truck, name)
-    }
-
-    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        self.params.set(&mut self.truck, name, value)?;
-        self.corner = Corner::new(&self.truck);
-        Ok(())
+    fn parameters_changed(&mut self) {
+        self.corner = Corner::new(self.params.truck());
     }
 
     fn rhs(&self, _t: f64, x: &[f64], u: &InputSample, dx: &mut [f64]) {

@@ -92,10 +92,10 @@ use crate::corner::Corner;
 use crate::linear_block::{LinearBlock, OE_STATES, OeInput};
 use crate::mechanics::{LeverForces, lever_accelerations};
 use crate::model::{
-    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, StateInfo, StateRole,
+    InitialCondition, InputSample, ModelError, NamedParameters, OutputSample, StateInfo, StateRole,
     SuspensionModel,
 };
-use crate::params::{Field, ParamSet};
+use crate::params::{Field, TruckParams};
 use crate::submodels::tire_force_n;
 
 /// Sprung mass at the thesis' initial condition (data-set 1; SPEC §5), kg: the load at which
@@ -136,9 +136,8 @@ enum SlowForce {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model2 {
     name: &'static str,
-    truck: TruckParameters,
     corner: Corner,
-    params: ParamSet,
+    params: TruckParams,
     slow: SlowForce,
     states: Vec<StateInfo>,
 }
@@ -148,9 +147,8 @@ impl Model2 {
     pub fn new(truck: &TruckParameters) -> Self {
         Self {
             name: "m2",
-            truck: truck.clone(),
             corner: Corner::new(truck),
-            params: ParamSet::new("m2", FIELDS, truck),
+            params: TruckParams::new("m2", FIELDS, truck.clone()),
             slow: SlowForce::None,
             states: BASE_STATES.to_vec(),
         }
@@ -196,12 +194,11 @@ impl Model2 {
         Ok(Self {
             name: "m2x",
             corner: Corner::new(&truck),
-            params: ParamSet::new("m2x", &fields, &truck),
+            params: TruckParams::new("m2x", &fields, truck),
             slow: SlowForce::LoadOe {
                 block,
                 ksd_n_per_m: ksd,
             },
-            truck,
             states,
         })
     }
@@ -226,18 +223,17 @@ impl Model2 {
         Self {
             name: "m2xh",
             corner: Corner::new(&truck),
-            params: ParamSet::new("m2xh", &fields, &truck),
+            params: TruckParams::new("m2xh", &fields, truck),
             slow: SlowForce::Creep {
                 ksd_n_per_m: ksd,
                 tau_s: tau,
             },
-            truck,
             states,
         }
     }
 
     pub fn truck(&self) -> &TruckParameters {
-        &self.truck
+        self.params.truck()
     }
 
     /// Bellow height of state `x`, m (eq 2.2).
@@ -259,8 +255,8 @@ impl Model2 {
     }
 
     fn rebuild(&mut self) {
-        self.corner = Corner::new(&self.truck);
-        let sd = &self.truck.slow_dynamics;
+        self.corner = Corner::new(self.params.truck());
+        let sd = &self.params.truck().slow_dynamics;
         match &mut self.slow {
             SlowForce::None => {}
             SlowForce::LoadOe { ksd_n_per_m, .. } => {
@@ -309,22 +305,16 @@ impl SuspensionModel for Model2 {
         &self.states
     }
 
-    fn truck_parameters(&self) -> Option<&TruckParameters> {
-        Some(&self.truck)
+    fn parameters(&self) -> &dyn NamedParameters {
+        &self.params
     }
 
-    fn parameter_info(&self) -> &[ParameterInfo] {
-        self.params.infos()
+    fn parameters_mut(&mut self) -> &mut dyn NamedParameters {
+        &mut self.params
     }
 
-    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
-        self.params.get(&self.truck, name)
-    }
-
-    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        self.params.set(&mut self.truck, name, value)?;
+    fn parameters_changed(&mut self) {
         self.rebuild();
-        Ok(())
     }
 
     fn rhs(&self, _t: f64, x: &[f64], u: &InputSample, dx: &mut [f64]) {

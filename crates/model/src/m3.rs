@@ -35,10 +35,10 @@ use airsus_data::TruckParameters;
 use crate::corner::Corner;
 use crate::linear_block::{LinearBlock, OE_STATES, OeInput};
 use crate::model::{
-    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, StateInfo, StateRole,
+    InitialCondition, InputSample, ModelError, NamedParameters, OutputSample, StateInfo, StateRole,
     SuspensionModel,
 };
-use crate::params::{Field, ParamSet};
+use crate::params::{Field, TruckParams};
 
 const NAME: &str = "m3";
 const M_PER_MM: f64 = 1e-3;
@@ -55,9 +55,8 @@ const FIELDS: &[Field] = &[
 /// Model 3: physical pressure, OE height.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model3 {
-    truck: TruckParameters,
     corner: Corner,
-    params: ParamSet,
+    params: TruckParams,
     block: LinearBlock,
     states: Vec<StateInfo>,
 }
@@ -105,16 +104,15 @@ impl Model3 {
             StateInfo::new("bellow_height_ref_m", "m", StateRole::Reference),
         ]);
         Ok(Self {
-            truck: truck.clone(),
             corner: Corner::new(truck),
-            params: ParamSet::new(NAME, FIELDS, truck),
+            params: TruckParams::new(NAME, FIELDS, truck.clone()),
             block,
             states,
         })
     }
 
     pub fn truck(&self) -> &TruckParameters {
-        &self.truck
+        self.params.truck()
     }
 
     /// The OE block in continuous time (mm out; kg and kPa in).
@@ -151,22 +149,16 @@ impl SuspensionModel for Model3 {
         &self.states
     }
 
-    fn truck_parameters(&self) -> Option<&TruckParameters> {
-        Some(&self.truck)
+    fn parameters(&self) -> &dyn NamedParameters {
+        &self.params
     }
 
-    fn parameter_info(&self) -> &[ParameterInfo] {
-        self.params.infos()
+    fn parameters_mut(&mut self) -> &mut dyn NamedParameters {
+        &mut self.params
     }
 
-    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
-        self.params.get(&self.truck, name)
-    }
-
-    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        self.params.set(&mut self.truck, name, value)?;
-        self.corner = Corner::new(&self.truck);
-        Ok(())
+    fn parameters_changed(&mut self) {
+        self.corner = Corner::new(self.params.truck());
     }
 
     fn rhs(&self, _t: f64, x: &[f64], u: &InputSample, dx: &mut [f64]) {

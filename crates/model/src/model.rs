@@ -147,7 +147,28 @@ pub enum ModelError {
     },
 }
 
-/// A full suspension model: state layout, named parameters, dynamics and output map.
+/// A model's named parameters: their descriptions, values and checked setting. Written once
+/// for every model built on a truck file ([`crate::params::TruckParams`]); a model whose
+/// parameters are its own (the simulator's reference models) implements it itself.
+pub trait NamedParameters: Send + Sync + std::fmt::Debug {
+    /// Every parameter the estimator may free.
+    fn infos(&self) -> &[ParameterInfo];
+
+    /// The value of the parameter called `name`.
+    fn value(&self, name: &str) -> Result<f64, ModelError>;
+
+    /// Sets a parameter by short name; rejects unknown names and values outside the range.
+    fn set_value(&mut self, name: &str, value: f64) -> Result<(), ModelError>;
+
+    /// The truck parameters (laws included) they live in, if any.
+    fn truck(&self) -> Option<&TruckParameters> {
+        None
+    }
+}
+
+/// A full suspension model: state layout, dynamics and output map — the physics. Its named
+/// parameters are a [`NamedParameters`] value it hands out; the parameter methods below are
+/// written once, here.
 pub trait SuspensionModel: BoxClone + Send + Sync + std::fmt::Debug {
     /// Short name as used on the command line (`m1`, `m2`, `m2x`, `m2xh`, `m3`, `truck`).
     fn name(&self) -> &'static str;
@@ -172,13 +193,30 @@ pub trait SuspensionModel: BoxClone + Send + Sync + std::fmt::Debug {
         self.states().iter().position(|s| s.role == role)
     }
 
-    /// Every parameter the estimator may free.
-    fn parameter_info(&self) -> &[ParameterInfo];
+    /// Where the model's named parameters live.
+    fn parameters(&self) -> &dyn NamedParameters;
 
-    fn parameter(&self, name: &str) -> Result<f64, ModelError>;
+    fn parameters_mut(&mut self) -> &mut dyn NamedParameters;
+
+    /// Recomputes what the model derived from its parameters (precomputed constants); called
+    /// after every [`Self::set_parameter`].
+    fn parameters_changed(&mut self) {}
+
+    /// Every parameter the estimator may free.
+    fn parameter_info(&self) -> &[ParameterInfo] {
+        self.parameters().infos()
+    }
+
+    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
+        self.parameters().value(name)
+    }
 
     /// Sets a parameter by short name; rejects unknown names and values outside the range.
-    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError>;
+    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
+        self.parameters_mut().set_value(name, value)?;
+        self.parameters_changed();
+        Ok(())
+    }
 
     /// The right-hand side `dx = f(t, x, u)`. Must not allocate: the solver calls it millions
     /// of times. `x` and `dx` have length [`Self::n_states`].
@@ -202,7 +240,7 @@ pub trait SuspensionModel: BoxClone + Send + Sync + std::fmt::Debug {
     /// The truck parameters the model was built on and holds its parameters in (its laws
     /// included); `None` for a model that keeps its own (the simulator's reference models).
     fn truck_parameters(&self) -> Option<&TruckParameters> {
-        None
+        self.parameters().truck()
     }
 
     /// Writes this model's parameters into `truck`, so that grey-box results can be saved as a

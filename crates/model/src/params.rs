@@ -9,7 +9,7 @@ pub use airsus_data::params::{
     spec_field,
 };
 
-use crate::model::{ModelError, ParameterInfo};
+use crate::model::{ModelError, NamedParameters, ParameterInfo};
 
 /// A model's parameter set: the descriptions handed out by `parameter_info` and the lookup.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,6 +79,60 @@ impl ParamSet {
         let stored = set(truck, p.field, value);
         debug_assert!(stored, "{name} has no home under the truck's laws");
         Ok(())
+    }
+}
+
+/// Named parameters kept in a truck's parameters: a [`ParamSet`] over a holder of
+/// [`TruckParameters`] (the truck itself, or the virtual truck around it). Every model built on
+/// a truck file hands this out as its [`NamedParameters`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TruckParams<T = TruckParameters> {
+    set: ParamSet,
+    holder: T,
+}
+
+impl<T: AsRef<TruckParameters> + AsMut<TruckParameters>> TruckParams<T> {
+    /// The parameters `fields` of `model` (each law's parameters those of the holder's
+    /// truck's law), kept in `holder`.
+    pub fn new(model: &'static str, fields: &[Field], holder: T) -> Self {
+        Self {
+            set: ParamSet::new(model, fields, holder.as_ref()),
+            holder,
+        }
+    }
+
+    pub fn holder(&self) -> &T {
+        &self.holder
+    }
+
+    /// The holder, to change what is not a named parameter (the set stays as it was built).
+    pub fn holder_mut(&mut self) -> &mut T {
+        &mut self.holder
+    }
+
+    pub fn truck(&self) -> &TruckParameters {
+        self.holder.as_ref()
+    }
+}
+
+impl<T> NamedParameters for TruckParams<T>
+where
+    T: AsRef<TruckParameters> + AsMut<TruckParameters> + Send + Sync + std::fmt::Debug,
+{
+    fn infos(&self) -> &[ParameterInfo] {
+        self.set.infos()
+    }
+
+    fn value(&self, name: &str) -> Result<f64, ModelError> {
+        self.set.get(self.holder.as_ref(), name)
+    }
+
+    fn set_value(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
+        self.set.set(self.holder.as_mut(), name, value)
+    }
+
+    fn truck(&self) -> Option<&TruckParameters> {
+        Some(self.holder.as_ref())
     }
 }
 

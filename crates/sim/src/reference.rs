@@ -14,8 +14,8 @@
 
 use airsus_data::{Run, RunInputs, ValveState};
 use airsus_model::{
-    InitialCondition, InputSample, ModelError, OutputSample, ParameterInfo, StateInfo, StateRole,
-    SuspensionModel,
+    InitialCondition, InputSample, ModelError, NamedParameters, OutputSample, ParameterInfo,
+    StateInfo, StateRole, SuspensionModel,
 };
 
 /// Standard gravity used by the reference models, m/s².
@@ -148,24 +148,11 @@ impl SuspensionModel for DampedOscillator {
         ];
         STATES
     }
-    fn parameter_info(&self) -> &[ParameterInfo] {
-        Self::INFO
+    fn parameters(&self) -> &dyn NamedParameters {
+        self
     }
-    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
-        match name {
-            "m" => Ok(self.mass_kg),
-            "c" => Ok(self.damping_n_s_per_m),
-            "k" => Ok(self.stiffness_n_per_m),
-            _ => Err(unknown(self.name(), name, Self::INFO)),
-        }
-    }
-    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        match checked(self.name(), Self::INFO, name, value)? {
-            0 => self.mass_kg = value,
-            1 => self.damping_n_s_per_m = value,
-            _ => self.stiffness_n_per_m = value,
-        }
-        Ok(())
+    fn parameters_mut(&mut self) -> &mut dyn NamedParameters {
+        self
     }
     fn rhs(&self, _t: f64, x: &[f64], u: &InputSample, dx: &mut [f64]) {
         dx[0] = x[1];
@@ -191,6 +178,29 @@ impl SuspensionModel for DampedOscillator {
             }
         };
         Ok(vec![x0, 0.0])
+    }
+}
+
+/// Its parameters are its own fields.
+impl NamedParameters for DampedOscillator {
+    fn infos(&self) -> &[ParameterInfo] {
+        Self::INFO
+    }
+    fn value(&self, name: &str) -> Result<f64, ModelError> {
+        match name {
+            "m" => Ok(self.mass_kg),
+            "c" => Ok(self.damping_n_s_per_m),
+            "k" => Ok(self.stiffness_n_per_m),
+            _ => Err(unknown(self.name(), name, Self::INFO)),
+        }
+    }
+    fn set_value(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
+        match checked(self.name(), Self::INFO, name, value)? {
+            0 => self.mass_kg = value,
+            1 => self.damping_n_s_per_m = value,
+            _ => self.stiffness_n_per_m = value,
+        }
+        Ok(())
     }
 }
 
@@ -237,22 +247,11 @@ impl SuspensionModel for FirstOrderLag {
         const STATES: &[StateInfo] = &[StateInfo::new("y_m", "m", StateRole::Position)];
         STATES
     }
-    fn parameter_info(&self) -> &[ParameterInfo] {
-        Self::INFO
+    fn parameters(&self) -> &dyn NamedParameters {
+        self
     }
-    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
-        match name {
-            "tau" => Ok(self.tau_s),
-            "gain" => Ok(self.gain_m_per_kg),
-            _ => Err(unknown(self.name(), name, Self::INFO)),
-        }
-    }
-    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        match checked(self.name(), Self::INFO, name, value)? {
-            0 => self.tau_s = value,
-            _ => self.gain_m_per_kg = value,
-        }
-        Ok(())
+    fn parameters_mut(&mut self) -> &mut dyn NamedParameters {
+        self
     }
     fn rhs(&self, _t: f64, x: &[f64], u: &InputSample, dx: &mut [f64]) {
         dx[0] = (self.gain_m_per_kg * u.wheel_load_kg - x[0]) / self.tau_s;
@@ -270,6 +269,27 @@ impl SuspensionModel for FirstOrderLag {
     ) -> Result<Vec<f64>, ModelError> {
         let _ = ic;
         Ok(vec![self.gain_m_per_kg * u.wheel_load_kg])
+    }
+}
+
+/// Its parameters are its own fields.
+impl NamedParameters for FirstOrderLag {
+    fn infos(&self) -> &[ParameterInfo] {
+        Self::INFO
+    }
+    fn value(&self, name: &str) -> Result<f64, ModelError> {
+        match name {
+            "tau" => Ok(self.tau_s),
+            "gain" => Ok(self.gain_m_per_kg),
+            _ => Err(unknown(self.name(), name, Self::INFO)),
+        }
+    }
+    fn set_value(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
+        match checked(self.name(), Self::INFO, name, value)? {
+            0 => self.tau_s = value,
+            _ => self.gain_m_per_kg = value,
+        }
+        Ok(())
     }
 }
 
@@ -352,24 +372,11 @@ impl SuspensionModel for GasVolume {
         const STATES: &[StateInfo] = &[StateInfo::new("n_mol", "mol", StateRole::BellowAir)];
         STATES
     }
-    fn parameter_info(&self) -> &[ParameterInfo] {
-        Self::INFO
+    fn parameters(&self) -> &dyn NamedParameters {
+        self
     }
-    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
-        match name {
-            "volume" => Ok(self.volume_m3),
-            "rflow1" => Ok(self.fill_resistance),
-            "rflow2" => Ok(self.exhaust_resistance),
-            _ => Err(unknown(self.name(), name, Self::INFO)),
-        }
-    }
-    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        match checked(self.name(), Self::INFO, name, value)? {
-            0 => self.volume_m3 = value,
-            1 => self.fill_resistance = value,
-            _ => self.exhaust_resistance = value,
-        }
-        Ok(())
+    fn parameters_mut(&mut self) -> &mut dyn NamedParameters {
+        self
     }
     fn rhs(&self, _t: f64, x: &[f64], u: &InputSample, dx: &mut [f64]) {
         let p = self.pressure(x[0]);
@@ -400,6 +407,29 @@ impl SuspensionModel for GasVolume {
                 reason: "a rigid vessel has no height".to_owned(),
             }),
         }
+    }
+}
+
+/// Its parameters are its own fields.
+impl NamedParameters for GasVolume {
+    fn infos(&self) -> &[ParameterInfo] {
+        Self::INFO
+    }
+    fn value(&self, name: &str) -> Result<f64, ModelError> {
+        match name {
+            "volume" => Ok(self.volume_m3),
+            "rflow1" => Ok(self.fill_resistance),
+            "rflow2" => Ok(self.exhaust_resistance),
+            _ => Err(unknown(self.name(), name, Self::INFO)),
+        }
+    }
+    fn set_value(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
+        match checked(self.name(), Self::INFO, name, value)? {
+            0 => self.volume_m3 = value,
+            1 => self.fill_resistance = value,
+            _ => self.exhaust_resistance = value,
+        }
+        Ok(())
     }
 }
 
@@ -436,22 +466,11 @@ impl SuspensionModel for Runaway {
         ];
         STATES
     }
-    fn parameter_info(&self) -> &[ParameterInfo] {
-        Self::INFO
+    fn parameters(&self) -> &dyn NamedParameters {
+        self
     }
-    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
-        match name {
-            "leak" => Ok(self.leak_mol_per_s),
-            "a" => Ok(self.growth_per_s),
-            _ => Err(unknown(self.name(), name, Self::INFO)),
-        }
-    }
-    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        match checked(self.name(), Self::INFO, name, value)? {
-            0 => self.leak_mol_per_s = value,
-            _ => self.growth_per_s = value,
-        }
-        Ok(())
+    fn parameters_mut(&mut self) -> &mut dyn NamedParameters {
+        self
     }
     fn rhs(&self, _t: f64, x: &[f64], _u: &InputSample, dx: &mut [f64]) {
         dx[0] = -self.leak_mol_per_s;
@@ -469,6 +488,27 @@ impl SuspensionModel for Runaway {
         _ic: &InitialCondition,
     ) -> Result<Vec<f64>, ModelError> {
         Ok(vec![self.n0_mol, self.x0_m])
+    }
+}
+
+/// Its parameters are its own fields.
+impl NamedParameters for Runaway {
+    fn infos(&self) -> &[ParameterInfo] {
+        Self::INFO
+    }
+    fn value(&self, name: &str) -> Result<f64, ModelError> {
+        match name {
+            "leak" => Ok(self.leak_mol_per_s),
+            "a" => Ok(self.growth_per_s),
+            _ => Err(unknown(self.name(), name, Self::INFO)),
+        }
+    }
+    fn set_value(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
+        match checked(self.name(), Self::INFO, name, value)? {
+            0 => self.leak_mol_per_s = value,
+            _ => self.growth_per_s = value,
+        }
+        Ok(())
     }
 }
 
@@ -548,24 +588,11 @@ impl SuspensionModel for ToyQuarterCar {
         ];
         STATES
     }
-    fn parameter_info(&self) -> &[ParameterInfo] {
-        Self::INFO
+    fn parameters(&self) -> &dyn NamedParameters {
+        self
     }
-    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
-        match name {
-            "m2" => Ok(self.unsprung_kg),
-            "kw" => Ok(self.tire_n_per_m),
-            "c" => Ok(self.damping_n_s_per_m),
-            _ => Err(unknown(self.name(), name, Self::INFO)),
-        }
-    }
-    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        match checked(self.name(), Self::INFO, name, value)? {
-            0 => self.unsprung_kg = value,
-            1 => self.tire_n_per_m = value,
-            _ => self.damping_n_s_per_m = value,
-        }
-        Ok(())
+    fn parameters_mut(&mut self) -> &mut dyn NamedParameters {
+        self
     }
     fn rhs(&self, _t: f64, x: &[f64], u: &InputSample, dx: &mut [f64]) {
         let (x1, x2, v1, v2, n) = (x[0], x[1], x[2], x[3], x[4]);
@@ -626,6 +653,29 @@ impl SuspensionModel for ToyQuarterCar {
         let n = (p_gauge + self.ambient_pa) * self.gas_area_m2 * h
             / (GasVolume::R * self.temperature_k);
         Ok(vec![x2 + h, x2, 0.0, 0.0, n])
+    }
+}
+
+/// Its parameters are its own fields.
+impl NamedParameters for ToyQuarterCar {
+    fn infos(&self) -> &[ParameterInfo] {
+        Self::INFO
+    }
+    fn value(&self, name: &str) -> Result<f64, ModelError> {
+        match name {
+            "m2" => Ok(self.unsprung_kg),
+            "kw" => Ok(self.tire_n_per_m),
+            "c" => Ok(self.damping_n_s_per_m),
+            _ => Err(unknown(self.name(), name, Self::INFO)),
+        }
+    }
+    fn set_value(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
+        match checked(self.name(), Self::INFO, name, value)? {
+            0 => self.unsprung_kg = value,
+            1 => self.tire_n_per_m = value,
+            _ => self.damping_n_s_per_m = value,
+        }
+        Ok(())
     }
 }
 

@@ -20,12 +20,12 @@
 
 use airsus_data::{EffectiveAreaLaw, GasVolumeLaw, TruckParameters, ValveFlowLaw, ValveState};
 use airsus_model::mechanics::{LeverBody, LeverForces, lever_accelerations};
-use airsus_model::params::{Field, LEVER_MODEL_FIELDS, ParamSet};
+use airsus_model::params::{Field, LEVER_MODEL_FIELDS, TruckParams};
 use airsus_model::submodels::{
     Damper, first_upward_crossing_m, lever_gain, sensor_height_m, tire_force_n,
 };
 use airsus_model::{
-    InitialCondition, InputSample, MIN_SPRUNG_MASS_KG, ModelError, OutputSample, ParameterInfo,
+    InitialCondition, InputSample, MIN_SPRUNG_MASS_KG, ModelError, NamedParameters, OutputSample,
     StateInfo, StateRole, SuspensionModel,
 };
 
@@ -87,9 +87,9 @@ const FIELDS: &[Field] = &[
 /// The virtual truck behind the model trait.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TruckModel {
-    truth: VirtualTruck,
+    /// The named parameters, kept in the virtual truck they describe.
+    params: TruckParams<VirtualTruck>,
     supply: SupplyMode,
-    params: ParamSet,
     c: Consts,
 }
 
@@ -168,12 +168,10 @@ impl Consts {
 impl TruckModel {
     pub fn new(mut truth: VirtualTruck, supply: SupplyMode) -> Self {
         truth.resolve_laws();
-        let params = ParamSet::new("truck", FIELDS, &truth.physical);
         let c = Consts::new(&truth);
         Self {
-            truth,
+            params: TruckParams::new("truck", FIELDS, truth),
             supply,
-            params,
             c,
         }
     }
@@ -185,7 +183,8 @@ impl TruckModel {
 
     /// The `truck` model structure started from a truck file's values: its laws where it
     /// names other laws than the thesis', its `[effects]` values where it gives them, the
-    /// built-in effects elsewhere (see [`VirtualTruck::resolve_laws`]), as the grey-box estimator would start it.
+    /// built-in effects elsewhere (see [`VirtualTruck::resolve_laws`]), as the grey-box
+    /// estimator would start it.
     pub fn from_truck_parameters(truck: &TruckParameters) -> Self {
         let mut truth = VirtualTruck::reference();
         truth.physical = truck.clone();
@@ -193,7 +192,7 @@ impl TruckModel {
     }
 
     pub fn truth(&self) -> &VirtualTruck {
-        &self.truth
+        self.params.holder()
     }
 
     pub fn supply_mode(&self) -> SupplyMode {
@@ -215,7 +214,7 @@ impl TruckModel {
     }
 
     fn gas_temperature_k(&self, x: &[f64]) -> f64 {
-        if self.truth.effects.heat_exchange {
+        if self.truth().effects.heat_exchange {
             x[5]
         } else {
             self.c.ambient_t_k
@@ -233,7 +232,7 @@ impl TruckModel {
         ic: &InitialCondition,
         wall_friction_n: f64,
     ) -> Result<Vec<f64>, ModelError> {
-        let friction = if self.truth.effects.hysteresis {
+        let friction = if self.truth().effects.hysteresis {
             wall_friction_n.clamp(-self.c.e.friction_force_n, self.c.e.friction_force_n)
         } else {
             0.0
@@ -335,8 +334,8 @@ impl TruckModel {
     }
 
     fn rebuild(&mut self) {
-        self.truth.resolve_laws();
-        self.c = Consts::new(&self.truth);
+        self.params.holder_mut().resolve_laws();
+        self.c = Consts::new(self.params.holder());
     }
 }
 
@@ -353,27 +352,21 @@ impl SuspensionModel for TruckModel {
         STATES
     }
 
-    fn truck_parameters(&self) -> Option<&TruckParameters> {
-        Some(&self.truth.physical)
+    fn parameters(&self) -> &dyn NamedParameters {
+        &self.params
     }
 
-    fn parameter_info(&self) -> &[ParameterInfo] {
-        self.params.infos()
+    fn parameters_mut(&mut self) -> &mut dyn NamedParameters {
+        &mut self.params
     }
 
-    fn parameter(&self, name: &str) -> Result<f64, ModelError> {
-        self.params.get(&self.truth.physical, name)
-    }
-
-    fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), ModelError> {
-        self.params.set(&mut self.truth.physical, name, value)?;
+    fn parameters_changed(&mut self) {
         self.rebuild();
-        Ok(())
     }
 
     fn rhs(&self, _t: f64, x: &[f64], u: &InputSample, dx: &mut [f64]) {
         let c = &self.c;
-        let fx = self.truth.effects;
+        let fx = self.truth().effects;
         let (sin_a, cos_a) = x[1].sin_cos();
         let alpha_dot = x[3];
         let h_b = c.h0_m + c.l12_m * sin_a;
@@ -486,7 +479,7 @@ impl SuspensionModel for TruckModel {
     /// With a supply line in [`SupplyMode::Measured`], the line fills from the logged tank
     /// pressure whatever the valve does, so every change of it matters.
     fn uses_supply_while_valve_shut(&self) -> bool {
-        self.supply == SupplyMode::Measured && self.truth.effects.supply_line
+        self.supply == SupplyMode::Measured && self.truth().effects.supply_line
     }
 
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample {

@@ -118,6 +118,19 @@ pub struct VirtualTruck {
     pub effect_parameters: EffectParameters,
 }
 
+// The truck model keeps its named parameters in the virtual truck's physical parameters.
+impl AsRef<TruckParameters> for VirtualTruck {
+    fn as_ref(&self) -> &TruckParameters {
+        &self.physical
+    }
+}
+
+impl AsMut<TruckParameters> for VirtualTruck {
+    fn as_mut(&mut self) -> &mut TruckParameters {
+        &mut self.physical
+    }
+}
+
 impl VirtualTruck {
     /// The built-in truck. Its estimable parameters are off the SPEC's nominal values by
     /// amounts an engineer's first guess would be off: unsprung mass +8 %, lever inertia −15 %,
