@@ -10,13 +10,14 @@
 
 use std::fmt::Write as _;
 use std::path::Path;
+use std::sync::LazyLock;
 
 use serde::Deserialize;
 
 use crate::atomic::write_text_atomically;
 use crate::error::{DataError, DataErrorKind, Location};
 use crate::laws::{EffectiveAreaLaw, GasVolumeLaw, LawTable, ValveFlowLaw, check_declared};
-use crate::params::{Field, get};
+use crate::params::{Field, get, set};
 use crate::toml_file::{
     TableSchema, check_finite, check_keys, deserialize, find_key_line, parse_toml,
 };
@@ -310,7 +311,63 @@ pub struct DefaultedKey {
     pub value: String,
 }
 
-const SCHEMA: &[TableSchema] = &[
+/// How a declared parameter with a key of its own (not an element of a law's table) stands in
+/// the file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Presence {
+    /// The file must give it.
+    Required,
+    /// The file may leave it out (*est* in the SPEC); the built-in value is then used and
+    /// reported.
+    Estimable,
+    /// The file may leave it out; the model then uses its own default.
+    Optional,
+}
+
+/// The declared parameters that have a key of their own in a section (the key comes from the
+/// declaration, [`Field::location`]), with how they stand in the file and the comment written
+/// beside them. The reader and the writer loop over this table; a new parameter of a fixed
+/// section is a row here, its declaration in [`crate::params`] and its field in the structs
+/// above.
+const DECLARED_KEYS: &[(Field, Presence, &str)] = &[
+    (Field::LeverCompliance, Presence::Required, "k_scl"),
+    (Field::Unsprung, Presence::Estimable, "m2 (est)"),
+    (Field::LeverInertia, Presence::Estimable, "I_g (est)"),
+    (Field::TireStiffness, Presence::Required, "k_w"),
+    (Field::HingeFriction, Presence::Estimable, "k_f (est)"),
+    (Field::SlowForceScale, Presence::Optional, "k_sd (est)"),
+    (
+        Field::CreepStiffness,
+        Presence::Optional,
+        "m2xh creep stiffness k_sd (est)",
+    ),
+    (
+        Field::CreepTimeConstant,
+        Presence::Optional,
+        "m2xh creep time constant (est)",
+    ),
+    (Field::WallCreepStiffness, Presence::Optional, "kc"),
+    (Field::WallCreepTime, Presence::Optional, "tc"),
+    (Field::WallFrictionForce, Presence::Optional, "fc"),
+    (Field::WallFrictionStiffness, Presence::Optional, "kdahl"),
+    (Field::GasThermalTime, Presence::Optional, "tth"),
+    (Field::LineResistance, Presence::Optional, "rline"),
+];
+
+/// The written entries of `section`'s declared keys that have a value.
+fn declared_entries(p: &TruckParameters, section: &str) -> Vec<TomlEntry> {
+    DECLARED_KEYS
+        .iter()
+        .filter(|(field, _, _)| field.location().0 == section)
+        .filter_map(|&(field, _, comment)| {
+            let value = get(p, field);
+            (!value.is_nan()).then(|| (field.location().1, format!("{value:?}"), comment))
+        })
+        .collect()
+}
+
+/// The keys of every section but the declared parameters' (see [`schema`]).
+const BASE_SCHEMA: &[TableSchema] = &[
     TableSchema {
         name: "",
         keys: &[
@@ -337,15 +394,15 @@ const SCHEMA: &[TableSchema] = &[
     },
     TableSchema {
         name: "geometry",
-        keys: &["h0_m", "l1_m", "l2_m", "l3_m", "lever_compliance_m_per_n"],
+        keys: &["h0_m", "l1_m", "l2_m", "l3_m"],
     },
     TableSchema {
         name: "mass",
-        keys: &["unsprung_kg", "lever_inertia_kg_m2"],
+        keys: &[],
     },
     TableSchema {
         name: "tire",
-        keys: &["stiffness_n_per_m"],
+        keys: &[],
     },
     TableSchema {
         name: "damper",
@@ -356,7 +413,6 @@ const SCHEMA: &[TableSchema] = &[
         keys: &[
             "effective_area_poly_m2",
             "cross_section_m2",
-            "hinge_friction_n_s_per_m",
             // Tagged law tables (`[bellow.effective_area]`, `[bellow.gas_volume]`), and
             // `[valve]`, check their keys by their law (`crate::laws`).
             "effective_area",
@@ -365,26 +421,11 @@ const SCHEMA: &[TableSchema] = &[
     },
     TableSchema {
         name: "effects",
-        keys: &[
-            "creep_stiffness_n_per_m",
-            "creep_time_constant_s",
-            "friction_force_n",
-            "friction_stiffness_n_per_m",
-            "thermal_time_constant_s",
-            "line_resistance_pa_s_per_mol",
-        ],
+        keys: &[],
     },
     TableSchema {
         name: "slow_dynamics",
-        keys: &[
-            "oe_b",
-            "oe_f",
-            "oe_nk",
-            "oe_sample_time_s",
-            "force_scale_n_per_m",
-            "creep_stiffness_n_per_m",
-            "creep_time_constant_s",
-        ],
+        keys: &["oe_b", "oe_f", "oe_nk", "oe_sample_time_s"],
     },
     TableSchema {
         name: "model3",
@@ -400,6 +441,35 @@ const SCHEMA: &[TableSchema] = &[
     },
 ];
 
+/// Every section's keys: [`BASE_SCHEMA`] plus the declared parameters' keys
+/// ([`DECLARED_KEYS`]), so a declared key is valid where its declaration puts it.
+fn schema() -> &'static [TableSchema] {
+    static KEYS: LazyLock<Vec<Vec<&'static str>>> = LazyLock::new(|| {
+        BASE_SCHEMA
+            .iter()
+            .map(|table| {
+                let declared = DECLARED_KEYS
+                    .iter()
+                    .map(|(field, _, _)| field.location())
+                    .filter(|(section, _, _)| *section == table.name)
+                    .map(|(_, key, _)| key);
+                table.keys.iter().copied().chain(declared).collect()
+            })
+            .collect()
+    });
+    static SCHEMA: LazyLock<Vec<TableSchema>> = LazyLock::new(|| {
+        BASE_SCHEMA
+            .iter()
+            .zip(KEYS.iter())
+            .map(|(table, keys)| TableSchema {
+                name: table.name,
+                keys: keys.as_slice(),
+            })
+            .collect()
+    });
+    &SCHEMA
+}
+
 #[derive(Deserialize)]
 struct FileEnvironment {
     gravity_m_s2: Option<f64>,
@@ -414,18 +484,6 @@ struct FileGeometry {
     l1_m: Option<f64>,
     l2_m: Option<f64>,
     l3_m: Option<f64>,
-    lever_compliance_m_per_n: Option<f64>,
-}
-
-#[derive(Deserialize, Default)]
-struct FileMass {
-    unsprung_kg: Option<f64>,
-    lever_inertia_kg_m2: Option<f64>,
-}
-
-#[derive(Deserialize)]
-struct FileTire {
-    stiffness_n_per_m: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -438,19 +496,8 @@ struct FileDamper {
 struct FileBellow {
     effective_area_poly_m2: Option<Vec<f64>>,
     cross_section_m2: Option<Vec<f64>>,
-    hinge_friction_n_s_per_m: Option<f64>,
     effective_area: Option<toml::Table>,
     gas_volume: Option<toml::Table>,
-}
-
-#[derive(Deserialize, Default)]
-struct FileEffects {
-    creep_stiffness_n_per_m: Option<f64>,
-    creep_time_constant_s: Option<f64>,
-    friction_force_n: Option<f64>,
-    friction_stiffness_n_per_m: Option<f64>,
-    thermal_time_constant_s: Option<f64>,
-    line_resistance_pa_s_per_mol: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -459,9 +506,6 @@ struct FileSlow {
     oe_f: Option<Vec<f64>>,
     oe_nk: Option<i64>,
     oe_sample_time_s: Option<f64>,
-    force_scale_n_per_m: Option<f64>,
-    creep_stiffness_n_per_m: Option<f64>,
-    creep_time_constant_s: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -479,15 +523,13 @@ struct FileModel3 {
 struct TruckFile {
     environment: Option<FileEnvironment>,
     geometry: Option<FileGeometry>,
-    mass: Option<FileMass>,
-    tire: Option<FileTire>,
+
     damper: Option<FileDamper>,
     bellow: Option<FileBellow>,
     /// Read by its law ([`ValveFlowLaw`]), from the parsed table.
     valve: Option<toml::Table>,
     slow_dynamics: Option<FileSlow>,
     model3: Option<FileModel3>,
-    effects: Option<FileEffects>,
 }
 
 /// Reads and checks a truck parameter file.
@@ -499,7 +541,7 @@ pub fn read_truck(path: &Path) -> Result<LoadedTruck, DataError> {
 /// Parses truck-file text; `path` names the source in errors.
 pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
     let table = parse_toml(text, path)?;
-    check_keys(&table, SCHEMA, text, path)?;
+    check_keys(&table, schema(), text, path)?;
     check_finite(&table, text, path)?;
     let file: TruckFile = deserialize(text, path)?;
     let mut ctx = Ctx {
@@ -551,26 +593,13 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
         l1_m: ctx.required("geometry", "l1_m", geo.l1_m, 0.05..=3.0, "m")?,
         l2_m: ctx.required("geometry", "l2_m", geo.l2_m, 0.0..=3.0, "m")?,
         l3_m: ctx.required("geometry", "l3_m", geo.l3_m, -3.0..=3.0, "m")?,
-        lever_compliance_m_per_n: ctx
-            .required_param(Field::LeverCompliance, geo.lever_compliance_m_per_n)?,
+        // Declared keys are read below, from their declarations.
+        lever_compliance_m_per_n: reference.geometry.lever_compliance_m_per_n,
     };
 
-    let mass_file = file.mass.unwrap_or_default();
-    let unsprung_kg = ctx.estimable_param(
-        Field::Unsprung,
-        mass_file.unsprung_kg,
-        reference.mass.unsprung_kg,
-    )?;
-    let lever_inertia_kg_m2 = ctx.estimable_param(
-        Field::LeverInertia,
-        mass_file.lever_inertia_kg_m2,
-        unsprung_kg * geometry.l1_m * geometry.l1_m,
-    )?;
-
-    let tire_file = file.tire.ok_or_else(|| ctx.missing_section("tire"))?;
-    let tire = TireParameters {
-        stiffness_n_per_m: ctx.required_param(Field::TireStiffness, tire_file.stiffness_n_per_m)?,
-    };
+    if !table.contains_key("tire") {
+        return Err(ctx.missing_section("tire"));
+    }
 
     let damper_file = file.damper.ok_or_else(|| ctx.missing_section("damper"))?;
     let damper = ctx.damper(damper_file)?;
@@ -621,11 +650,7 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
     let bellow = BellowParameters {
         effective_area,
         gas_volume,
-        hinge_friction_n_s_per_m: ctx.estimable_param(
-            Field::HingeFriction,
-            bellow_file.hinge_friction_n_s_per_m,
-            reference.bellow.hinge_friction_n_s_per_m,
-        )?,
+        hinge_friction_n_s_per_m: reference.bellow.hinge_friction_n_s_per_m,
     };
 
     let valve = match &file.valve {
@@ -654,27 +679,6 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
         }
     };
 
-    let effects = match file.effects {
-        None => EffectValues::default(),
-        Some(e) => {
-            let mut values = EffectValues::default();
-            let given = [
-                e.creep_stiffness_n_per_m,
-                e.creep_time_constant_s,
-                e.friction_force_n,
-                e.friction_stiffness_n_per_m,
-                e.thermal_time_constant_s,
-                e.line_resistance_pa_s_per_mol,
-            ];
-            for ((field, _), value) in EffectValues::default().entries().into_iter().zip(given) {
-                if let (Some(v), Some(slot)) = (value, values.slot(field)) {
-                    *slot = Some(ctx.check_param(field, v)?);
-                }
-            }
-            values
-        }
-    };
-
     let slow_dynamics = match file.slow_dynamics {
         None => SlowDynamics::default(),
         Some(s) => ctx.slow_dynamics(s)?,
@@ -684,23 +688,52 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
         Some(m) => ctx.model3(m)?,
     };
 
+    let mut parameters = TruckParameters {
+        environment,
+        geometry,
+        mass: reference.mass.clone(),
+        tire: reference.tire.clone(),
+        damper,
+        bellow,
+        valve,
+        slow_dynamics,
+        model3,
+        effects: EffectValues::default(),
+    };
+    // Every declared key, from its declaration: range-checked, defaulted or required as the
+    // table says. The lever inertia's default follows the masses read before it.
+    for &(field, presence, _) in DECLARED_KEYS {
+        let (section, key, _) = field.location();
+        let given = ctx.declared_number(&table, section, key)?;
+        let value = match presence {
+            Presence::Required => Some(ctx.required_param(field, given)?),
+            Presence::Estimable => {
+                let default = match field {
+                    Field::LeverInertia => {
+                        let l1 = parameters.geometry.l1_m;
+                        parameters.mass.unsprung_kg * l1 * l1
+                    }
+                    _ => get(&reference, field),
+                };
+                Some(ctx.estimable_param(field, given, default)?)
+            }
+            Presence::Optional => given.map(|v| ctx.check_param(field, v)).transpose()?,
+        };
+        if let Some(value) = value {
+            set(&mut parameters, field, value);
+        }
+    }
+
+    // Reported in the file's section order.
+    let sections = BASE_SCHEMA[0].keys;
+    let mut defaulted = ctx.defaulted;
+    defaulted.sort_by_key(|d| {
+        let section = d.key.split('.').next().unwrap_or_default();
+        sections.iter().position(|s| *s == section)
+    });
     Ok(LoadedTruck {
-        parameters: TruckParameters {
-            environment,
-            geometry,
-            mass: MassParameters {
-                unsprung_kg,
-                lever_inertia_kg_m2,
-            },
-            tire,
-            damper,
-            bellow,
-            valve,
-            slow_dynamics,
-            model3,
-            effects,
-        },
-        defaulted: ctx.defaulted,
+        parameters,
+        defaulted,
     })
 }
 
@@ -933,6 +966,25 @@ impl Ctx<'_> {
         Ok(())
     }
 
+    /// The number at `section.key`, if the file gives one.
+    fn declared_number(
+        &self,
+        table: &toml::Table,
+        section: &str,
+        key: &str,
+    ) -> Result<Option<f64>, DataError> {
+        let value = table
+            .get(section)
+            .and_then(toml::Value::as_table)
+            .and_then(|t| t.get(key));
+        match value {
+            None => Ok(None),
+            Some(toml::Value::Float(f)) => Ok(Some(*f)),
+            Some(toml::Value::Integer(i)) => Ok(Some(*i as f64)),
+            Some(other) => Err(self.invalid(section, key, other, "expected a number".to_owned())),
+        }
+    }
+
     /// A law given both in the SPEC's form and as a tagged table.
     fn given_twice(&self, spec_key: &str, table: &str) -> DataError {
         self.invalid(
@@ -986,18 +1038,10 @@ impl Ctx<'_> {
             oe_f: s.oe_f.unwrap_or(d.oe_f),
             oe_nk,
             oe_sample_time_s,
-            force_scale: s
-                .force_scale_n_per_m
-                .map(|k| self.check_param(Field::SlowForceScale, k))
-                .transpose()?,
-            creep_stiffness_n_per_m: s
-                .creep_stiffness_n_per_m
-                .map(|k| self.check_param(Field::CreepStiffness, k))
-                .transpose()?,
-            creep_time_constant_s: s
-                .creep_time_constant_s
-                .map(|t| self.check_param(Field::CreepTimeConstant, t))
-                .transpose()?,
+            // Declared keys, read from their declarations in `parse_truck`.
+            force_scale: None,
+            creep_stiffness_n_per_m: None,
+            creep_time_constant_s: None,
         })
     }
 
@@ -1089,11 +1133,7 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
                 .collect(),
         )),
     }
-    bellow_entries.push((
-        "hinge_friction_n_s_per_m",
-        f(p.bellow.hinge_friction_n_s_per_m),
-        "k_f (est)",
-    ));
+    bellow_entries.extend(declared_entries(p, "bellow"));
     let valve_entries: Vec<TomlEntry> = match (p.valve.tagged_entries(), &p.valve) {
         (Some(entries), law) => std::iter::once(law_header(law.tag()))
             .chain(entries)
@@ -1141,30 +1181,13 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
                 ("l1_m", f(g.l1_m), "hinge to axle"),
                 ("l2_m", f(g.l2_m), "axle to bellow centre"),
                 ("l3_m", f(g.l3_m), "axle to damper"),
-                (
-                    "lever_compliance_m_per_n",
-                    f(g.lever_compliance_m_per_n),
-                    "k_scl",
-                ),
-            ],
+            ]
+            .into_iter()
+            .chain(declared_entries(p, "geometry"))
+            .collect(),
         ),
-        (
-            "mass",
-            "",
-            vec![
-                ("unsprung_kg", f(p.mass.unsprung_kg), "m2 (est)"),
-                (
-                    "lever_inertia_kg_m2",
-                    f(p.mass.lever_inertia_kg_m2),
-                    "I_g (est)",
-                ),
-            ],
-        ),
-        (
-            "tire",
-            "",
-            vec![("stiffness_n_per_m", f(p.tire.stiffness_n_per_m), "k_w")],
-        ),
+        ("mass", "", declared_entries(p, "mass")),
+        ("tire", "", declared_entries(p, "tire")),
         (
             "damper",
             "+ = extension (rebound)",
@@ -1183,7 +1206,10 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
                 ("oe_f", format!("{:?}", sd.oe_f), ""),
                 ("oe_nk", sd.oe_nk.to_string(), "samples"),
                 ("oe_sample_time_s", f(sd.oe_sample_time_s), ""),
-            ],
+            ]
+            .into_iter()
+            .chain(declared_entries(p, "slow_dynamics"))
+            .collect(),
         ),
     ];
     let m3 = &p.model3;
@@ -1218,41 +1244,19 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
         };
         write_entries(&mut s, entries);
     }
-    let _ = match sd.force_scale {
-        Some(k) => writeln!(s, "force_scale_n_per_m = {k:?}  # k_sd (est)"),
-        None => writeln!(
+    if sd.force_scale.is_none() {
+        let _ = writeln!(
             s,
             "# force_scale_n_per_m: k_sd (est); omitted = one tenth of the initial bellow force"
-        ),
-    };
-    // The creep element of `m2xh` (ours): written only when set, so files stay as the SPEC
-    // shows them unless a model put a value there.
-    if let Some(k) = sd.creep_stiffness_n_per_m {
-        let _ = writeln!(
-            s,
-            "creep_stiffness_n_per_m = {k:?}  # m2xh creep stiffness k_sd (est)"
-        );
-    }
-    if let Some(t) = sd.creep_time_constant_s {
-        let _ = writeln!(
-            s,
-            "creep_time_constant_s = {t:?}  # m2xh creep time constant (est)"
         );
     }
     let (name, comment, entries) = model3;
     let _ = writeln!(s, "\n[{name}]  # {comment}");
     write_entries(&mut s, entries);
     // The truck structure's effects (ours): written only when a value is set, so files of
-    // the thesis' models stay as the SPEC shows them.
-    let effects: Vec<TomlEntry> = p
-        .effects
-        .entries()
-        .into_iter()
-        .filter_map(|(field, value)| {
-            let info = &field.param().info;
-            value.map(|v| (field.location().1, f(v), info.name))
-        })
-        .collect();
+    // the thesis' models stay as the SPEC shows them. The same holds for `[slow_dynamics]`'s
+    // optional keys.
+    let effects = declared_entries(p, "effects");
     if !effects.is_empty() {
         let _ = writeln!(
             s,
@@ -1417,6 +1421,14 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         )
         .unwrap_err();
         assert_eq!(err.location.line, Some(17));
+        let text = err.to_string();
+        assert!(
+            text.contains("tire.stiffness_n_per_m") && text.contains("expected a number"),
+            "{text}"
+        );
+        // A key read through serde is located by the TOML error.
+        let err = parse(&SPEC_EXAMPLE.replace("l3_m = 0.12", "l3_m = \"long\"")).unwrap_err();
+        assert_eq!(err.location.line, Some(11));
         assert!(matches!(err.kind, DataErrorKind::Toml(_)));
     }
 
