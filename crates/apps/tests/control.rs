@@ -113,6 +113,128 @@ fn both_controllers_hold_the_band_through_load_steps_on_the_virtual_truck() {
     }
 }
 
+/// Designed on the nominal truck file, tried on trucks of the family it was not designed on
+/// (other effective-area shapes, volume, valve laws — variant 3 flows through linear
+/// resistances — friction, creep, masses): both controllers hold ±2 mm through the load
+/// sequence without hunting.
+#[test]
+fn both_controllers_hold_2_mm_on_trucks_they_were_not_designed_on() {
+    let scenario = level_scenario("load-steps", 0.240, 3390.0).unwrap();
+    let guard = GuardSettings {
+        tolerance_m: 2e-3,
+        ..GuardSettings::default()
+    };
+    let mut air = Vec::new();
+    for variant in 1..=3 {
+        let plant = Plant::Truck(Box::new(TruckModel::new(
+            VirtualTruck::variant(variant),
+            SupplyMode::Tank,
+        )));
+        for mut c in controllers(&guard) {
+            let run =
+                simulate_closed_loop(&plant, c.as_mut(), &scenario, &ClosedLoopConfig::default())
+                    .unwrap();
+            let s = score(
+                &run,
+                &scenario.events_s,
+                &guard,
+                8.314462618 * 293.15,
+                101325.0,
+            );
+            let who = format!("{} on variant {variant}", c.name());
+            assert_no_hunting(&run, &guard);
+            assert_eq!((s.short_openings, s.quick_reversals), (0, 0), "{who}");
+            assert_eq!(s.segments.len(), scenario.events_s.len(), "{who}");
+            for seg in &s.segments {
+                let t = seg
+                    .settling_time_s
+                    .unwrap_or_else(|| panic!("{who}: never settles after {} s", seg.start_s));
+                assert!(t < 100.0, "{who}: settling {t} s at {}", seg.start_s);
+                assert!(
+                    seg.steady_error_m.abs() <= guard.tolerance_m,
+                    "{who}: steady error {} mm",
+                    seg.steady_error_m * 1e3
+                );
+            }
+            // A narrow band costs openings, not hunting: at most eight per load change, and
+            // only the unloading reverses.
+            assert!(s.openings <= 32, "{who}: {} openings", s.openings);
+            assert!(s.reversals <= 2, "{who}: {} reversals", s.reversals);
+            air.push((who, s.air_filled_mol));
+        }
+    }
+    // The air both let in is what the loads need (850 kg up, 600 down: about 2.5–3.5 mol on
+    // these trucks); neither burns a multiple of it. The predictive controller does not save
+    // air here: the air a load change needs is fixed by the load, and what is left to save
+    // (overshoot, follow-ups) is within ±6 % either way (measured; see the session notes).
+    for (who, mol) in &air {
+        assert!((2.0..4.0).contains(mol), "{who}: {mol} mol");
+    }
+}
+
+/// On a road the controllers let the bumps pass: the ride height between them (its 2 s mean)
+/// stays near the target and the valve opens at most three times, with at most one reversal,
+/// in 200 s of class C road (without the driving filter the deadband controller opened 4–5
+/// times; with the standing filter on the stop decision too it hunted, 10 openings).
+#[test]
+fn both_controllers_let_a_road_pass() {
+    let scenario = level_scenario("road", 0.240, 3390.0).unwrap();
+    assert!(
+        scenario
+            .road_height_m
+            .iter()
+            .map(|z| z.abs())
+            .fold(0.0, f64::max)
+            > 0.01,
+        "the road is a road"
+    );
+    let guard = GuardSettings {
+        tolerance_m: 2e-3,
+        ..GuardSettings::default()
+    };
+    let plant = Plant::Truck(Box::new(TruckModel::new(
+        VirtualTruck::variant(2),
+        SupplyMode::Tank,
+    )));
+    for mut c in controllers(&guard) {
+        let run = simulate_closed_loop(&plant, c.as_mut(), &scenario, &ClosedLoopConfig::default())
+            .unwrap();
+        let raw_swing = run
+            .height_m
+            .iter()
+            .fold(0.0f64, |a, h| a.max((h - 0.240).abs()));
+        let s = score(
+            &run,
+            &scenario.events_s,
+            &guard,
+            8.314462618 * 293.15,
+            101325.0,
+        );
+        assert_no_hunting(&run, &guard);
+        assert!(
+            raw_swing > 3.0 * guard.tolerance_m,
+            "{}: the body moves",
+            c.name()
+        );
+        assert!(s.openings <= 3 && s.reversals <= 1, "{}: {s:?}", c.name());
+        // The ride height (2 s mean) never strays by more than twice the band, and is back
+        // in it when the truck stands again.
+        for seg in &s.segments {
+            assert!(
+                seg.max_deviation_m < 2.5 * guard.tolerance_m,
+                "{}: {s:?}",
+                c.name()
+            );
+        }
+        let last = s.segments.last().unwrap();
+        assert!(
+            last.steady_error_m.abs() <= guard.tolerance_m,
+            "{}: {s:?}",
+            c.name()
+        );
+    }
+}
+
 #[test]
 fn height_changes_on_model_2() {
     let plant = Plant::Model(build_model("m2", &TruckParameters::reference()).unwrap());

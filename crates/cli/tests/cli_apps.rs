@@ -121,8 +121,13 @@ fn control_holds_the_band_with_both_controllers_and_plots_atomically() {
         "--plot",
         &p("c.svg"),
     ]));
+    // By default the plant is a truck the controllers were not designed on.
+    assert!(
+        report.contains("on virtual truck variant 1") && report.contains("designed on"),
+        "{report}"
+    );
     // The summary row of each controller: name, settle s, overshoot mm, steady mm,
-    // switches, openings, reversals, fill mol, fill l, exhaust mol.
+    // switches, openings, reversals, fill mol, fill l, exhaust mol, time outside the band.
     for name in ["deadband", "predictive"] {
         let row: Vec<f64> = report
             .lines()
@@ -132,7 +137,7 @@ fn control_holds_the_band_with_both_controllers_and_plots_atomically() {
             .skip(1)
             .map(|v| v.parse().unwrap())
             .collect();
-        assert_eq!(row.len(), 9, "{name}: {row:?}");
+        assert_eq!(row.len(), 10, "{name}: {row:?}");
         let (settle_s, steady_mm, openings, fill_mol) = (row[0], row[2], row[4], row[6]);
         assert!(settle_s < 100.0, "{name}: settles in {settle_s} s");
         assert!(
@@ -151,6 +156,28 @@ fn control_holds_the_band_with_both_controllers_and_plots_atomically() {
             "four events per controller: {report}"
         );
     }
+    // Any truck file and model as the plant, a narrower band, the road.
+    let road = ok(&airsus(&[
+        "control",
+        "--truck",
+        &p("truck.toml"),
+        "--plant",
+        &p("truck.toml"),
+        "--model",
+        "m2",
+        "--band-mm",
+        "2",
+        "--scenario",
+        "road",
+    ]));
+    assert!(road.contains("on m2 with") && road.contains("band ±2.0 mm"), "{road}");
+    let bad = airsus(&["control", "--truck", &p("truck.toml"), "--plant", "variant:x"]);
+    assert!(!bad.status.success());
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("expected variant:K"),
+        "{}",
+        String::from_utf8_lossy(&bad.stderr)
+    );
     let svg = std::fs::read_to_string(p("c.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
     let leftovers: Vec<_> = std::fs::read_dir(dir.path())

@@ -76,6 +76,8 @@ pub struct ClosedLoopRun {
     pub time_s: Vec<f64>,
     pub target_m: Vec<f64>,
     pub true_load_kg: Vec<f64>,
+    /// Road height under the wheel, m.
+    pub road_height_m: Vec<f64>,
     /// True (noise-free) sensor height, m.
     pub height_m: Vec<f64>,
     /// What the controller read, m.
@@ -107,7 +109,7 @@ pub fn simulate_closed_loop(
         wheel_load_kg: scenario.true_load_kg[k],
         valve,
         supply_gauge_pa: config.supply_gauge_pa,
-        road_height_m: 0.0,
+        road_height_m: scenario.road_height_m.get(k).copied().unwrap_or(0.0),
     };
     let mut x = model.initial_state(
         &input(0, ValveState::Closed),
@@ -131,11 +133,13 @@ pub fn simulate_closed_loop(
             sensor_height_m: noise.measure(&[out.sensor_height_m], config.height_sensor)[0],
             bellow_gauge_pa: noise.measure(&[out.bellow_gauge_pa], config.pressure_sensor)[0],
             supply_gauge_pa: noise.measure(&[supply], config.supply_sensor)[0],
+            speed_m_s: scenario.speed_m_s.get(k).copied().unwrap_or(0.0),
         };
         let valve = controller.update(t, scenario.target_m[k], &reading);
         run.time_s.push(t);
         run.target_m.push(scenario.target_m[k]);
         run.true_load_kg.push(scenario.true_load_kg[k]);
+        run.road_height_m.push(u_closed.road_height_m);
         run.height_m.push(out.sensor_height_m);
         run.measured_height_m.push(reading.sensor_height_m);
         run.bellow_gauge_pa.push(out.bellow_gauge_pa);
@@ -148,7 +152,9 @@ pub fn simulate_closed_loop(
         let load = [u.wheel_load_kg; 2];
         let valves = [valve; 2];
         let supplies = [u.supply_gauge_pa; 2];
-        let road = [0.0; 2];
+        // The road is linear between samples (the simulator's default), so it passes
+        // without a restart.
+        let road = [u.road_height_m, input(k + 1, valve).road_height_m];
         let inputs = InputSeries::new(&times, &load, &valves, &supplies, &road)?;
         let problem = SimulationProblem::new(model, inputs, InitialState::State(x.clone()))
             .with_options(options.clone());

@@ -38,7 +38,13 @@ pub struct Reading {
     pub bellow_gauge_pa: f64,
     /// Supply-tank gauge pressure as its sensor reads it, Pa.
     pub supply_gauge_pa: f64,
+    /// Vehicle speed from the bus, m/s (0 standing): above [`DRIVING_SPEED_M_S`] the
+    /// controllers use their driving filter and debounce.
+    pub speed_m_s: f64,
 }
+
+/// Speed above which the truck counts as driving, m/s.
+pub const DRIVING_SPEED_M_S: f64 = 1.0;
 
 /// A level controller, called once per sample.
 pub trait LevelController: Send {
@@ -61,11 +67,27 @@ pub struct GuardSettings {
     pub debounce_s: f64,
     /// Time constant of the height filter, s.
     pub filter_time_constant_s: f64,
+    /// The same two while driving, s: on a road the wheel and the body move by more than the
+    /// band every few seconds, and what the controller is to hold is the height between the
+    /// bumps (level controllers of trucks switch to slow filtering at speed).
+    pub driving_filter_time_constant_s: f64,
+    pub driving_debounce_s: f64,
+}
+
+impl GuardSettings {
+    /// Filter time constant and debounce for a reading taken at `speed_m_s`.
+    fn filter_and_debounce_s(&self, speed_m_s: f64) -> (f64, f64) {
+        if speed_m_s > DRIVING_SPEED_M_S {
+            (self.driving_filter_time_constant_s, self.driving_debounce_s)
+        } else {
+            (self.filter_time_constant_s, self.debounce_s)
+        }
+    }
 }
 
 impl Default for GuardSettings {
     /// Typical of truck ECUs: ±5 mm band, 0.3 s minimum opening, 2 s rest, 10 s reversal
-    /// lock-out, 1 s debounce, 0.5 s filter.
+    /// lock-out, 1 s debounce, 0.5 s filter; while driving a 10 s filter and 5 s debounce.
     fn default() -> Self {
         Self {
             min_on_s: 0.3,
@@ -74,6 +96,8 @@ impl Default for GuardSettings {
             tolerance_m: 5e-3,
             debounce_s: 1.0,
             filter_time_constant_s: 0.5,
+            driving_filter_time_constant_s: 10.0,
+            driving_debounce_s: 5.0,
         }
     }
 }
@@ -171,6 +195,12 @@ impl HeightFilter {
         }
     }
 
+    /// First-order low-pass of the height with the time constant for `speed_m_s`.
+    fn update_at(&mut self, t_s: f64, h_m: f64, settings: &GuardSettings, speed_m_s: f64) -> f64 {
+        self.tau_s = settings.filter_and_debounce_s(speed_m_s).0.max(0.0);
+        self.update(t_s, h_m)
+    }
+
     /// First-order low-pass of the height; its rate low-passed with the same time constant.
     fn update(&mut self, t_s: f64, h_m: f64) -> f64 {
         match self.value_m {
@@ -218,7 +248,11 @@ pub struct DeadbandController {
     /// Prediction horizon of the stop decision, s.
     pub lead_s: f64,
     guard: ValveGuard,
+    /// The height for the stop decision (the standing filter, always).
     filter: HeightFilter,
+    /// The height for the open decision (slower while driving: the ride height between
+    /// bumps). Standing, the two are the same.
+    level_filter: HeightFilter,
 }
 
 impl DeadbandController {
@@ -228,6 +262,7 @@ impl DeadbandController {
             lead_s: 0.8,
             guard: ValveGuard::new(settings.clone()),
             filter: HeightFilter::new(settings.filter_time_constant_s),
+            level_filter: HeightFilter::new(settings.filter_time_constant_s),
             settings,
         }
     }
@@ -239,15 +274,22 @@ impl LevelController for DeadbandController {
     }
 
     fn update(&mut self, t_s: f64, target_m: f64, reading: &Reading) -> ValveState {
-        let h = self.filter.update(t_s, reading.sensor_height_m);
-        let error = target_m - h;
         let s = &self.settings;
+        // A filter that lags by seconds would stop a fill seconds late and overshoot: the
+        // stop decision always reads the standing filter; only the decision to open reads the
+        // slower level while driving.
+        let h = self.filter.update(t_s, reading.sensor_height_m);
+        let level = self
+            .level_filter
+            .update_at(t_s, reading.sensor_height_m, s, reading.speed_m_s);
+        let level_error = target_m - level;
+        let debounce_s = s.filter_and_debounce_s(reading.speed_m_s).1;
         let outside = self
-            .filter
-            .outside_for(t_s, error, s.tolerance_m, s.debounce_s);
+            .level_filter
+            .outside_for(t_s, level_error, s.tolerance_m, debounce_s);
         let requested = match self.guard.state() {
             ValveState::Closed if outside => {
-                if error > 0.0 {
+                if level_error > 0.0 {
                     ValveState::Fill
                 } else {
                     ValveState::Exhaust
@@ -383,13 +425,18 @@ impl LevelController for PredictiveController {
     }
 
     fn update(&mut self, t_s: f64, target_m: f64, reading: &Reading) -> ValveState {
-        let h = self.filter.update(t_s, reading.sensor_height_m);
-        let p = self.pressure_filter.update(t_s, reading.bellow_gauge_pa);
-        let error = target_m - h;
         let s = self.settings.clone();
+        let h = self
+            .filter
+            .update_at(t_s, reading.sensor_height_m, &s, reading.speed_m_s);
+        let p = self
+            .pressure_filter
+            .update_at(t_s, reading.bellow_gauge_pa, &s, reading.speed_m_s);
+        let error = target_m - h;
+        let debounce_s = s.filter_and_debounce_s(reading.speed_m_s).1;
         let outside = self
             .filter
-            .outside_for(t_s, error, s.tolerance_m, s.debounce_s);
+            .outside_for(t_s, error, s.tolerance_m, debounce_s);
         if error.abs() <= self.inner_band_m {
             self.active = false;
         }

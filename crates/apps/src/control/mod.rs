@@ -12,6 +12,10 @@
 //!   segment's largest deviation (how far the correction went beyond the target);
 //! - **steady error**: mean `height - target` over the last 10 s of the segment.
 //!
+//! On a road the wheel and the body move by more than the band; what a level controller holds
+//! is the ride height between bumps, so when the run has road input the height is scored as
+//! its centred moving mean over [`ROAD_SCORE_WINDOW_S`].
+//!
 //! Over the run: valve **switches** (every change of the command) and **openings**, pulses
 //! shorter than the minimum on-time, **reversals** (fill after exhaust or the reverse) and how
 //! many of them came within the lock-out time, and the **air used**: moles let in through the
@@ -24,6 +28,7 @@ pub mod controller;
 use airsus_data::ValveState;
 
 use crate::error::{AppError, invalid};
+use crate::road::profile::Iso8608Road;
 pub use closed_loop::{ClosedLoopConfig, ClosedLoopRun, Plant, simulate_closed_loop};
 pub use controller::{
     DeadbandController, GuardSettings, LevelController, PredictiveController, Reading, ValveGuard,
@@ -38,6 +43,10 @@ pub struct LevelScenario {
     pub true_load_kg: Vec<f64>,
     /// Target sensor height, m.
     pub target_m: Vec<f64>,
+    /// Road height under the wheel, m (linear between samples; 0 = standing or a level road).
+    pub road_height_m: Vec<f64>,
+    /// Vehicle speed, m/s (what the controller reads from the bus).
+    pub speed_m_s: Vec<f64>,
     /// Times at which something happens (load change starts, target changes), s.
     pub events_s: Vec<f64>,
 }
@@ -58,6 +67,8 @@ impl LevelScenario {
             time_s: (0..n).map(|i| i as f64 * sample_s).collect(),
             true_load_kg: vec![load_kg; n],
             target_m: vec![target_m; n],
+            road_height_m: vec![0.0; n],
+            speed_m_s: vec![0.0; n],
             events_s: Vec::new(),
         }
     }
@@ -83,12 +94,19 @@ impl LevelScenario {
 }
 
 /// The scenarios `airsus control --scenario` knows.
-pub const SCENARIO_NAMES: &[&str] = &["load-steps", "height-change"];
+pub const SCENARIO_NAMES: &[&str] = &["load-steps", "height-change", "road"];
+
+/// Speed of the `road` scenario, m/s (50 km/h).
+const ROAD_SPEED_M_S: f64 = 50.0 / 3.6;
 
 /// `load-steps`: the target held while the load changes: +300 kg at 20 s, +300 kg at 110 s,
 /// -600 kg at 200 s (unloading, 8 s), +250 kg at 290 s; 380 s. `height-change`: constant load,
 /// the target raised by 40 mm at 10 s (a loading dock), lowered to 30 mm below the start at
-/// 100 s, back at 190 s; 280 s. Both start in equilibrium at `target_m` with `load_kg`.
+/// 100 s, back at 190 s; 280 s. `road`: constant load and target, standing for 20 s, then
+/// 200 s over an ISO 8608 class C road at 50 km/h (waves of 3.3–100 m, 0.14–4.2 Hz: what the
+/// controller's 10 Hz samples resolve; the body's bounce is in it, wheel hop is not), then
+/// standing again for 60 s — a good controller lets the road pass and opens the valve little
+/// or not at all. All start in equilibrium at `target_m` with `load_kg`.
 pub fn level_scenario(name: &str, target_m: f64, load_kg: f64) -> Result<LevelScenario, AppError> {
     if !(target_m.is_finite() && target_m > 0.0 && load_kg.is_finite() && load_kg > 0.0) {
         return Err(invalid(
@@ -111,6 +129,34 @@ pub fn level_scenario(name: &str, target_m: f64, load_kg: f64) -> Result<LevelSc
             s.target_change(10.0, target_m + 0.040);
             s.target_change(100.0, target_m - 0.030);
             s.target_change(190.0, target_m);
+            Ok(s)
+        }
+        "road" => {
+            let mut s = LevelScenario::constant(name, 280.0, sample_s, load_kg, target_m);
+            let road = Iso8608Road::new('C', 0.01, 0.3, 200, 8608)?;
+            let (start_s, end_s) = (20.0, 220.0);
+            let distance: Vec<f64> = s
+                .time_s
+                .iter()
+                .map(|&t| (t.clamp(start_s, end_s) - start_s) * ROAD_SPEED_M_S)
+                .collect();
+            let heights = road.heights_m(&distance);
+            // Level at the start of the drive, and standing (constant) after it.
+            let h0 = heights[0];
+            s.road_height_m = heights.iter().map(|h| h - h0).collect();
+            s.speed_m_s = s
+                .time_s
+                .iter()
+                .map(|&t| {
+                    if (start_s..end_s).contains(&t) {
+                        ROAD_SPEED_M_S
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            s.events_s.push(start_s);
+            s.events_s.push(end_s);
             Ok(s)
         }
         other => Err(invalid(
@@ -150,6 +196,34 @@ pub struct ControlScore {
     pub air_exhausted_mol: f64,
     /// Fill air as free air at ambient, litres.
     pub air_filled_free_l: f64,
+    /// Time the true height spent outside `target ± tolerance`, s.
+    pub time_outside_band_s: f64,
+}
+
+/// Window of the moving mean the height is scored by on a road (module docs), s.
+pub const ROAD_SCORE_WINDOW_S: f64 = 2.0;
+
+/// The height the scores are computed on: the true height, or on a road its centred moving
+/// mean over [`ROAD_SCORE_WINDOW_S`].
+fn scored_height_m(run: &ClosedLoopRun) -> Vec<f64> {
+    let n = run.height_m.len();
+    if run.road_height_m.iter().all(|&z| z == 0.0) || n < 2 {
+        return run.height_m.clone();
+    }
+    let dt = (run.time_s[n - 1] - run.time_s[0]) / (n - 1) as f64;
+    let half = ((0.5 * ROAD_SCORE_WINDOW_S / dt).round() as usize).max(1);
+    // Prefix sums: one pass, whatever the window.
+    let mut prefix = Vec::with_capacity(n + 1);
+    prefix.push(0.0);
+    for h in &run.height_m {
+        prefix.push(prefix.last().copied().unwrap_or(0.0) + h);
+    }
+    (0..n)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(half), (k + half + 1).min(n));
+            (prefix[b] - prefix[a]) / (b - a) as f64
+        })
+        .collect()
 }
 
 /// Scores `run` (module docs). `ambient_pa` and `rt_j_mol` convert moles to free-air litres.
@@ -161,6 +235,7 @@ pub fn score(
     ambient_pa: f64,
 ) -> ControlScore {
     let n = run.time_s.len();
+    let height = scored_height_m(run);
     let mut bounds: Vec<f64> = events_s.to_vec();
     bounds.sort_by(f64::total_cmp);
     let t_end = run.time_s.last().copied().unwrap_or(0.0);
@@ -171,7 +246,7 @@ pub fn score(
             .filter(|&k| run.time_s[k] >= start - 1e-9 && run.time_s[k] < end - 1e-9)
             .collect();
         let Some(&last) = idx.last() else { continue };
-        let dev = |k: usize| run.height_m[k] - run.target_m[k];
+        let dev = |k: usize| height[k] - run.target_m[k];
         let worst = idx.iter().map(|&k| dev(k)).fold(
             0.0,
             |a: f64, d| {
@@ -263,5 +338,9 @@ pub fn score(
         air_filled_mol: run.air_filled_mol,
         air_exhausted_mol: run.air_exhausted_mol,
         air_filled_free_l: run.air_filled_mol * rt_j_mol / ambient_pa * 1e3,
+        time_outside_band_s: (1..n)
+            .filter(|&k| (height[k] - run.target_m[k]).abs() > guard.tolerance_m)
+            .map(|k| run.time_s[k] - run.time_s[k - 1])
+            .sum(),
     }
 }

@@ -287,6 +287,7 @@ impl TruckSimulator {
             supply_gauge_pa: self
                 .noise
                 .measure(&[supply], SensorSpec::SUPPLY_PRESSURE_PA)[0],
+            speed_m_s: plan.speed_kmh[k] / 3.6,
         };
         if plan.mode[k] != run.mode {
             run.mode = plan.mode[k];

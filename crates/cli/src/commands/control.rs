@@ -25,23 +25,30 @@ pub enum ControllerChoice {
 /// sensors every 100 ms) and report settling, overshoot, steady error, valve switches and air.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ControlArgs {
-    /// Truck parameter file: the plant's parameters for m1..m3, and what the predictive
-    /// controller believes in every case.
+    /// Truck parameter file the controllers are designed on: what the predictive controller
+    /// believes (the nominal file, or one a study estimated).
     #[arg(long, value_name = "T.toml")]
     pub truck: PathBuf,
+    /// The plant the controllers are tried on: `variant:K`, member K of the virtual truck
+    /// family (its true laws and values, with a simulated supply tank and compressor; 0 is the
+    /// built-in truck the reference experiments come from), or a truck file simulated with
+    /// `--model`. The default is a truck the controllers were not designed on.
+    #[arg(long, default_value = "variant:1", value_name = "variant:K | P.toml")]
+    pub plant: String,
     /// Target sensor height, mm.
     #[arg(long, default_value_t = 240.0)]
     pub target_mm: f64,
-    /// load-steps or height-change.
+    /// load-steps, height-change or road.
     #[arg(long, default_value = "load-steps")]
     pub scenario: String,
-    /// Plant: a registered model with the truck file's parameters (`airsus models`), or
-    /// truck (the built-in virtual truck with its true parameters, simulated supply tank and
-    /// compressor).
+    /// The model a `--plant` truck file is simulated with (`airsus models`).
     #[arg(long, default_value = "truck")]
     pub model: String,
     #[arg(long, value_enum, default_value_t = ControllerChoice::Both)]
     pub controller: ControllerChoice,
+    /// Half-width of the tolerance band around the target, mm.
+    #[arg(long, default_value_t = 5.0)]
+    pub band_mm: f64,
     /// Wheel load at the start, kg.
     #[arg(long, default_value_t = 3390.0)]
     pub load_kg: f64,
@@ -55,22 +62,25 @@ pub struct ControlArgs {
 
 pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
     if let Some(plot) = &args.plot {
-        refuse_overwriting_inputs(plot, &[&args.truck])?;
+        let plant_file = PathBuf::from(&args.plant);
+        refuse_overwriting_inputs(plot, &[&args.truck, &plant_file])?;
     }
     let truck = read_truck(&args.truck)
         .with_context(|| format!("reading truck file {}", args.truck.display()))?
         .parameters;
-    let plant = if args.model == "truck" {
-        Plant::Truck(Box::new(TruckModel::new(
-            VirtualTruck::reference(),
-            SupplyMode::Tank,
-        )))
-    } else {
-        Plant::Model(airsus_truck::models::build_any_model(&args.model, &truck)?)
-    };
+    let (plant, plant_name) = build_plant(&args.plant, &args.model)?;
     let scenario = level_scenario(&args.scenario, args.target_mm * 1e-3, args.load_kg)
         .with_context(|| format!("scenarios: {}", SCENARIO_NAMES.join(", ")))?;
-    let guard = GuardSettings::default();
+    if !(args.band_mm.is_finite() && args.band_mm > 0.0) {
+        anyhow::bail!(
+            "--band-mm {}: expected a positive half-width in mm",
+            args.band_mm
+        );
+    }
+    let guard = GuardSettings {
+        tolerance_m: args.band_mm * 1e-3,
+        ..GuardSettings::default()
+    };
     let mut controllers: Vec<Box<dyn LevelController>> = Vec::new();
     if matches!(
         args.controller,
@@ -94,10 +104,11 @@ pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
     let rt = truck.environment.gas_constant_j_mol_k * truck.environment.temperature_k;
     let ambient = truck.environment.ambient_pressure_pa;
     println!(
-        "scenario {} on {} ({} s), target {:.1} mm, band ±{:.1} mm, min on-time {:.1} s, rest {:.1} s, reversal lock-out {:.0} s",
+        "scenario {} on {} ({} s), designed on {}, target {:.1} mm, band ±{:.1} mm, min on-time {:.1} s, rest {:.1} s, reversal lock-out {:.0} s",
         scenario.name,
-        plant.model().name(),
+        plant_name,
         scenario.time_s.last().copied().unwrap_or(0.0),
+        args.truck.display(),
         args.target_mm,
         guard.tolerance_m * 1e3,
         guard.min_on_s,
@@ -105,7 +116,7 @@ pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
         guard.reversal_lockout_s
     );
     println!(
-        "{:<11} {:>10} {:>10} {:>10} {:>9} {:>9} {:>6} {:>10} {:>10} {:>10}",
+        "{:<11} {:>10} {:>10} {:>10} {:>9} {:>9} {:>6} {:>10} {:>10} {:>10} {:>9}",
         "controller",
         "settle s",
         "oversh mm",
@@ -115,7 +126,8 @@ pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
         "rev",
         "fill mol",
         "fill l",
-        "exh mol"
+        "exh mol",
+        "out s"
     );
     let mut runs = Vec::new();
     for c in controllers.iter_mut() {
@@ -123,7 +135,7 @@ pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
             .with_context(|| format!("closed loop with the {} controller", c.name()))?;
         let s = score(&run, &scenario.events_s, &guard, rt, ambient);
         println!(
-            "{:<11} {:>10} {:>10.1} {:>10.2} {:>9} {:>9} {:>6} {:>10.3} {:>10.1} {:>10.3}",
+            "{:<11} {:>10} {:>10.1} {:>10.2} {:>9} {:>9} {:>6} {:>10.3} {:>10.1} {:>10.3} {:>9.1}",
             c.name(),
             s.worst_settling_time_s
                 .map_or("never".to_owned(), |t| format!("{t:.1}")),
@@ -134,7 +146,8 @@ pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
             s.reversals,
             s.air_filled_mol,
             s.air_filled_free_l,
-            s.air_exhausted_mol
+            s.air_exhausted_mol,
+            s.time_outside_band_s
         );
         for seg in &s.segments {
             println!(
@@ -160,9 +173,37 @@ pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
             path,
             &runs,
             guard.tolerance_m,
-            &format!("{} on {}", scenario.name, plant.model().name()),
+            &format!("{} on {plant_name}", scenario.name),
         )?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The plant of `--plant`: a virtual truck variant (`variant:K`) or a truck file simulated
+/// with `model`; and how to name it.
+fn build_plant(plant: &str, model: &str) -> anyhow::Result<(Plant, String)> {
+    if let Some(k) = plant.strip_prefix("variant:") {
+        let k: u32 = k.trim().parse().with_context(|| {
+            format!(
+                "--plant {plant}: expected variant:K with K a whole number (0 = the built-in truck)"
+            )
+        })?;
+        let truck = TruckModel::new(VirtualTruck::variant(k), SupplyMode::Tank);
+        return Ok((
+            Plant::Truck(Box::new(truck)),
+            format!("virtual truck variant {k}"),
+        ));
+    }
+    let path = PathBuf::from(plant);
+    let truck = read_truck(&path)
+        .with_context(|| {
+            format!(
+                "reading the plant's truck file {plant} (--plant takes variant:K or a truck file)"
+            )
+        })?
+        .parameters;
+    let model = airsus_truck::models::build_any_model(model, &truck)?;
+    let name = format!("{} with {}", model.name(), path.display());
+    Ok((Plant::Model(model), name))
 }
