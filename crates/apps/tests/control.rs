@@ -16,6 +16,25 @@ fn controllers(guard: &GuardSettings) -> Vec<Box<dyn LevelController>> {
     ]
 }
 
+/// One closed-loop run and its scores (air in free litres at 20 °C, 101.325 kPa).
+fn run_and_score(
+    plant: &Plant,
+    controller: &mut dyn LevelController,
+    scenario: &LevelScenario,
+    guard: &GuardSettings,
+) -> (ClosedLoopRun, ControlScore) {
+    let run =
+        simulate_closed_loop(plant, controller, scenario, &ClosedLoopConfig::default()).unwrap();
+    let s = score(
+        &run,
+        &scenario.events_s,
+        guard,
+        8.314462618 * 293.15,
+        101325.0,
+    );
+    (run, s)
+}
+
 /// No opening shorter than the minimum on-time, and no fill-exhaust-fill (or the reverse)
 /// cycle: a reversal never starts within the lock-out of the last opening.
 fn assert_no_hunting(run: &ClosedLoopRun, guard: &GuardSettings) {
@@ -71,15 +90,7 @@ fn both_controllers_hold_the_band_through_load_steps_on_the_virtual_truck() {
     let scenario = level_scenario("load-steps", 0.240, 3390.0).unwrap();
     let guard = GuardSettings::default();
     for mut c in controllers(&guard) {
-        let run = simulate_closed_loop(&plant, c.as_mut(), &scenario, &ClosedLoopConfig::default())
-            .unwrap();
-        let s = score(
-            &run,
-            &scenario.events_s,
-            &guard,
-            8.314462618 * 293.15,
-            101325.0,
-        );
+        let (run, s) = run_and_score(&plant, c.as_mut(), &scenario, &guard);
         println!("{}: {s:?}", c.name());
         assert_no_hunting(&run, &guard);
         assert_eq!(s.short_openings, 0);
@@ -131,16 +142,7 @@ fn both_controllers_hold_2_mm_on_trucks_they_were_not_designed_on() {
             SupplyMode::Tank,
         )));
         for mut c in controllers(&guard) {
-            let run =
-                simulate_closed_loop(&plant, c.as_mut(), &scenario, &ClosedLoopConfig::default())
-                    .unwrap();
-            let s = score(
-                &run,
-                &scenario.events_s,
-                &guard,
-                8.314462618 * 293.15,
-                101325.0,
-            );
+            let (run, s) = run_and_score(&plant, c.as_mut(), &scenario, &guard);
             let who = format!("{} on variant {variant}", c.name());
             assert_no_hunting(&run, &guard);
             assert_eq!((s.short_openings, s.quick_reversals), (0, 0), "{who}");
@@ -197,19 +199,11 @@ fn both_controllers_let_a_road_pass() {
         SupplyMode::Tank,
     )));
     for mut c in controllers(&guard) {
-        let run = simulate_closed_loop(&plant, c.as_mut(), &scenario, &ClosedLoopConfig::default())
-            .unwrap();
+        let (run, s) = run_and_score(&plant, c.as_mut(), &scenario, &guard);
         let raw_swing = run
             .height_m
             .iter()
             .fold(0.0f64, |a, h| a.max((h - 0.240).abs()));
-        let s = score(
-            &run,
-            &scenario.events_s,
-            &guard,
-            8.314462618 * 293.15,
-            101325.0,
-        );
         assert_no_hunting(&run, &guard);
         assert!(
             raw_swing > 3.0 * guard.tolerance_m,
@@ -241,15 +235,7 @@ fn height_changes_on_model_2() {
     let scenario = level_scenario("height-change", 0.240, 3390.0).unwrap();
     let guard = GuardSettings::default();
     for mut c in controllers(&guard) {
-        let run = simulate_closed_loop(&plant, c.as_mut(), &scenario, &ClosedLoopConfig::default())
-            .unwrap();
-        let s = score(
-            &run,
-            &scenario.events_s,
-            &guard,
-            8.314462618 * 293.15,
-            101325.0,
-        );
+        let (run, s) = run_and_score(&plant, c.as_mut(), &scenario, &guard);
         assert_no_hunting(&run, &guard);
         assert!(s.worst_settling_time_s.is_some_and(|t| t < 40.0), "{s:?}");
         assert!(s.max_overshoot_m < guard.tolerance_m);

@@ -170,8 +170,17 @@ fn control_holds_the_band_with_both_controllers_and_plots_atomically() {
         "--scenario",
         "road",
     ]));
-    assert!(road.contains("on m2 with") && road.contains("band ±2.0 mm"), "{road}");
-    let bad = airsus(&["control", "--truck", &p("truck.toml"), "--plant", "variant:x"]);
+    assert!(
+        road.contains("on m2 with") && road.contains("band ±2.0 mm"),
+        "{road}"
+    );
+    let bad = airsus(&[
+        "control",
+        "--truck",
+        &p("truck.toml"),
+        "--plant",
+        "variant:x",
+    ]);
     assert!(!bad.status.success());
     assert!(
         String::from_utf8_lossy(&bad.stderr).contains("expected variant:K"),
