@@ -463,7 +463,9 @@ pub const CATALOG: &[Param] = &[
 
 /// The fields of `fields` with every law's parameters replaced by those of `truck`'s law of
 /// that family, in place of the first field of the family (the rest of the family dropped).
-/// With the thesis' laws this is `fields` unchanged.
+/// With the thesis' laws this is `fields` unchanged when `fields` lists each family whole and
+/// in the law's order (as `LEVER_MODEL_FIELDS` does); a family listed in part becomes the
+/// whole law.
 pub fn law_fields(fields: &[Field], truck: &TruckParameters) -> Vec<Field> {
     let mut out = Vec::with_capacity(fields.len() + 2);
     let mut done: Vec<LawFamily> = Vec::new();

@@ -6,7 +6,15 @@
 //! a temperature in °C, a pressure in Pa) before they become a strange simulation.
 //!
 //! The optional `[slow_dynamics]` section is ours (the SPEC allows models with more parameters
-//! to add their own): the OE model of thesis Table 5.4/5.5 and its force scale `k_sd`.
+//! to add their own): the OE model of thesis Table 5.4/5.5 and its force scale `k_sd`; so are
+//! `[model3]` (Model 3's OE model) and `[effects]` (the `truck` structure's wall, gas and
+//! supply line).
+//!
+//! The effective area, the gas volume and the valve flow are laws ([`crate::laws`]): the
+//! SPEC's keys are the thesis' laws, and another law is a tagged table
+//! (`[bellow.effective_area]`, `[bellow.gas_volume]`, `[valve]` with `law = ".."`).
+//! Declared parameters with a key of their own are read and written from one table,
+//! `DECLARED_KEYS`.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -109,21 +117,6 @@ pub struct EffectValues {
 }
 
 impl EffectValues {
-    /// Every value with its field, in file order.
-    pub fn entries(&self) -> [(Field, Option<f64>); 6] {
-        [
-            (Field::WallCreepStiffness, self.creep_stiffness_n_per_m),
-            (Field::WallCreepTime, self.creep_time_constant_s),
-            (Field::WallFrictionForce, self.friction_force_n),
-            (
-                Field::WallFrictionStiffness,
-                self.friction_stiffness_n_per_m,
-            ),
-            (Field::GasThermalTime, self.thermal_time_constant_s),
-            (Field::LineResistance, self.line_resistance_pa_s_per_mol),
-        ]
-    }
-
     /// The slot of one of these values; `None` for any other field.
     pub fn slot(&mut self, field: Field) -> Option<&mut Option<f64>> {
         Some(match field {
@@ -646,7 +639,15 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
             GasVolumeLaw::cross_section(cross)
         }
     };
-    ctx.check_areas(&effective_area, &gas_volume)?;
+    let area_key = match bellow_file.effective_area {
+        Some(_) => ("bellow.effective_area", "coefficients_m2"),
+        None => ("bellow", "effective_area_poly_m2"),
+    };
+    let volume_key = match bellow_file.gas_volume {
+        Some(_) => ("bellow.gas_volume", "coefficients_m2"),
+        None => ("bellow", "cross_section_m2"),
+    };
+    ctx.check_areas(&effective_area, area_key, &gas_volume, volume_key)?;
     let bellow = BellowParameters {
         effective_area,
         gas_volume,
@@ -940,13 +941,16 @@ impl Ctx<'_> {
 
     /// An area law that is not positive anywhere over the reference bellow's stroke
     /// (0.2–0.45 m) is broken; thesis Table 5.2's `p1 = 0.08362` is the known example.
-    fn check_areas(&self, area: &EffectiveAreaLaw, volume: &GasVolumeLaw) -> Result<(), DataError> {
+    /// `area_key`, `volume_key`: where the file gave each law (section, key).
+    fn check_areas(
+        &self,
+        area: &EffectiveAreaLaw,
+        (section, key): (&str, &str),
+        volume: &GasVolumeLaw,
+        (volume_section, volume_key): (&str, &str),
+    ) -> Result<(), DataError> {
         let heights = (0..=25).map(|i| 0.2 + 0.01 * f64::from(i));
         if heights.clone().all(|h| area.area_m2(h, 0.0) <= 0.0) {
-            let (section, key) = match area {
-                EffectiveAreaLaw::Polynomial { .. } => ("bellow", "effective_area_poly_m2"),
-                _ => ("bellow.effective_area", "coefficients_m2"),
-            };
             return Err(self.invalid(
                 section,
                 key,
@@ -956,8 +960,8 @@ impl Ctx<'_> {
         }
         if heights.clone().all(|h| volume.cross_section_m2(h) <= 0.0) {
             return Err(self.invalid(
-                "bellow",
-                "cross_section_m2",
+                volume_section,
+                volume_key,
                 format!("{:?}", volume.coefficients_m2()),
                 "the cross-section A0 + A1 h is not positive anywhere between 0.2 and 0.45 m"
                     .to_owned(),
@@ -973,10 +977,25 @@ impl Ctx<'_> {
         section: &str,
         key: &str,
     ) -> Result<Option<f64>, DataError> {
-        let value = table
-            .get(section)
-            .and_then(toml::Value::as_table)
-            .and_then(|t| t.get(key));
+        let value = match table.get(section) {
+            None => None,
+            Some(toml::Value::Table(t)) => t.get(key),
+            Some(other) => {
+                // A top-level key, or a `[section]` header whose value is not a table.
+                let mut loc = Location::file(self.path);
+                if let Some(line) = find_key_line(self.text, "", section) {
+                    loc = loc.line(line);
+                }
+                return Err(DataError::new(
+                    loc,
+                    DataErrorKind::InvalidValue {
+                        key: section.to_owned(),
+                        value: other.to_string(),
+                        reason: format!("expected a section `[{section}]` of keys"),
+                    },
+                ));
+            }
+        };
         match value {
             None => Ok(None),
             Some(toml::Value::Float(f)) => Ok(Some(*f)),
@@ -1551,6 +1570,29 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         let t = parse(&tagged).unwrap().parameters;
         assert_eq!(t.bellow.effective_area, spec.bellow.effective_area);
         assert_eq!(t.valve, spec.valve);
+    }
+
+    #[test]
+    fn a_section_that_is_not_a_table_is_an_error() {
+        let text = SPEC_EXAMPLE.replace(
+            "[mass]\nunsprung_kg = 520.0                      # m2 (nominal; est)\nlever_inertia_kg_m2 = 200.0              # I_g (est; default m2 * l1^2)\n",
+            "",
+        );
+        assert!(!text.contains("[mass]"), "the fixture changed");
+        let text = format!("mass = 520\n{text}");
+        let err = parse(&text).unwrap_err().to_string();
+        assert!(err.contains("expected a section `[mass]`"), "{err}");
+        assert!(err.starts_with("truck.toml:1:"), "{err}");
+    }
+
+    #[test]
+    fn a_broken_tagged_volume_law_is_located_in_its_table() {
+        let text = with_laws(
+            "[bellow.gas_volume]\nlaw = \"cross_section\"\ncoefficients_m2 = [0.01, -1.0]\n",
+        );
+        let err = parse(&text).unwrap_err().to_string();
+        assert!(err.contains("bellow.gas_volume.coefficients_m2"), "{err}");
+        assert!(err.starts_with(&at_line(&text, "coefficients_m2")), "{err}");
     }
 
     #[test]

@@ -206,9 +206,34 @@ fn flow_resistances_from_exact_exponential_discharges() {
     let mut t = truck.clone();
     let fill_field = airsus_data::params::Field::FillResistance;
     airsus_data::params::set(&mut t, fill_field, 1.0e6);
-    fit.write_to(&mut t);
+    fit.write_to(&mut t).unwrap();
     assert_eq!(
         airsus_data::params::get(&t, fill_field),
+        fill.resistance_pa_s_per_mol
+    );
+    // Under the orifice law: both channels fitted replace it by the linear law; one channel
+    // alone is an error and leaves the truck as it was.
+    let mut orifice = truck.clone();
+    orifice.valve = airsus_data::ValveFlowLaw::Orifice {
+        fill_conductance_m3_s_pa: 5e-9,
+        exhaust_conductance_m3_s_pa: 1.2e-8,
+        critical_pressure_ratio: 0.4,
+    };
+    let half = airsus_estimate::submodel::ValveFit {
+        exhaust: None,
+        ..fit.clone()
+    };
+    let before = orifice.clone();
+    let err = half.write_to(&mut orifice).unwrap_err().to_string();
+    assert!(
+        err.contains("`orifice`") && err.contains("both channels"),
+        "{err}"
+    );
+    assert_eq!(orifice, before);
+    fit.write_to(&mut orifice).unwrap();
+    assert_eq!(orifice.valve.tag(), "linear_resistance");
+    assert_eq!(
+        airsus_data::params::get(&orifice, fill_field),
         fill.resistance_pa_s_per_mol
     );
 }

@@ -75,9 +75,17 @@ impl ParamSet {
                 unit: p.info.unit.to_owned(),
             });
         }
-        // The set was built from this truck's laws, so the field has a home.
-        let stored = set(truck, p.field, value);
-        debug_assert!(stored, "{name} has no home under the truck's laws");
+        // The set was built from a truck's laws; a truck under other laws has no home for it.
+        if !set(truck, p.field, value) {
+            return Err(ModelError::InvalidStructure {
+                model: self.model.to_owned(),
+                reason: format!(
+                    "`{name}` belongs to another law than the truck's (valve law `{}`, effective-area law `{}`)",
+                    truck.valve.tag(),
+                    truck.bellow.effective_area.tag()
+                ),
+            });
+        }
         Ok(())
     }
 }

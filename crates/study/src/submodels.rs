@@ -162,20 +162,21 @@ pub fn fit_submodels(
                 }
             }
             Ok(fit) => {
-                fit.write_to(&mut truck);
+                let written = fit.write_to(&mut truck).err();
                 for (name, param, channel) in [
                     ("fill_valve", "rflow1", &fit.fill),
                     ("exhaust_valve", "rflow2", &fit.exhaust),
                 ] {
                     let description =
                         format!("{param} from tank discharges via the ideal gas law (eq 5.5/5.6)");
-                    match channel {
-                        None => fits.push(failed(
+                    match (channel, &written) {
+                        (None, _) => fits.push(failed(
                             name,
                             &description,
                             "no estimation discharge through this channel".to_owned(),
                         )),
-                        Some(c) => {
+                        (Some(_), Some(e)) => fits.push(failed(name, &description, e.to_string())),
+                        (Some(c), None) => {
                             let nrmse = |role: Role| {
                                 let v: Vec<f64> = c
                                     .discharges

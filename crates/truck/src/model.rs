@@ -58,24 +58,11 @@ pub enum SupplyMode {
     Tank,
 }
 
-/// Model 2's parameters (under the truck's laws: the area stretching with pressure, `kap`,
-/// and an orifice valve, `c1`, `c2`, `bcr`), then the wall, gas and supply-line effects of
-/// the `[effects]` section. Every one is declared once, in `airsus_data::params`.
-const FIELDS: &[Field] = &[
-    LEVER_MODEL_FIELDS[0],
-    LEVER_MODEL_FIELDS[1],
-    LEVER_MODEL_FIELDS[2],
-    LEVER_MODEL_FIELDS[3],
-    LEVER_MODEL_FIELDS[4],
-    LEVER_MODEL_FIELDS[5],
-    LEVER_MODEL_FIELDS[6],
-    LEVER_MODEL_FIELDS[7],
-    LEVER_MODEL_FIELDS[8],
-    LEVER_MODEL_FIELDS[9],
-    LEVER_MODEL_FIELDS[10],
-    LEVER_MODEL_FIELDS[11],
-    LEVER_MODEL_FIELDS[12],
-    LEVER_MODEL_FIELDS[13],
+/// The wall, gas and supply-line effects of the `[effects]` section, after Model 2's
+/// parameters (`LEVER_MODEL_FIELDS`, under the truck's laws: usually the area stretching with
+/// pressure, `kap`, and an orifice valve, `c1`, `c2`, `bcr`). Every one is declared once, in
+/// `airsus_data::params`.
+const EFFECT_FIELDS: &[Field] = &[
     Field::WallCreepStiffness,
     Field::WallCreepTime,
     Field::WallFrictionForce,
@@ -83,6 +70,14 @@ const FIELDS: &[Field] = &[
     Field::GasThermalTime,
     Field::LineResistance,
 ];
+
+fn truck_fields() -> Vec<Field> {
+    LEVER_MODEL_FIELDS
+        .iter()
+        .chain(EFFECT_FIELDS)
+        .copied()
+        .collect()
+}
 
 /// The virtual truck behind the model trait.
 #[derive(Debug, Clone, PartialEq)]
@@ -170,7 +165,7 @@ impl TruckModel {
         truth.resolve_laws();
         let c = Consts::new(&truth);
         Self {
-            params: TruckParams::new("truck", FIELDS, truth),
+            params: TruckParams::new("truck", &truck_fields(), truth),
             supply,
             c,
         }

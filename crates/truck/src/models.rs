@@ -132,7 +132,18 @@ mod tests {
         for entry in &MODELS {
             let model = build_any_model(entry.name, &truck).unwrap();
             assert_eq!(model.name(), entry.name);
-            // Every default free parameter is one the model has.
+            // Every name in the registry's sets is one the model has, or plays the part of
+            // one it has under its laws (`rflow1` for the truck structure's orifice: `c1`);
+            // `free_parameters` drops a name with neither, so check the raw sets.
+            for &name in entry.default_free.iter().chain(entry.valve_free) {
+                assert!(
+                    airsus_model::params::same_part_names(name)
+                        .iter()
+                        .any(|n| model.parameter(n).is_ok()),
+                    "{}: `{name}` has no home",
+                    entry.name
+                );
+            }
             for name in entry.free_parameters(true, &*model) {
                 model
                     .parameter(name)

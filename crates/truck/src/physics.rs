@@ -2,7 +2,8 @@
 //! pure function with its source.
 //!
 //! - Valve flow through an orifice with choking, ISO 6358-1:2013, instead of the linear
-//!   (Poiseuille) resistance of eq 3.19.
+//!   (Poiseuille) resistance of eq 3.19: a valve-flow law of the truck file now
+//!   (`airsus_data::laws::ValveFlowLaw::Orifice`), re-exported here.
 //! - Gas temperature of an open, non-isothermal control volume with heat exchange to the
 //!   wall (first law for an ideal gas), instead of the isothermal assumption of thesis 3.1.3.
 //! - Bellow wall friction as a Dahl element (rate-independent hysteresis) and wall creep as

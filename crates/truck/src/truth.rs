@@ -9,7 +9,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::Distribution;
 
 /// Which of the extra effects are on. All on is the virtual truck; all off reduces it to a
-/// Model 2 structure with ideal-gas, Poiseuille-valve physics.
+/// Model 2 structure with ideal-gas physics under the truck file's laws (Poiseuille valve and
+/// a pressure-independent area for a file with the thesis' laws and `κ = 0`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Effects {
     /// Maxwell creep of the bellow wall: slow height drift after load and height changes.
@@ -18,7 +19,9 @@ pub struct Effects {
     pub hysteresis: bool,
     /// Gas temperature as a state with wall heat exchange (not isothermal).
     pub heat_exchange: bool,
-    /// ISO 6358 orifice flow with choking instead of a linear resistance.
+    /// ISO 6358 orifice flow with choking instead of a linear resistance, when the truck
+    /// file names the thesis' linear law (a file naming a valve law keeps its own; see
+    /// [`VirtualTruck::resolve_laws`]).
     pub orifice_flow: bool,
     /// Supply line: the logged tank pressure is upstream of a line resistance, and the tank
     /// droops while air flows and recovers by the compressor.
@@ -255,6 +258,12 @@ impl VirtualTruck {
     /// names them, the built-in effects' elsewhere. A file with the thesis' laws gets the
     /// structure's own: the area stretching with pressure and, while the orifice effect is on, an
     /// ISO 6358 valve. Both copies (`physical` and `effect_parameters`) then agree.
+    ///
+    /// One-way: once resolved, `physical` holds the laws and values, and they win over later
+    /// edits of `effect_parameters` or of `effects.orifice_flow` (edit `physical` instead); the
+    /// thesis' linear resistances are replaced when the orifice takes over. The law value does
+    /// not record whether a file tagged the thesis' law explicitly, so a file cannot ask the
+    /// truck structure for a linear valve: it is treated like the SPEC form.
     pub fn resolve_laws(&mut self) {
         let orifice_flow = self.effects.orifice_flow;
         let e = &mut self.effect_parameters;
@@ -309,11 +318,16 @@ impl VirtualTruck {
         truck.physical.valve
     }
 
+    /// The effective-area law the truck's bellow carries by (see [`Self::resolve_laws`]).
+    pub fn area_law(&self) -> EffectiveAreaLaw {
+        let mut truck = self.clone();
+        truck.resolve_laws();
+        truck.physical.bellow.effective_area
+    }
+
     /// The true effective area at bellow height `h_m` and gauge pressure `p_gauge_pa`, m².
     pub fn effective_area_m2(&self, h_m: f64, p_gauge_pa: f64) -> f64 {
-        let poly = self.physical.bellow.effective_area.coefficients_m2();
-        let base = poly.iter().rev().fold(0.0, |acc, c| acc * h_m + c);
-        base * (1.0 + self.effect_parameters.area_pressure_coefficient * p_gauge_pa / 1e5)
+        self.area_law().area_m2(h_m, p_gauge_pa)
     }
 }
 

@@ -105,9 +105,19 @@ impl NativeTruck {
     }
 
     /// A parameter's value by short name (SI units; NaN for `ksd` when the file has none).
+    /// A parameter of a law the truck does not have (`rflow1` under the orifice valve law) is
+    /// an error, not a NaN.
     fn get(&self, name: String) -> PyResult<f64> {
         let param = lookup(&name).or_py()?;
-        Ok(params::get(&self.params, param.field))
+        let value = params::get(&self.params, param.field);
+        if value.is_nan() && param.field.law_family().is_some() {
+            return Err(crate::error::to_py(anyhow::anyhow!(
+                "truck parameter `{name}` belongs to another law than this truck's (its valve law is `{}`, its effective-area law `{}`)",
+                self.params.valve.tag(),
+                self.params.bellow.effective_area.tag()
+            )));
+        }
+        Ok(value)
     }
 
     /// Sets a parameter by short name; rejects values outside its admissible range.

@@ -73,10 +73,7 @@ impl StaticLaw {
     /// dependence of the effective area (what a perfect static model would know).
     pub fn from_virtual_truck(truck: &VirtualTruck) -> Self {
         Self {
-            area: EffectiveAreaLaw::PressurePolynomial {
-                coefficients_m2: *truck.physical.bellow.effective_area.coefficients_m2(),
-                growth_per_100kpa: truck.effect_parameters.area_pressure_coefficient,
-            },
+            area: truck.area_law(),
             ..Self::from_truck(&truck.physical)
         }
     }

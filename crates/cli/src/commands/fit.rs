@@ -384,7 +384,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                     }
                 }
             }
-            fit.write_to(&mut truck);
+            fit.write_to(&mut truck)?;
         }
         FitCommand::SlowDynamics {
             run,

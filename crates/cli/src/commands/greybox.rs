@@ -250,8 +250,8 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
             println!();
             println!("estimated parameters written to {}", out.display());
         }
-        // A parameter without a truck-file key (the truck structure's effects) is not in the
-        // file: say so rather than let a later run start from the default silently.
+        // Every registered model's parameters have a truck-file home; a model whose don't (or
+        // a value the file cannot hold) is said so rather than lost silently.
         let reread = build_any_model(&args.model, &truck)?;
         let unsaved: Vec<String> = free_names
             .iter()

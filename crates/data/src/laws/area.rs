@@ -136,19 +136,20 @@ impl EffectiveAreaLaw {
 
     /// The gauge pressure at which the bellow at `height_m` (clamped as in
     /// [`Self::area_clamped_m2`]) carries `force_n`, Pa; `None` where the area is not
-    /// positive. For a pressure-dependent law, `p A(h) (1 + κ' p) = F` is a quadratic in `p`
-    /// and its positive root is taken.
+    /// positive, or where no pressure carries the force (a shrinking law, `κ < 0`, carries at
+    /// most `A / (4 |κ'|)`). For a pressure-dependent law, `p A(h) (1 + κ' p) = F` is a
+    /// quadratic in `p` and its root nearest zero is taken.
     pub fn gauge_for_force_pa(&self, height_m: f64, force_n: f64) -> Option<f64> {
         let area = self.area_clamped_m2(height_m, 0.0);
         if area <= 0.0 {
             return None;
         }
         let k = self.growth_per_100kpa() / 1e5;
-        Some(if k.abs() < 1e-18 {
-            force_n / area
-        } else {
-            (-area + (area * area + 4.0 * k * area * force_n).max(0.0).sqrt()) / (2.0 * k * area)
-        })
+        if k.abs() < 1e-18 {
+            return Some(force_n / area);
+        }
+        let discriminant = area * area + 4.0 * k * area * force_n;
+        (discriminant >= 0.0).then(|| (-area + discriminant.sqrt()) / (2.0 * k * area))
     }
 
     /// The law's parameters, in catalogue order.
@@ -255,6 +256,15 @@ mod tests {
         let p0 = plain.gauge_for_force_pa(0.3, force).unwrap();
         assert_eq!(p0, force / polynomial_area_m2(&REF, 0.3));
         assert!(p < p0, "a stretching wall needs less pressure");
+        // A shrinking wall carries at most A / (4 |κ'|): beyond it, no pressure does.
+        let shrinking = EffectiveAreaLaw::PressurePolynomial {
+            coefficients_m2: REF,
+            growth_per_100kpa: -0.1,
+        };
+        let most = polynomial_area_m2(&REF, 0.3) / (4.0 * 0.1 / 1e5);
+        assert_eq!(shrinking.gauge_for_force_pa(0.3, 1.01 * most), None);
+        let p = shrinking.gauge_for_force_pa(0.3, 0.5 * most).unwrap();
+        assert!((p * shrinking.area_clamped_m2(0.3, p) - 0.5 * most).abs() < 1e-6 * most);
     }
 
     #[test]

@@ -29,7 +29,9 @@
 //!
 //! Adding a law: a variant in its family's file here (its parameters, evaluation, tag and
 //! keys), its parameters' declarations in [`crate::params::CATALOG`], and its fit in
-//! `airsus-estimate`. The models, the reader, the writer and the estimator pick it up.
+//! `airsus-estimate`. The models, the reader, the writer and the estimator pick it up, as
+//! long as the law keeps its family's shape (every effective-area law here is built on the
+//! quartic, [`EffectiveAreaLaw::coefficients_m2`]; ARCHITECTURE.md says what a spline needs).
 
 mod area;
 mod valve;

@@ -234,15 +234,6 @@ impl ValveFlowLaw {
         }
     }
 
-    /// The fill and the exhaust channel's flow coefficients: what valve pulses determine and
-    /// a grey-box fit frees with valve action.
-    pub fn channel_fields(&self) -> [Field; 2] {
-        match self {
-            Self::LinearResistance { .. } => [Field::FillResistance, Field::ExhaustResistance],
-            Self::Orifice { .. } => [Field::FillConductance, Field::ExhaustConductance],
-        }
-    }
-
     pub fn get(&self, field: Field) -> Option<f64> {
         let mut law = *self;
         law.slot(field).map(|v| *v)
@@ -413,9 +404,5 @@ mod tests {
         assert!(!law.set(Field::FillConductance, 1e-9));
         assert!(law.set(Field::ExhaustResistance, 2e6));
         assert_eq!(law.get(Field::ExhaustResistance), Some(2e6));
-        assert_eq!(
-            law.channel_fields(),
-            [Field::FillResistance, Field::ExhaustResistance]
-        );
     }
 }

@@ -96,7 +96,7 @@ pub struct CrossSectionFit {
 impl CrossSectionFit {
     /// Writes `A0`, `A1` into a truck.
     pub fn write_to(&self, truck: &mut TruckParameters) {
-        // The fit is of the thesis' law (eq 5.1): it replaces whatever law the truck had.
+        // The fit is of the thesis' law (eq 5.1), the only gas-volume law so far.
         truck.bellow.gas_volume = GasVolumeLaw::cross_section([self.a0_m2, self.a1_m]);
     }
 }

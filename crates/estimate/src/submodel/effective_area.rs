@@ -68,8 +68,9 @@ impl EffectiveAreaFit {
                 self.poly.len().saturating_sub(1)
             ))
         })?;
-        // The fit is of the thesis' law (eq 5.4): it replaces whatever law the truck had.
-        truck.bellow.effective_area = airsus_data::EffectiveAreaLaw::polynomial(poly);
+        // The fit is of the quartic (eq 5.4): it replaces the law's quartic; a pressure growth
+        // the truck's law has (`kap`) is kept, not dropped unsaid.
+        *truck.bellow.effective_area.coefficients_m2_mut() = poly;
         Ok(())
     }
 }

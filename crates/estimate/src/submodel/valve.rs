@@ -91,29 +91,33 @@ pub struct ValveFit {
 
 impl ValveFit {
     /// Writes the fitted resistances into a truck: the linear-resistance valve law (eq 3.19).
-    /// A channel without a fit is left alone; a truck under another valve law gets the
-    /// linear law only when both channels were fitted (half a law is no law), else keeps its
-    /// own.
-    pub fn write_to(&self, truck: &mut TruckParameters) {
-        let fitted = [
-            (Field::FillResistance, &self.fill),
-            (Field::ExhaustResistance, &self.exhaust),
-        ];
+    /// A channel without a fit is left alone. A truck under another valve law gets the linear
+    /// law when both channels were fitted; with one channel fitted it is an error (half a law
+    /// is no law) and the truck is unchanged.
+    pub fn write_to(&self, truck: &mut TruckParameters) -> Result<(), EstimateError> {
         if !matches!(truck.valve, ValveFlowLaw::LinearResistance { .. }) {
             let (Some(f), Some(e)) = (&self.fill, &self.exhaust) else {
-                return;
+                return Err(EstimateError::InvalidOption(format!(
+                    "the truck's valve law is `{}`; a linear resistance fitted for one channel cannot replace it: give discharges through both channels",
+                    truck.valve.tag()
+                )));
             };
             truck.valve = ValveFlowLaw::LinearResistance {
                 fill_pa_s_per_mol: f.resistance_pa_s_per_mol,
                 exhaust_pa_s_per_mol: e.resistance_pa_s_per_mol,
             };
-            return;
+            return Ok(());
         }
+        let fitted = [
+            (Field::FillResistance, &self.fill),
+            (Field::ExhaustResistance, &self.exhaust),
+        ];
         for (field, fit) in fitted {
             if let Some(fit) = fit {
                 truck.valve.set(field, fit.resistance_pa_s_per_mol);
             }
         }
+        Ok(())
     }
 }
 
