@@ -50,14 +50,17 @@ def test_weigh_equals_the_command(reference: Path, tmp_path: Path, cli) -> None:
     cli("weigh", "--truck", truck, "--run", run, "--out", out)
     with open(out, newline="", encoding="utf-8") as f:
         rows = list(csv.reader(f))
-    assert rows[0] == ["time_s", "wheel_load_kg", "wheel_load_std_kg"]
+    assert rows[0] == ["time_s", "wheel_load_kg", "wheel_load_std_kg", "quality"]
     load = airsus.weigh(truck, run)
     assert list(load.columns) == rows[0]
     assert len(load) == len(rows) - 1
     # The command prints the load with 3 decimals; the same numbers, rounded the same way.
-    for row, (t, m, s) in zip(rows[1:], load.itertuples(index=False)):
+    for row, (t, m, s, q) in zip(rows[1:], load.itertuples(index=False)):
         assert float(row[0]) == t
         assert row[1] == f"{m:.3f}" and row[2] == f"{s:.3f}"
+        assert row[3] == q
+    assert set(load["quality"]) <= {"standstill", "settling", "valve"}
+    assert (load["quality"] == "standstill").sum() > 5000
 
 
 def test_weigh_static_tracks_the_true_load(reference: Path) -> None:

@@ -6,7 +6,7 @@ use airsus_data::{Run, RunInputs, RunOutputs, TruckParameters, ValveState};
 use airsus_model::{InitialCondition, Model2};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, simulate};
 use airsus_truck::experiments::run_experiment;
-use airsus_truck::scenario::data_set_1;
+use airsus_truck::scenario::{data_set_1, data_set_2};
 use airsus_truck::sensors::{NoiseSource, SensorSpec};
 use airsus_truck::truth::VirtualTruck;
 
@@ -158,6 +158,31 @@ fn static_weighing_on_the_virtual_truck_true_vs_nominal() {
     )
     .unwrap();
     let c = score(&generated.logged, truth, &cal.apply(&est));
+    // The calibrated interval on another run (data-set 2, its own loads and mishap): from
+    // the calibration's residuals, it covers the true load about as often as it says.
+    let validation =
+        run_experiment(&vt, &data_set_2(vt.physical.mass.unsprung_kg, 2), -120.0, 2).unwrap();
+    let v = score(
+        &validation.logged,
+        &validation.truth.inputs.wheel_load_kg,
+        &cal.apply(&weigh_static(&validation.logged, &nominal, 20).unwrap()),
+    );
+    println!(
+        "95 % interval coverage at standstill: true law {:.3}, thesis structure {:.3}, nominal {:.3}, calibrated {:.3}, calibrated on data-set 2 {:.3} (mean {:+.3} %, max {:.3} %)",
+        noisy.standstill.within_95_interval,
+        t.standstill.within_95_interval,
+        n.standstill.within_95_interval,
+        c.standstill.within_95_interval,
+        v.standstill.within_95_interval,
+        v.standstill.mean_error_percent,
+        v.standstill.max_abs_error_percent
+    );
+    // The assumed parameter errors make the interval too wide with the true law (it covers
+    // everything) and far too narrow around the nominal file's bias (it covers nothing);
+    // calibrated on known loads it says what it covers.
+    assert!(noisy.standstill.within_95_interval > 0.99);
+    assert!(n.standstill.within_95_interval < 0.05);
+    assert!((0.92..=0.98).contains(&v.standstill.within_95_interval));
     assert!(
         c.standstill.mean_error_percent.abs() < 0.3,
         "{:?}",
@@ -241,4 +266,60 @@ fn ekf_converges_on_a_load_step() {
     let acc = score(&run, &truth, &s);
     println!("EKF on noisy Model 2 data: {:?}", acc.standstill);
     assert!(acc.standstill.max_abs_error_percent < 0.2);
+}
+
+/// The calibrated interval is honest on every virtual-truck variant: calibrated on
+/// data-set 1's known loads with the nominal truck file, it covers data-set 2's true
+/// standstill loads on 95 % ± 3 % of the samples.
+#[test]
+fn calibrated_interval_covers_95_percent_on_every_variant() {
+    let nominal = StaticWeigher::new(
+        StaticLaw::from_truck(&TruckParameters::reference()),
+        WeighingUncertainty::default(),
+    );
+    for variant in 0..=3 {
+        let vt = VirtualTruck::variant(variant);
+        let m2 = vt.physical.mass.unsprung_kg;
+        let cal_run = run_experiment(&vt, &data_set_1(m2, 1), -120.0, 1).unwrap();
+        let est = weigh_static(&cal_run.logged, &nominal, 20).unwrap();
+        let cal = LinearCalibration::fit(
+            &cal_run.logged.time_s,
+            &est.wheel_load_kg,
+            &cal_run.logged.inputs.wheel_load_kg,
+            &cal_run.logged.inputs.valve,
+            &StandstillRule::default(),
+        )
+        .unwrap();
+        let val = run_experiment(&vt, &data_set_2(m2, 2), -120.0, 2).unwrap();
+        let v = score(
+            &val.logged,
+            &val.truth.inputs.wheel_load_kg,
+            &cal.apply(&weigh_static(&val.logged, &nominal, 20).unwrap()),
+        );
+        println!(
+            "variant {variant}: coverage {:.3}, mean {:+.3} %, max {:.3} %, q95 {:.1} kg",
+            v.standstill.within_95_interval,
+            v.standstill.mean_error_percent,
+            v.standstill.max_abs_error_percent,
+            cal.residual_q95_kg
+        );
+        let who = format!("variant {variant}");
+        assert!(
+            (0.92..=0.98).contains(&v.standstill.within_95_interval),
+            "{who}: the 95 % interval covers {:.3}",
+            v.standstill.within_95_interval
+        );
+        // Calibrated on one run, the bias on another is a few tenths of a percent; single
+        // standstills still reach about 1 % (the wall friction), short of #14's 0.5 %.
+        assert!(
+            v.standstill.mean_error_percent.abs() < 0.5,
+            "{who}: {:?}",
+            v.standstill
+        );
+        assert!(
+            v.standstill.max_abs_error_percent < 1.5,
+            "{who}: {:?}",
+            v.standstill
+        );
+    }
 }

@@ -9,8 +9,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use airsus_apps::weigh::{
-    EkfTuning, LinearCalibration, StandstillRule, StaticLaw, StaticWeigher, WeighSeries,
-    WeighingUncertainty, weigh_ekf, weigh_static,
+    EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw, StaticWeigher,
+    WeighSeries, WeighingUncertainty, quality_flags, weigh_ekf, weigh_static,
 };
 use airsus_data::{Outputs, Run, TruckParameters};
 use airsus_study::{
@@ -59,6 +59,8 @@ pub fn models(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
 
 struct Weighed {
     series: WeighSeries,
+    /// One quality flag per sample, from the run alone.
+    quality: Vec<&'static str>,
     /// `(gain, offset_kg, samples, residual_rms_kg)` of the calibration, when one was fitted.
     calibration: Option<(f64, f64, usize, f64)>,
 }
@@ -98,6 +100,11 @@ fn run_weigh(
         })
     };
     let mut series = estimate(&run).with_context(|| format!("weighing {}", source.label()))?;
+    let quality = quality_flags(&run, &StandstillDetector::default())
+        .with_context(|| format!("flagging the samples of {}", source.label()))?
+        .into_iter()
+        .map(|q| q.as_str())
+        .collect();
     let mut fitted = None;
     if let Some(cal_source) = calibration {
         let rule = StandstillRule::default();
@@ -118,14 +125,15 @@ fn run_weigh(
     }
     Ok(Weighed {
         series,
+        quality,
         calibration: fitted,
     })
 }
 
 /// The wheel load over a run from its measured pressure and height, as `airsus weigh` does
 /// (`method` `static` or `ekf`, `model` for the filter, `window_s` for the static average).
-/// Returns `{"time_s", "wheel_load_kg", "wheel_load_std_kg", "calibration"}` at full precision
-/// (the command's CSV rounds to 3 decimals).
+/// Returns `{"time_s", "wheel_load_kg", "wheel_load_std_kg", "quality", "calibration"}` at full
+/// precision (the command's CSV rounds to 3 decimals).
 #[pyfunction]
 #[pyo3(signature = (truck, run, method=None, model=None, window_s=None, calibration_run=None))]
 pub fn weigh<'py>(
@@ -162,6 +170,7 @@ pub fn weigh<'py>(
     out.set_item("time_s", s.time_s.into_pyarray(py))?;
     out.set_item("wheel_load_kg", s.wheel_load_kg.into_pyarray(py))?;
     out.set_item("wheel_load_std_kg", s.std_kg.into_pyarray(py))?;
+    out.set_item("quality", weighed.quality)?;
     match weighed.calibration {
         Some((gain, offset_kg, samples, residual_rms_kg)) => {
             let cal = PyDict::new(py);

@@ -821,9 +821,13 @@ def weigh(
             a gain and offset are fitted on it and applied.
 
     Returns:
-        A DataFrame ``time_s, wheel_load_kg, wheel_load_std_kg`` at full precision (the
-        command's CSV rounds to 3 decimals); ``df.attrs["calibration"]`` holds the fitted
-        ``gain, offset_kg, samples, residual_rms_kg`` when ``calibration_run`` is given.
+        A DataFrame ``time_s, wheel_load_kg, wheel_load_std_kg, quality`` at full precision
+        (the command's CSV rounds to 3 decimals). ``quality`` says how far a sample can be
+        trusted, from the run alone: ``standstill`` (read the scale here), ``settling`` or
+        ``valve``. ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg, samples,
+        residual_rms_kg`` when ``calibration_run`` is given; the standard deviation then comes
+        from the calibration's residuals (its 95 % interval covered 95-98 % of the true
+        standstill loads on held-out runs of the virtual truck family).
     """
     result = _native.weigh(
         _as_truck(truck)._native,
@@ -838,6 +842,7 @@ def weigh(
             "time_s": result["time_s"],
             "wheel_load_kg": result["wheel_load_kg"],
             "wheel_load_std_kg": result["wheel_load_std_kg"],
+            "quality": result["quality"],
         }
     )
     frame.attrs["calibration"] = (

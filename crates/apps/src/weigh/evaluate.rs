@@ -44,6 +44,9 @@ pub struct ErrorStats {
     pub within_1_percent: f64,
     /// Mean of the estimator's own standard deviation, kg.
     pub mean_std_kg: f64,
+    /// Fraction of samples whose true load lies inside the estimate's 95 % interval
+    /// (`± 1.96 σ`): an honest interval covers about 0.95, a too wide one about 1.
+    pub within_95_interval: f64,
 }
 
 /// Accuracy over one run.
@@ -67,6 +70,7 @@ fn stats(idx: &[usize], est: &[f64], truth: &[f64], std: &[f64]) -> ErrorStats {
         ..ErrorStats::default()
     };
     let mut within = 0usize;
+    let mut covered = 0usize;
     for &k in idx {
         let e = est[k] - truth[k];
         let pct = 100.0 * e / truth[k];
@@ -79,9 +83,13 @@ fn stats(idx: &[usize], est: &[f64], truth: &[f64], std: &[f64]) -> ErrorStats {
         if pct.abs() <= 1.0 {
             within += 1;
         }
+        if e.abs() <= 1.96 * std[k] {
+            covered += 1;
+        }
     }
     s.rms_error_kg = s.rms_error_kg.sqrt();
     s.within_1_percent = within as f64 / n;
+    s.within_95_interval = covered as f64 / n;
     s
 }
 

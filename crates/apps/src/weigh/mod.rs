@@ -26,7 +26,8 @@ pub use evaluate::{
     AccuracySummary, ErrorStats, StandstillRule, evaluate_weighing, standstill_indices,
 };
 pub use standstill::{
-    Standstill, StandstillDetector, StandstillSignals, friction_state, weigh_standstills,
+    Standstill, StandstillDetector, StandstillSignals, friction_state, standstill_mask,
+    weigh_standstills,
 };
 pub use static_law::{LoadEstimate, StaticLaw, StaticWeigher, WeighingUncertainty};
 
@@ -38,6 +39,9 @@ pub struct WeighSeries {
     pub wheel_load_kg: Vec<f64>,
     /// Its standard deviation, kg.
     pub std_kg: Vec<f64>,
+    /// The part of it the sensors' noise makes, kg (empty when the estimator does not split
+    /// it off); the rest is the parameters' uncertainty.
+    pub measurement_std_kg: Vec<f64>,
 }
 
 impl WeighSeries {
@@ -96,6 +100,7 @@ pub fn weigh_static(
         let mean = sum / n;
         let meas = raw[k].measurement_std_kg / n.sqrt();
         series.wheel_load_kg.push(mean);
+        series.measurement_std_kg.push(meas);
         series
             .std_kg
             .push((meas * meas + raw[k].parameter_std_kg.powi(2)).sqrt());
@@ -103,22 +108,90 @@ pub fn weigh_static(
     Ok(series)
 }
 
-/// Writes `time_s, wheel_load_kg, wheel_load_std_kg` atomically.
-pub fn write_weigh_csv(path: &Path, series: &WeighSeries) -> Result<(), AppError> {
-    if series.wheel_load_kg.len() != series.len() || series.std_kg.len() != series.len() {
+/// How far a sample's estimate can be trusted, from the run alone (no true load needed).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WeighQuality {
+    /// A standstill ([`StandstillDetector`]): valve closed long enough, pressure steady
+    /// before and after. What an on-board scale is read at.
+    Standstill,
+    /// Valve closed, but the load or the gas is still moving (a load change, creep and heat
+    /// after a valve pulse): the estimate lags or leads the load.
+    Settling,
+    /// The valve is open: the pressure is not the static one.
+    Valve,
+}
+
+impl WeighQuality {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Standstill => "standstill",
+            Self::Settling => "settling",
+            Self::Valve => "valve",
+        }
+    }
+}
+
+/// The quality flag of every sample of `run` (see [`WeighQuality`]).
+pub fn quality_flags(
+    run: &Run,
+    detector: &StandstillDetector,
+) -> Result<Vec<WeighQuality>, AppError> {
+    let outputs = run.measured()?;
+    let (still, _) = standstill_mask(
+        &StandstillSignals {
+            time_s: &run.time_s,
+            height_m: &outputs.sensor_height_m,
+            gauge_pa: &outputs.bellow_gauge_pa,
+            valve: &run.inputs.valve,
+            speed_kmh: &[],
+            segment: &[],
+        },
+        detector,
+    )?;
+    Ok(run
+        .inputs
+        .valve
+        .iter()
+        .zip(&still)
+        .map(|(v, &still)| match (v, still) {
+            (airsus_data::ValveState::Closed, true) => WeighQuality::Standstill,
+            (airsus_data::ValveState::Closed, false) => WeighQuality::Settling,
+            _ => WeighQuality::Valve,
+        })
+        .collect())
+}
+
+/// Writes `time_s, wheel_load_kg, wheel_load_std_kg` and, when given, `quality` (one flag per
+/// sample, [`WeighQuality::as_str`]) atomically.
+pub fn write_weigh_csv(
+    path: &Path,
+    series: &WeighSeries,
+    quality: Option<&[WeighQuality]>,
+) -> Result<(), AppError> {
+    if series.wheel_load_kg.len() != series.len()
+        || series.std_kg.len() != series.len()
+        || quality.is_some_and(|q| q.len() != series.len())
+    {
         return Err(invalid(
             "load series",
-            "time, load and standard deviation differ in length",
+            "time, load, standard deviation and quality differ in length",
         ));
     }
     write_atomically(path, |w: &mut dyn Write| {
-        writeln!(w, "time_s,wheel_load_kg,wheel_load_std_kg")?;
+        match quality {
+            Some(_) => writeln!(w, "time_s,wheel_load_kg,wheel_load_std_kg,quality")?,
+            None => writeln!(w, "time_s,wheel_load_kg,wheel_load_std_kg")?,
+        }
         for k in 0..series.len() {
-            writeln!(
+            write!(
                 w,
                 "{},{:.3},{:.3}",
                 series.time_s[k], series.wheel_load_kg[k], series.std_kg[k]
             )?;
+            match quality {
+                Some(q) => writeln!(w, ",{}", q[k].as_str())?,
+                None => writeln!(w)?,
+            }
         }
         Ok(())
     })?;
@@ -136,6 +209,10 @@ pub struct LinearCalibration {
     pub offset_kg: f64,
     /// Residual RMS of the fit, kg.
     pub residual_rms_kg: f64,
+    /// 95th percentile of the residuals' magnitude, kg: the half-width of an interval that
+    /// held 95 % of the known standstill loads. Wall friction makes the residuals bounded,
+    /// not Gaussian, so `1.96 × rms` would cover nearly all of them.
+    pub residual_q95_kg: f64,
     pub samples: usize,
 }
 
@@ -146,6 +223,7 @@ impl LinearCalibration {
             gain: 1.0,
             offset_kg: 0.0,
             residual_rms_kg: 0.0,
+            residual_q95_kg: 0.0,
             samples: 0,
         }
     }
@@ -196,22 +274,42 @@ impl LinearCalibration {
         }
         let gain = sxy / sxx;
         let offset_kg = mean_y - gain * mean_x;
-        let residual_rms_kg = (idx
+        let mut residuals: Vec<f64> = idx
             .iter()
-            .map(|&k| (gain * estimate_kg[k] + offset_kg - known_kg[k]).powi(2))
-            .sum::<f64>()
-            / m)
-            .sqrt();
+            .map(|&k| (gain * estimate_kg[k] + offset_kg - known_kg[k]).abs())
+            .collect();
+        let residual_rms_kg = (residuals.iter().map(|r| r * r).sum::<f64>() / m).sqrt();
+        residuals.sort_by(f64::total_cmp);
+        let q95 = residuals[((0.95 * m).ceil() as usize).clamp(1, residuals.len()) - 1];
         Ok(Self {
             gain,
             offset_kg,
             residual_rms_kg,
+            residual_q95_kg: q95,
             samples: idx.len(),
         })
     }
 
-    /// Applies the calibration to a series (the standard deviation scales with the gain).
+    /// Applies the calibration to a series.
+    ///
+    /// The interval then comes from the data, not from assumed parameter errors: what is left
+    /// at the calibration's known standstills (wall friction, hysteresis, the law's shape
+    /// between the levels, the noise) sets it, `σ = q95 / 1.96` with `q95` the residuals' 95th
+    /// percentile, and a sample noisier than the calibration's (a shorter average) widens it,
+    /// `σ = max(q95 / 1.96, g σ_meas)`. The assumed parameter part is dropped: the calibration
+    /// measured what it does. Without the noise part (the EKF), the standard deviation
+    /// scales with the gain.
     pub fn apply(&self, series: &WeighSeries) -> WeighSeries {
+        let g = self.gain.abs();
+        let std_kg = if series.measurement_std_kg.len() == series.len() && self.samples > 0 {
+            series
+                .measurement_std_kg
+                .iter()
+                .map(|s| (g * s).max(self.residual_q95_kg / 1.96))
+                .collect()
+        } else {
+            series.std_kg.iter().map(|s| g * s).collect()
+        };
         WeighSeries {
             time_s: series.time_s.clone(),
             wheel_load_kg: series
@@ -219,7 +317,8 @@ impl LinearCalibration {
                 .iter()
                 .map(|m| self.gain * m + self.offset_kg)
                 .collect(),
-            std_kg: series.std_kg.iter().map(|s| self.gain.abs() * s).collect(),
+            std_kg,
+            measurement_std_kg: series.measurement_std_kg.iter().map(|s| g * s).collect(),
         }
     }
 }

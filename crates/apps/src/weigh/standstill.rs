@@ -173,13 +173,13 @@ pub struct StandstillSignals<'a> {
     pub segment: &'a [f64],
 }
 
-/// Finds and weighs the standstills of a log (module docs). Non-finite readings break a
-/// standstill.
-pub fn weigh_standstills(
+/// Which samples of a log are standstill samples (module docs): the valve closed for
+/// `settle_s`, the pressure steady over the window before and the look-ahead after, not
+/// rolling. Non-finite readings are never standstill. Also the friction state `z`.
+pub fn standstill_mask(
     signals: &StandstillSignals,
-    weigher: &StaticWeigher,
     detector: &StandstillDetector,
-) -> Result<Vec<Standstill>, AppError> {
+) -> Result<(Vec<bool>, Vec<f64>), AppError> {
     let StandstillSignals {
         time_s,
         height_m,
@@ -202,7 +202,7 @@ pub fn weigh_standstills(
         return Err(invalid("segment", "it differs in length from the time"));
     }
     if n < 2 {
-        return Ok(Vec::new());
+        return Ok((vec![false; n], vec![0.0; n]));
     }
     if time_s
         .windows(2)
@@ -212,7 +212,6 @@ pub fn weigh_standstills(
     }
     let sample_s = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
     let z = friction_state(height_m, sample_s, detector.presliding_m, detector.play_m);
-
     // The pressure must be steady over the window before a sample and the look-ahead after
     // it: the log is read whole, so the start of a load ramp is seen before it moves the
     // pressure past the tolerance (a causal test would let its first ~40 kg in).
@@ -237,6 +236,30 @@ pub fn weigh_standstills(
             && before[k] <= detector.max_pressure_range_pa
             && after[k] <= detector.max_pressure_range_pa;
     }
+
+    Ok((still, z))
+}
+
+/// Finds and weighs the standstills of a log (module docs). Non-finite readings break a
+/// standstill.
+pub fn weigh_standstills(
+    signals: &StandstillSignals,
+    weigher: &StaticWeigher,
+    detector: &StandstillDetector,
+) -> Result<Vec<Standstill>, AppError> {
+    let (still, z) = standstill_mask(signals, detector)?;
+    let StandstillSignals {
+        time_s,
+        height_m,
+        gauge_pa,
+        segment,
+        ..
+    } = *signals;
+    let n = time_s.len();
+    if n < 2 {
+        return Ok(Vec::new());
+    }
+    let sample_s = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
 
     let mut standstills = Vec::new();
     let mut k = 0;

@@ -6,8 +6,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use airsus_apps::weigh::{
-    EkfTuning, LinearCalibration, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty,
-    evaluate_weighing, weigh_ekf, weigh_static, write_weigh_csv,
+    EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw, StaticWeigher,
+    WeighQuality, WeighingUncertainty, evaluate_weighing, quality_flags, weigh_ekf, weigh_static,
+    write_weigh_csv,
 };
 use airsus_data::{Outputs, RunSource, read_run, read_truck};
 
@@ -116,6 +117,10 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
         );
         series = cal.apply(&series);
     }
+    // How far each sample can be trusted, from the run alone.
+    let quality = quality_flags(&run, &StandstillDetector::default())
+        .with_context(|| format!("flagging the samples of {}", args.run.display()))?;
+    let count = |q: WeighQuality| quality.iter().filter(|&&f| f == q).count();
     let method = match args.method {
         Method::Static => format!("static force balance, {:.1} s average", args.window_s),
         Method::Ekf => format!("EKF on model {}", args.model),
@@ -141,6 +146,21 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             lo,
             hi
         );
+        println!(
+            "  samples: {} standstill, {} settling, {} with the valve open",
+            count(WeighQuality::Standstill),
+            count(WeighQuality::Settling),
+            count(WeighQuality::Valve)
+        );
+        let standstill: Vec<usize> = (0..n)
+            .filter(|&k| quality[k] == WeighQuality::Standstill)
+            .collect();
+        if let Some(&last) = standstill.last() {
+            println!(
+                "  last standstill reading: {:.1} kg ± {:.1} kg (1σ) at {:.1} s",
+                series.wheel_load_kg[last], series.std_kg[last], series.time_s[last]
+            );
+        }
     }
     if let Some(path) = &args.truth {
         let truth = read_run(path).with_context(|| format!("reading {}", path.display()))?;
@@ -166,8 +186,8 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             rule.settle_s
         );
         println!(
-            "    {:<24} {:>8} {:>10} {:>10} {:>10} {:>9} {:>9}",
-            "samples", "n", "mean %", "max |%|", "rms kg", "in ±1 %", "mean σ kg"
+            "    {:<24} {:>8} {:>10} {:>10} {:>10} {:>9} {:>9} {:>9}",
+            "samples", "n", "mean %", "max |%|", "rms kg", "in ±1 %", "mean σ kg", "in 95 %"
         );
         for (name, s) in [
             ("all", acc.all),
@@ -176,14 +196,15 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             ("  after valve activity", acc.after_valve),
         ] {
             println!(
-                "    {:<24} {:>8} {:>+10.3} {:>10.3} {:>10.1} {:>8.1}% {:>9.1}",
+                "    {:<24} {:>8} {:>+10.3} {:>10.3} {:>10.1} {:>8.1}% {:>9.1} {:>8.1}%",
                 name,
                 s.samples,
                 s.mean_error_percent,
                 s.max_abs_error_percent,
                 s.rms_error_kg,
                 100.0 * s.within_1_percent,
-                s.mean_std_kg
+                s.mean_std_kg,
+                100.0 * s.within_95_interval
             );
         }
         for (level, s) in &acc.by_load_level {
@@ -194,7 +215,8 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(out) = &args.out {
-        write_weigh_csv(out, &series).with_context(|| format!("writing {}", out.display()))?;
+        write_weigh_csv(out, &series, Some(&quality))
+            .with_context(|| format!("writing {}", out.display()))?;
         eprintln!("wrote {}", out.display());
     }
     Ok(())
