@@ -115,6 +115,33 @@ fn weigh_static_and_ekf_are_scored_against_the_true_load() {
     println!("static, nominal truck: mean {mean_nominal:.2} %");
     assert!((-8.0..-3.0).contains(&mean_nominal), "{mean_nominal}");
 
+    // Calibrated on data-set 1's known loads (with the hysteresis term), the nominal file
+    // weighs data-set 2's standstills within about 0.5 %, and says how sure it is.
+    let calibrated = ok(&airsus(&[
+        "weigh",
+        "--truck",
+        &p("truck.toml"),
+        "--run",
+        &p("ds2.csv"),
+        "--calibration-run",
+        &p("ds1.csv"),
+        "--truth",
+        &p("truth/ds2.csv"),
+        "--out",
+        &p("w_cal.csv"),
+    ]));
+    assert!(
+        calibrated.contains("x z (wall-friction state)"),
+        "{calibrated}"
+    );
+    let cols = columns(&dir.path().join("w_cal.csv"), &["wheel_load_kg"]);
+    let (mean, worst, _) = standstill_error_percent(&cols[0], &truth, 300);
+    println!("static, nominal truck, calibrated: mean {mean:.2} %, worst {worst:.2} %");
+    assert!(
+        mean.abs() < 0.2 && worst < 0.6,
+        "{mean} {worst}: {calibrated}"
+    );
+
     // The README's EKF line.
     let (mean, worst, _) = weigh("truth/truck.toml", "ekf", "w_ekf.csv");
     println!("ekf, true truck: mean {mean:.2} %, worst {worst:.2} %");

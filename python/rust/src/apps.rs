@@ -117,10 +117,11 @@ fn run_weigh(
             &cal_est.wheel_load_kg,
             &cal_run.inputs.wheel_load_kg,
             &cal_run.inputs.valve,
+            Some(&cal_run.measured()?.sensor_height_m),
             &rule,
         )
         .with_context(|| format!("calibrating on {}", cal_source.label()))?;
-        series = cal.apply(&series);
+        series = cal.apply(&series, Some(&run.measured()?.sensor_height_m));
         fitted = Some((cal.gain, cal.offset_kg, cal.samples, cal.residual_rms_kg));
     }
     Ok(Weighed {

@@ -825,9 +825,9 @@ def weigh(
         (the command's CSV rounds to 3 decimals). ``quality`` says how far a sample can be
         trusted, from the run alone: ``standstill`` (read the scale here), ``settling`` or
         ``valve``. ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg, samples,
-        residual_rms_kg`` when ``calibration_run`` is given; the standard deviation then comes
-        from the calibration's residuals (its 95 % interval covered 95-98 % of the true
-        standstill loads on held-out runs of the virtual truck family).
+        residual_rms_kg`` when ``calibration_run`` is given. The calibration also fits the
+        wall friction's hysteresis (the load reads differently after a fill than after an
+        exhaust) from the heights, and the standard deviation then comes from its residuals.
     """
     result = _native.weigh(
         _as_truck(truck)._native,

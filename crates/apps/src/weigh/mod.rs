@@ -198,6 +198,18 @@ pub fn write_weigh_csv(
     Ok(())
 }
 
+/// The wall-friction state of a run's sensor heights, with the standstill detector's Dahl
+/// parameters (0 where the run is too short to have a sample time).
+fn run_friction_state(time_s: &[f64], height_m: &[f64]) -> Vec<f64> {
+    let n = time_s.len();
+    if n < 2 {
+        return vec![0.0; n];
+    }
+    let sample_s = (time_s[n - 1] - time_s[0]) / (n - 1) as f64;
+    let d = StandstillDetector::default();
+    friction_state(height_m, sample_s, d.presliding_m, d.play_m)
+}
+
 /// A linear scale calibration `m = gain · m̂ + offset`, fitted by least squares on the
 /// standstill samples of a run whose load is known (a weighbridge, or the logged load of a
 /// loading test). This is what fitters of commercial on-board scales do, and the cheapest way
@@ -207,6 +219,10 @@ pub fn write_weigh_csv(
 pub struct LinearCalibration {
     pub gain: f64,
     pub offset_kg: f64,
+    /// Load read per unit of the wall-friction state `z` ([`friction_state`]: +1 after the
+    /// bellow rose, −1 after it sank), kg: the hysteresis, fitted when the heights are given
+    /// (the same load reads lower after a fill than after an exhaust). 0 without heights.
+    pub hysteresis_kg: f64,
     /// Residual RMS of the fit, kg.
     pub residual_rms_kg: f64,
     /// 95th percentile of the residuals' magnitude, kg: the half-width of an interval that
@@ -222,6 +238,7 @@ impl LinearCalibration {
         Self {
             gain: 1.0,
             offset_kg: 0.0,
+            hysteresis_kg: 0.0,
             residual_rms_kg: 0.0,
             residual_q95_kg: 0.0,
             samples: 0,
@@ -230,18 +247,24 @@ impl LinearCalibration {
 
     /// Fits the calibration on the samples where the known load has been steady and the valve
     /// closed for `rule.settle_s` (see [`evaluate`]). Needs at least two distinct load levels.
+    /// With the sensor heights, the hysteresis term is fitted too (see [`Self::hysteresis_kg`]).
     pub fn fit(
         time_s: &[f64],
         estimate_kg: &[f64],
         known_kg: &[f64],
         valve: &[airsus_data::ValveState],
+        height_m: Option<&[f64]>,
         rule: &StandstillRule,
     ) -> Result<Self, AppError> {
         let n = time_s.len();
-        if estimate_kg.len() != n || known_kg.len() != n || valve.len() != n {
+        if estimate_kg.len() != n
+            || known_kg.len() != n
+            || valve.len() != n
+            || height_m.is_some_and(|h| h.len() != n)
+        {
             return Err(invalid(
                 "calibration signals",
-                "time, estimate, known load and valve differ in length",
+                "time, estimate, known load, valve and height differ in length",
             ));
         }
         let idx = evaluate::standstill_indices(time_s, known_kg, valve, rule);
@@ -261,22 +284,43 @@ impl LinearCalibration {
             ));
         }
         let m = idx.len() as f64;
-        let mean_x = idx.iter().map(|&k| estimate_kg[k]).sum::<f64>() / m;
-        let mean_y = idx.iter().map(|&k| known_kg[k]).sum::<f64>() / m;
-        let (mut sxx, mut sxy) = (0.0, 0.0);
+        let z = match height_m {
+            Some(h) => run_friction_state(time_s, h),
+            None => vec![0.0; n],
+        };
+        // Least squares on [estimate, 1, z] (z only with heights), centred so that the 3x3
+        // normal equations stay well conditioned; a z that never moves drops out.
+        let mean = |v: &dyn Fn(usize) -> f64| idx.iter().map(|&k| v(k)).sum::<f64>() / m;
+        let (mx, my, mz) = (
+            mean(&|k| estimate_kg[k]),
+            mean(&|k| known_kg[k]),
+            mean(&|k| z[k]),
+        );
+        let (mut sxx, mut sxz, mut szz, mut sxy, mut szy) = (0.0, 0.0, 0.0, 0.0, 0.0);
         for &k in &idx {
-            let dx = estimate_kg[k] - mean_x;
+            let (dx, dz, dy) = (estimate_kg[k] - mx, z[k] - mz, known_kg[k] - my);
             sxx += dx * dx;
-            sxy += dx * (known_kg[k] - mean_y);
+            sxz += dx * dz;
+            szz += dz * dz;
+            sxy += dx * dy;
+            szy += dz * dy;
         }
         if sxx <= 0.0 {
             return Err(invalid("calibration run", "the estimate does not vary"));
         }
-        let gain = sxy / sxx;
-        let offset_kg = mean_y - gain * mean_x;
+        let det = sxx * szz - sxz * sxz;
+        let (gain, hysteresis_kg) =
+            if height_m.is_some() && szz > 1e-6 * m && det > 1e-9 * sxx * szz {
+                ((sxy * szz - szy * sxz) / det, (szy * sxx - sxy * sxz) / det)
+            } else {
+                (sxy / sxx, 0.0)
+            };
+        let offset_kg = my - gain * mx - hysteresis_kg * mz;
         let mut residuals: Vec<f64> = idx
             .iter()
-            .map(|&k| (gain * estimate_kg[k] + offset_kg - known_kg[k]).abs())
+            .map(|&k| {
+                (gain * estimate_kg[k] + offset_kg + hysteresis_kg * z[k] - known_kg[k]).abs()
+            })
             .collect();
         let residual_rms_kg = (residuals.iter().map(|r| r * r).sum::<f64>() / m).sqrt();
         residuals.sort_by(f64::total_cmp);
@@ -284,6 +328,7 @@ impl LinearCalibration {
         Ok(Self {
             gain,
             offset_kg,
+            hysteresis_kg,
             residual_rms_kg,
             residual_q95_kg: q95,
             samples: idx.len(),
@@ -299,8 +344,16 @@ impl LinearCalibration {
     /// `σ = max(q95 / 1.96, g σ_meas)`. The assumed parameter part is dropped: the calibration
     /// measured what it does. Without the noise part (the EKF), the standard deviation
     /// scales with the gain.
-    pub fn apply(&self, series: &WeighSeries) -> WeighSeries {
+    ///
+    /// The hysteresis term needs the run's sensor heights; without them it is left out.
+    pub fn apply(&self, series: &WeighSeries, height_m: Option<&[f64]>) -> WeighSeries {
         let g = self.gain.abs();
+        let z = match height_m {
+            Some(h) if h.len() == series.len() && self.hysteresis_kg != 0.0 => {
+                run_friction_state(&series.time_s, h)
+            }
+            _ => vec![0.0; series.len()],
+        };
         let std_kg = if series.measurement_std_kg.len() == series.len() && self.samples > 0 {
             series
                 .measurement_std_kg
@@ -315,7 +368,8 @@ impl LinearCalibration {
             wheel_load_kg: series
                 .wheel_load_kg
                 .iter()
-                .map(|m| self.gain * m + self.offset_kg)
+                .zip(&z)
+                .map(|(m, z)| self.gain * m + self.offset_kg + self.hysteresis_kg * z)
                 .collect(),
             std_kg,
             measurement_std_kg: series.measurement_std_kg.iter().map(|s| g * s).collect(),

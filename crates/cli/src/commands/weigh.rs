@@ -104,18 +104,21 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             &cal_est.wheel_load_kg,
             &cal_run.inputs.wheel_load_kg,
             &cal_run.inputs.valve,
+            Some(&cal_run.measured()?.sensor_height_m),
             &rule,
         )
         .with_context(|| format!("calibrating on {}", path.display()))?;
         println!(
-            "calibration on {}: load = {:.5} x estimate {:+.1} kg ({} standstill samples, residual rms {:.1} kg)",
+            "calibration on {}: load = {:.5} x estimate {:+.1} kg {:+.1} kg x z (wall-friction state) ({} standstill samples, residual rms {:.1} kg, 95 % within {:.1} kg)",
             path.display(),
             cal.gain,
             cal.offset_kg,
+            cal.hysteresis_kg,
             cal.samples,
-            cal.residual_rms_kg
+            cal.residual_rms_kg,
+            cal.residual_q95_kg
         );
-        series = cal.apply(&series);
+        series = cal.apply(&series, Some(&run.measured()?.sensor_height_m));
     }
     // How far each sample can be trusted, from the run alone.
     let quality = quality_flags(&run, &StandstillDetector::default())
