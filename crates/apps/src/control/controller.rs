@@ -10,7 +10,11 @@
 //!
 //! and one measurement path: the height reading (quantised, noisy, every 100 ms) is low-pass
 //! filtered (`τ_f`), and the controller acts only when the filtered error has been outside the
-//! tolerance band for `debounce_s` (a bump or a noise spike does not open the valve).
+//! tolerance band for `debounce_s` (a bump or a noise spike does not open the valve). While
+//! the truck drives ([`Reading::speed_m_s`] above [`DRIVING_SPEED_M_S`]) the decision to open
+//! reads a slower filter and debounce (`driving_filter_time_constant_s`, `driving_debounce_s`):
+//! on a road the wheel and the body move by more than the band every few seconds, and what
+//! the controller holds is the ride height between the bumps.
 //!
 //! Two laws decide *how long* to open:
 //! - [`DeadbandController`]: bang-bang with hysteresis — open when the error leaves the band
