@@ -349,7 +349,7 @@ fn calibrated_interval_covers_95_percent_on_every_variant() {
         // (measured 95-100 % coverage), never narrow.
         assert!(
             cal.hysteresis_kg < -10.0,
-            "{who}: a fill reads low, {} kg",
+            "{who}: a fill reads high, taken out by {} kg",
             cal.hysteresis_kg
         );
         assert!(

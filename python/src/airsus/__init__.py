@@ -827,7 +827,8 @@ def weigh(
         ``valve``. ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg, samples,
         residual_rms_kg`` when ``calibration_run`` is given. The calibration also fits the
         wall friction's hysteresis (the load reads differently after a fill than after an
-        exhaust) from the heights, and the standard deviation then comes from its residuals.
+        exhaust) from the heights; with the static method the standard deviation then comes
+        from its residuals.
     """
     result = _native.weigh(
         _as_truck(truck)._native,

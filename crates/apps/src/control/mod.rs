@@ -196,7 +196,7 @@ pub struct ControlScore {
     pub air_exhausted_mol: f64,
     /// Fill air as free air at ambient, litres.
     pub air_filled_free_l: f64,
-    /// Time the true height spent outside `target ± tolerance`, s.
+    /// Time the true height (on a road its 2 s mean) spent outside `target ± tolerance`, s.
     pub time_outside_band_s: f64,
 }
 

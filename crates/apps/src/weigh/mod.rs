@@ -210,7 +210,7 @@ fn run_friction_state(time_s: &[f64], height_m: &[f64]) -> Vec<f64> {
     friction_state(height_m, sample_s, d.presliding_m, d.play_m)
 }
 
-/// A linear scale calibration `m = gain · m̂ + offset`, fitted by least squares on the
+/// A linear scale calibration `m = gain · m̂ + offset (+ hysteresis · z)`, fitted by least squares on the
 /// standstill samples of a run whose load is known (a weighbridge, or the logged load of a
 /// loading test). This is what fitters of commercial on-board scales do, and the cheapest way
 /// to take out the bias of wrong nominal parameters; it does not replace grey-box estimation
@@ -221,7 +221,8 @@ pub struct LinearCalibration {
     pub offset_kg: f64,
     /// Load read per unit of the wall-friction state `z` ([`friction_state`]: +1 after the
     /// bellow rose, −1 after it sank), kg: the hysteresis, fitted when the heights are given
-    /// (the same load reads lower after a fill than after an exhaust). 0 without heights.
+    /// (the wall friction holds part of the load after a rise, so the gas, and the estimate,
+    /// read high after a fill: `hysteresis_kg < 0` takes it out). 0 without heights.
     pub hysteresis_kg: f64,
     /// Residual RMS of the fit, kg.
     pub residual_rms_kg: f64,
@@ -342,8 +343,9 @@ impl LinearCalibration {
     /// between the levels, the noise) sets it, `σ = q95 / 1.96` with `q95` the residuals' 95th
     /// percentile, and a sample noisier than the calibration's (a shorter average) widens it,
     /// `σ = max(q95 / 1.96, g σ_meas)`. The assumed parameter part is dropped: the calibration
-    /// measured what it does. Without the noise part (the EKF), the standard deviation
-    /// scales with the gain.
+    /// measured what it does. Without the noise part (the EKF does not split it off), the
+    /// standard deviation only scales with the gain: the interval from the residuals is the
+    /// static method's.
     ///
     /// The hysteresis term needs the run's sensor heights; without them it is left out.
     pub fn apply(&self, series: &WeighSeries, height_m: Option<&[f64]>) -> WeighSeries {

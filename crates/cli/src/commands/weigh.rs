@@ -45,13 +45,14 @@ pub struct WeighArgs {
     #[arg(long, default_value_t = 2.0)]
     pub window_s: f64,
     /// A run whose logged load is trusted at standstill (e.g. weighbridge loads): fit a
-    /// gain and offset on it and apply them.
+    /// gain, an offset and the wall friction's hysteresis on it and apply them (with the
+    /// static method, the interval then comes from its residuals).
     #[arg(long, value_name = "C.csv")]
     pub calibration_run: Option<PathBuf>,
     /// A run carrying the true load (the virtual truck's truth/ file): score the estimate.
     #[arg(long, value_name = "TRUTH.csv")]
     pub truth: Option<PathBuf>,
-    /// Output CSV: time_s, wheel_load_kg, wheel_load_std_kg (written atomically).
+    /// Output CSV: time_s, wheel_load_kg, wheel_load_std_kg, quality (written atomically).
     #[arg(long, value_name = "W.csv")]
     pub out: Option<PathBuf>,
 }
