@@ -265,22 +265,11 @@ impl VirtualTruck {
     /// not record whether a file tagged the thesis' law explicitly, so a file cannot ask the
     /// truck structure for a linear valve: it is treated like the SPEC form.
     pub fn resolve_laws(&mut self) {
-        let orifice_flow = self.effects.orifice_flow;
+        let (area, valve) = (self.area_law(), self.valve_law());
         let e = &mut self.effect_parameters;
         let p = &mut self.physical;
-        if let EffectiveAreaLaw::Polynomial { coefficients_m2 } = p.bellow.effective_area {
-            p.bellow.effective_area = EffectiveAreaLaw::PressurePolynomial {
-                coefficients_m2,
-                growth_per_100kpa: e.area_pressure_coefficient,
-            };
-        }
-        if orifice_flow && matches!(p.valve, ValveFlowLaw::LinearResistance { .. }) {
-            p.valve = ValveFlowLaw::Orifice {
-                fill_conductance_m3_s_pa: e.fill_conductance_m3_s_pa,
-                exhaust_conductance_m3_s_pa: e.exhaust_conductance_m3_s_pa,
-                critical_pressure_ratio: e.critical_pressure_ratio,
-            };
-        }
+        p.bellow.effective_area = area;
+        p.valve = valve;
         let slots: [(Field, &mut f64); 6] = [
             (Field::WallCreepStiffness, &mut e.creep_stiffness_n_per_m),
             (Field::WallCreepTime, &mut e.creep_time_constant_s),
@@ -313,16 +302,30 @@ impl VirtualTruck {
 
     /// The valve law the truck's air flows by (see [`Self::resolve_laws`]).
     pub fn valve_law(&self) -> ValveFlowLaw {
-        let mut truck = self.clone();
-        truck.resolve_laws();
-        truck.physical.valve
+        let e = &self.effect_parameters;
+        match self.physical.valve {
+            ValveFlowLaw::LinearResistance { .. } if self.effects.orifice_flow => {
+                ValveFlowLaw::Orifice {
+                    fill_conductance_m3_s_pa: e.fill_conductance_m3_s_pa,
+                    exhaust_conductance_m3_s_pa: e.exhaust_conductance_m3_s_pa,
+                    critical_pressure_ratio: e.critical_pressure_ratio,
+                }
+            }
+            law => law,
+        }
     }
 
     /// The effective-area law the truck's bellow carries by (see [`Self::resolve_laws`]).
     pub fn area_law(&self) -> EffectiveAreaLaw {
-        let mut truck = self.clone();
-        truck.resolve_laws();
-        truck.physical.bellow.effective_area
+        match &self.physical.bellow.effective_area {
+            EffectiveAreaLaw::Polynomial { coefficients_m2 } => {
+                EffectiveAreaLaw::PressurePolynomial {
+                    coefficients_m2: *coefficients_m2,
+                    growth_per_100kpa: self.effect_parameters.area_pressure_coefficient,
+                }
+            }
+            law => law.clone(),
+        }
     }
 
     /// The true effective area at bellow height `h_m` and gauge pressure `p_gauge_pa`, m².
