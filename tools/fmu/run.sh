@@ -5,7 +5,12 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 # AIRSUS_FMU_PROFILE=dev (as CI) reuses the test build; the default is the release build users run.
 profile="${AIRSUS_FMU_PROFILE:-release}"
-cargo build --profile "$profile" --locked -p airsus -p airsus-fmu
+# In the dev profile (CI) the whole workspace, so that cargo resolves the same features as the
+# test build did and reuses it; a release build asks only for what it needs.
+case "$profile" in
+dev | test) cargo build --profile "$profile" --locked --workspace ;;
+*) cargo build --profile "$profile" --locked -p airsus -p airsus-fmu ;;
+esac
 case "$profile" in dev | test) dir=debug ;; *) dir="$profile" ;; esac
 venv="${AIRSUS_FMU_VENV:-target/fmu-venv}"
 if [ ! -x "$venv/bin/python" ]; then
