@@ -6,7 +6,7 @@ use airsus_data::{Run, RunInputs, RunOutputs, TruckParameters, ValveState};
 use airsus_model::{InitialCondition, Model2};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, simulate};
 use airsus_truck::experiments::run_experiment;
-use airsus_truck::scenario::{data_set_1, data_set_2};
+use airsus_truck::scenario::{data_set_1, data_set_2, data_set_3, data_set_4};
 use airsus_truck::sensors::{NoiseSource, SensorSpec};
 use airsus_truck::truth::VirtualTruck;
 
@@ -158,7 +158,7 @@ fn static_weighing_on_the_virtual_truck_true_vs_nominal() {
         &StandstillRule::default(),
     )
     .unwrap();
-    let c = score(&generated.logged, truth, &cal.apply(&est, None));
+    let c = score(&generated.logged, truth, &cal.apply(&est, None).unwrap());
     // The calibrated interval on another run (data-set 2, its own loads and mishap): from
     // the calibration's residuals, it covers the true load about as often as it says.
     let validation =
@@ -169,7 +169,8 @@ fn static_weighing_on_the_virtual_truck_true_vs_nominal() {
         &cal.apply(
             &weigh_static(&validation.logged, &nominal, 20).unwrap(),
             None,
-        ),
+        )
+        .unwrap(),
     );
     println!(
         "95 % interval coverage at standstill: true law {:.3}, thesis structure {:.3}, nominal {:.3}, calibrated {:.3}, calibrated on data-set 2 {:.3} (mean {:+.3} %, max {:.3} %)",
@@ -230,6 +231,39 @@ fn bad_readings_are_errors_not_panics() {
     assert!(law.wheel_load_kg(5.0, 330e3).is_err());
 }
 
+/// Bounded innovations: a single pressure spike (+60 kPa) and a height dropout (-25 mm) in
+/// steady stretches move the estimate by a few kg with the gate, by far more without it.
+#[test]
+fn ekf_glitches_are_bounded() {
+    let (mut run, truth, truck) = model2_run(true);
+    let w = StaticWeigher::new(
+        StaticLaw::from_truck(&truck),
+        WeighingUncertainty::default(),
+    );
+    let outputs = run.outputs.as_mut().unwrap();
+    outputs.bellow_gauge_pa[500] += 60e3;
+    outputs.sensor_height_m[1100] -= 0.025;
+    let worst = |tuning: &EkfTuning| {
+        let s = weigh_ekf(&run, Box::new(Model2::new(&truck)), &w, tuning).unwrap();
+        [500usize, 1100]
+            .iter()
+            .map(|&g| {
+                (g..g + 60)
+                    .map(|k| (s.wheel_load_kg[k] - truth[k]).abs())
+                    .fold(0.0f64, f64::max)
+            })
+            .fold(0.0f64, f64::max)
+    };
+    let gated = worst(&EkfTuning::default());
+    let open = worst(&EkfTuning {
+        innovation_gate_sigma: f64::INFINITY,
+        ..EkfTuning::default()
+    });
+    println!("worst error within 6 s of a glitch: gated {gated:.1} kg, ungated {open:.1} kg");
+    assert!(gated < 10.0, "gated: {gated} kg");
+    assert!(open > 3.0 * gated, "ungated {open} kg, gated {gated} kg");
+}
+
 #[test]
 fn ekf_converges_on_a_load_step() {
     let (run, truth, truck) = model2_run(true);
@@ -272,100 +306,141 @@ fn ekf_converges_on_a_load_step() {
     assert!(acc.standstill.max_abs_error_percent < 0.2);
 }
 
-/// Calibrated on data-set 1's known loads with the nominal truck file, weighing data-set 2
-/// (held out) on every virtual-truck variant: the gain-offset calibration's interval covers
-/// 95 % ± 3 % of the true standstill loads; the calibration with the hysteresis term weighs
-/// every standstill within about 0.5 %.
+/// A levelling run on `vt`: the load-steps sequence at 240 mm while the deadband controller
+/// works the valve, the plant the virtual truck with its tank. Returns the log and the true load.
+fn levelling_run(vt: &VirtualTruck, seed: u64) -> (Run, Vec<f64>) {
+    use airsus_apps::control::{
+        ClosedLoopConfig, DeadbandController, GuardSettings, Plant, level_scenario,
+        simulate_closed_loop,
+    };
+    use airsus_truck::model::{SupplyMode, TruckModel};
+    let plant = Plant::Truck(Box::new(TruckModel::new(vt.clone(), SupplyMode::Tank)));
+    let scenario = level_scenario("load-steps", 0.240, 3390.0).unwrap();
+    let mut controller = DeadbandController::new(GuardSettings::default());
+    let closed = simulate_closed_loop(
+        &plant,
+        &mut controller,
+        &scenario,
+        &ClosedLoopConfig {
+            seed,
+            ..ClosedLoopConfig::default()
+        },
+    )
+    .unwrap();
+    let (logged, _) = closed.to_runs("levelling");
+    (logged, closed.true_load_kg)
+}
+
+fn cal_run<'a>(run: &'a Run, est: &'a WeighSeries, h: Option<&'a [f64]>) -> CalibrationRun<'a> {
+    CalibrationRun {
+        time_s: &run.time_s,
+        estimate_kg: &est.wheel_load_kg,
+        known_kg: &run.inputs.wheel_load_kg,
+        valve: &run.inputs.valve,
+        height_m: h,
+    }
+}
+
+/// Calibrated with the nominal truck file (a larger mismatch than any estimated file) on the
+/// known loads of our protocol's estimation runs — data-set 1 (load steps) and data-set 3
+/// (valve pulses at one load) — then weighing held-out runs on every virtual-truck variant:
+/// data-set 2 (other loads, a mishap), data-set 4 (one load, long valve steps) and a levelling
+/// run (load steps while the controller works the valve, at another height).
 #[test]
-fn calibrated_interval_covers_95_percent_on_every_variant() {
+fn calibrated_weighing_on_every_variant_held_out() {
     let nominal = StaticWeigher::new(
         StaticLaw::from_truck(&TruckParameters::reference()),
         WeighingUncertainty::default(),
     );
+    let heights = |run: &Run| run.measured().unwrap().sensor_height_m.clone();
     for variant in 0..=3 {
         let vt = VirtualTruck::variant(variant);
         let m2 = vt.physical.mass.unsprung_kg;
-        let cal_run = run_experiment(&vt, &data_set_1(m2, 1), -120.0, 1).unwrap();
-        let est = weigh_static(&cal_run.logged, &nominal, 20).unwrap();
-        let heights = |run: &Run| run.measured().unwrap().sensor_height_m.clone();
-        let val = run_experiment(&vt, &data_set_2(m2, 2), -120.0, 2).unwrap();
-        let val_est = weigh_static(&val.logged, &nominal, 20).unwrap();
-        let fit = |h: Option<&[f64]>| {
-            LinearCalibration::fit(
-                &cal_run.logged.time_s,
-                &est.wheel_load_kg,
-                &cal_run.logged.inputs.wheel_load_kg,
-                &cal_run.logged.inputs.valve,
-                h,
-                &StandstillRule::default(),
-            )
-            .unwrap()
-        };
-        let plain = fit(None);
-        let p = score(
-            &val.logged,
-            &val.truth.inputs.wheel_load_kg,
-            &plain.apply(&val_est, None),
-        );
-        let cal = fit(Some(&heights(&cal_run.logged)));
-        let v = score(
-            &val.logged,
-            &val.truth.inputs.wheel_load_kg,
-            &cal.apply(&val_est, Some(&heights(&val.logged))),
-        );
-        println!(
-            "variant {variant}: gain+offset: coverage {:.3}, mean {:+.3} %, max {:.3} %; with hysteresis {:.1} kg: coverage {:.3}, mean {:+.3} %, max {:.3} %, q95 {:.1} kg",
-            p.standstill.within_95_interval,
-            p.standstill.mean_error_percent,
-            p.standstill.max_abs_error_percent,
-            cal.hysteresis_kg,
-            v.standstill.within_95_interval,
-            v.standstill.mean_error_percent,
-            v.standstill.max_abs_error_percent,
-            cal.residual_q95_kg
-        );
+        let friction = vt.effect_parameters.friction_force_n;
+        let ds1 = run_experiment(&vt, &data_set_1(m2, 1), -friction, 1).unwrap();
+        let ds3 = run_experiment(&vt, &data_set_3(m2, 3), friction, 3).unwrap();
+        let est1 = weigh_static(&ds1.logged, &nominal, 20).unwrap();
+        let est3 = weigh_static(&ds3.logged, &nominal, 20).unwrap();
+        let (h1, h3) = (heights(&ds1.logged), heights(&ds3.logged));
+        let rule = StandstillRule::default();
+        let plain =
+            LinearCalibration::fit_runs(&[cal_run(&ds1.logged, &est1, None)], &rule).unwrap();
+        let loading_only =
+            LinearCalibration::fit_runs(&[cal_run(&ds1.logged, &est1, Some(&h1))], &rule).unwrap();
+        let cal = LinearCalibration::fit_runs(
+            &[
+                cal_run(&ds1.logged, &est1, Some(&h1)),
+                cal_run(&ds3.logged, &est3, Some(&h3)),
+            ],
+            &rule,
+        )
+        .unwrap();
         let who = format!("variant {variant}");
-        // Gain and offset: the interval says what it covers (95 % ± 3 %), but single
-        // standstills reach about 1 %: the wall friction, read one way after a fill and the
-        // other after an exhaust.
-        assert!(
-            (0.92..=0.98).contains(&p.standstill.within_95_interval),
-            "{who}: the gain-offset interval covers {:.3}",
-            p.standstill.within_95_interval
-        );
-        assert!(
-            p.standstill.mean_error_percent.abs() < 0.5,
-            "{who}: {:?}",
-            p.standstill
-        );
-        assert!(
-            p.standstill.max_abs_error_percent < 1.5,
-            "{who}: {:?}",
-            p.standstill
-        );
-        // With the hysteresis term (the wall-friction state from the height) the friction is
-        // read out: every held-out standstill within about 0.5 % (measured 0.46-0.55 %), the
-        // bias under 0.15 %. The interval, from the calibration's residuals, errs wide
-        // (measured 95-100 % coverage), never narrow.
         assert!(
             cal.hysteresis_kg < -10.0,
-            "{who}: a fill reads high, taken out by {} kg",
-            cal.hysteresis_kg
+            "{who}: a fill reads high: {cal:?}"
         );
-        assert!(
-            v.standstill.max_abs_error_percent < 0.6,
-            "{who}: {:?}",
-            v.standstill
+        println!(
+            "{who}: load = {:.4} m̂ {:+.1} kg {:+.1} kg z {:+.2} kg/mm (h - {:.1} mm), q95 {:.1} kg, dropped {:?}; ds1 alone dropped {:?}",
+            cal.gain,
+            cal.offset_kg,
+            cal.hysteresis_kg,
+            cal.height_kg_per_mm,
+            cal.reference_height_mm,
+            cal.residual_q95_kg,
+            cal.dropped,
+            loading_only.dropped,
         );
-        assert!(
-            v.standstill.mean_error_percent.abs() < 0.15,
-            "{who}: {:?}",
-            v.standstill
-        );
-        assert!(
-            v.standstill.within_95_interval >= 0.92,
-            "{who}: the interval covers {:.3}",
-            v.standstill.within_95_interval
-        );
+        let ds2 = run_experiment(&vt, &data_set_2(m2, 2), -friction, 2).unwrap();
+        let ds4 = run_experiment(&vt, &data_set_4(m2, 4), friction, 4).unwrap();
+        let (lev, lev_truth) = levelling_run(&vt, 40 + u64::from(variant));
+        let held_out = [
+            ("ds2", &ds2.logged, &ds2.truth.inputs.wheel_load_kg),
+            ("ds4", &ds4.logged, &ds4.truth.inputs.wheel_load_kg),
+            ("levelling", &lev, &lev_truth),
+        ];
+        for (name, run, truth) in held_out {
+            let est = weigh_static(run, &nominal, 20).unwrap();
+            let h = heights(run);
+            let p = score(run, truth, &plain.apply(&est, None).unwrap());
+            let l = score(run, truth, &loading_only.apply(&est, Some(&h)).unwrap());
+            let v = score(run, truth, &cal.apply(&est, Some(&h)).unwrap());
+            if name == "ds2" {
+                // Gain and offset alone: the interval says what it covers (95 % ± 3 %), but
+                // single standstills reach about 1 %: the wall friction, read one way after a
+                // fill and the other after an exhaust.
+                assert!(
+                    (0.92..=0.98).contains(&p.standstill.within_95_interval),
+                    "{who}: the gain-offset interval covers {:.3}",
+                    p.standstill.within_95_interval
+                );
+                assert!(p.standstill.max_abs_error_percent < 1.5, "{who}: {p:?}");
+                // With the hysteresis and height terms: every held-out standstill within
+                // 0.43-0.65 % (measured), the bias under 0.11 %, the interval from the
+                // calibration's residuals covering 94-100 %.
+                assert!(v.standstill.max_abs_error_percent < 0.7, "{who}: {v:?}");
+                assert!(v.standstill.mean_error_percent.abs() < 0.15, "{who}: {v:?}");
+                assert!(
+                    v.standstill.within_95_interval >= 0.92,
+                    "{who}: the interval covers {:.3}",
+                    v.standstill.within_95_interval
+                );
+            }
+            println!(
+                "  {name}: standstill max: gain+offset {:.3} %, ds1 alone {:.3} %, ds1+ds3 {:.3} % (mean {:+.3} %, coverage {:.3}, {} samples); after valve max {:.3} % coverage {:.3} ({}); valve at work max {:.3} % coverage {:.3} ({})",
+                p.standstill.max_abs_error_percent,
+                l.standstill.max_abs_error_percent,
+                v.standstill.max_abs_error_percent,
+                v.standstill.mean_error_percent,
+                v.standstill.within_95_interval,
+                v.standstill.samples,
+                v.after_valve.max_abs_error_percent,
+                v.after_valve.within_95_interval,
+                v.after_valve.samples,
+                v.valve_activity.max_abs_error_percent,
+                v.valve_activity.within_95_interval,
+                v.valve_activity.samples,
+            );
+        }
     }
 }

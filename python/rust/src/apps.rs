@@ -9,8 +9,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use airsus_apps::weigh::{
-    EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw, StaticWeigher,
-    WeighSeries, WeighingUncertainty, quality_flags, weigh_ekf, weigh_static,
+    CalibrationRun, EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw,
+    StaticWeigher, WeighSeries, WeighingUncertainty, quality_flags, weigh_ekf, weigh_static,
 };
 use airsus_data::{Outputs, Run, TruckParameters};
 use airsus_study::{
@@ -61,8 +61,8 @@ struct Weighed {
     series: WeighSeries,
     /// One quality flag per sample, from the run alone.
     quality: Vec<&'static str>,
-    /// `(gain, offset_kg, samples, residual_rms_kg)` of the calibration, when one was fitted.
-    calibration: Option<(f64, f64, usize, f64)>,
+    /// The calibration, when one was fitted.
+    calibration: Option<LinearCalibration>,
 }
 
 fn run_weigh(
@@ -71,7 +71,7 @@ fn run_weigh(
     method: &str,
     model_name: &str,
     window_s: f64,
-    calibration: Option<&RunSource>,
+    calibration: &[RunSource],
 ) -> anyhow::Result<Weighed> {
     let ekf = match method {
         "static" => false,
@@ -106,23 +106,24 @@ fn run_weigh(
         .map(|q| q.as_str())
         .collect();
     let mut fitted = None;
-    if let Some(cal_source) = calibration {
+    if !calibration.is_empty() {
         let rule = StandstillRule::default();
-        let cal_run = cal_source
-            .load(Outputs::Required)
-            .with_context(|| format!("reading {}", cal_source.label()))?;
-        let cal_est = estimate(&cal_run)?;
-        let cal = LinearCalibration::fit(
-            &cal_run.time_s,
-            &cal_est.wheel_load_kg,
-            &cal_run.inputs.wheel_load_kg,
-            &cal_run.inputs.valve,
-            Some(&cal_run.measured()?.sensor_height_m),
-            &rule,
-        )
-        .with_context(|| format!("calibrating on {}", cal_source.label()))?;
-        series = cal.apply(&series, Some(&run.measured()?.sensor_height_m));
-        fitted = Some((cal.gain, cal.offset_kg, cal.samples, cal.residual_rms_kg));
+        let mut cal_runs = Vec::new();
+        for cal_source in calibration {
+            let cal_run = cal_source
+                .load(Outputs::Required)
+                .with_context(|| format!("reading {}", cal_source.label()))?;
+            let cal_est =
+                estimate(&cal_run).with_context(|| format!("weighing {}", cal_source.label()))?;
+            cal_runs.push((cal_run, cal_est));
+        }
+        let runs = cal_runs
+            .iter()
+            .map(|(run, est)| CalibrationRun::from_run(run, est).map_err(anyhow::Error::from))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let cal = LinearCalibration::fit_runs(&runs, &rule).context("calibrating")?;
+        series = cal.apply(&series, Some(&run.measured()?.sensor_height_m))?;
+        fitted = Some(cal);
     }
     Ok(Weighed {
         series,
@@ -144,27 +145,22 @@ pub fn weigh<'py>(
     method: Option<String>,
     model: Option<String>,
     window_s: Option<f64>,
-    calibration_run: Option<RunSpec<'py>>,
+    calibration_run: Option<Vec<RunSpec<'py>>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = truck.params.clone();
     drop(truck);
     let source = RunSource::from_spec(run)?;
-    let calibration = calibration_run.map(RunSource::from_spec).transpose()?;
+    let calibration = calibration_run
+        .unwrap_or_default()
+        .into_iter()
+        .map(RunSource::from_spec)
+        .collect::<PyResult<Vec<_>>>()?;
     // The command's defaults: `--method static --model m2 --window-s 2`.
     let method = method.unwrap_or_else(|| "static".to_owned());
     let model = model.unwrap_or_else(|| "m2".to_owned());
     let window_s = window_s.unwrap_or(2.0);
     let weighed = py
-        .detach(|| {
-            run_weigh(
-                &params,
-                &source,
-                &method,
-                &model,
-                window_s,
-                calibration.as_ref(),
-            )
-        })
+        .detach(|| run_weigh(&params, &source, &method, &model, window_s, &calibration))
         .or_py()?;
     let out = PyDict::new(py);
     let s = weighed.series;
@@ -173,12 +169,17 @@ pub fn weigh<'py>(
     out.set_item("wheel_load_std_kg", s.std_kg.into_pyarray(py))?;
     out.set_item("quality", weighed.quality)?;
     match weighed.calibration {
-        Some((gain, offset_kg, samples, residual_rms_kg)) => {
+        Some(c) => {
             let cal = PyDict::new(py);
-            cal.set_item("gain", gain)?;
-            cal.set_item("offset_kg", offset_kg)?;
-            cal.set_item("samples", samples)?;
-            cal.set_item("residual_rms_kg", residual_rms_kg)?;
+            cal.set_item("gain", c.gain)?;
+            cal.set_item("offset_kg", c.offset_kg)?;
+            cal.set_item("hysteresis_kg", c.hysteresis_kg)?;
+            cal.set_item("height_kg_per_mm", c.height_kg_per_mm)?;
+            cal.set_item("reference_height_mm", c.reference_height_mm)?;
+            cal.set_item("samples", c.samples)?;
+            cal.set_item("residual_rms_kg", c.residual_rms_kg)?;
+            cal.set_item("residual_q95_kg", c.residual_q95_kg)?;
+            cal.set_item("dropped", c.dropped)?;
             out.set_item("calibration", cal)?;
         }
         None => out.set_item("calibration", py.None())?,

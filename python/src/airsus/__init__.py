@@ -807,7 +807,7 @@ def weigh(
     *,
     model: str = "m2",
     window_s: float = 2.0,
-    calibration_run: Optional[RunLike] = None,
+    calibration_run: Union[None, RunLike, Sequence[RunLike]] = None,
 ) -> pd.DataFrame:
     """Estimate the wheel load over a run from its measured pressure and height (the logged
     load is not used), as ``airsus weigh`` does.
@@ -817,18 +817,23 @@ def weigh(
         run: a run with ``height_mm`` and ``pressure_kpa``.
         method: ``static`` (the static force balance inverted, averaged over ``window_s``) or
             ``ekf`` (an extended Kalman filter on ``model`` with the load as a random walk).
-        calibration_run: a run whose logged load is trusted at standstill (weighbridge):
-            a gain and offset are fitted on it and applied.
+        calibration_run: a run whose logged load is trusted at standstill (weighbridge), or
+            a list of them: a gain and offset are fitted on their standstills and applied,
+            with the wall friction's hysteresis and a height term when the runs determine
+            them (a loading run and a run at one load with the valve moving the height do; a
+            loading run alone cannot tell the height from the load).
 
     Returns:
         A DataFrame ``time_s, wheel_load_kg, wheel_load_std_kg, quality`` at full precision
         (the command's CSV rounds to 3 decimals). ``quality`` says how far a sample can be
         trusted, from the run alone: ``standstill`` (read the scale here), ``settling`` or
-        ``valve``. ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg, samples,
-        residual_rms_kg`` when ``calibration_run`` is given. The calibration also fits the
-        wall friction's hysteresis (the load reads differently after a fill than after an
-        exhaust) from the heights; with the static method the standard deviation then comes
-        from its residuals.
+        ``valve``. ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg,
+        hysteresis_kg, height_kg_per_mm, reference_height_mm, samples, residual_rms_kg,
+        residual_q95_kg`` and ``dropped`` (the terms the run did not determine, with why) when
+        ``calibration_run`` is given: ``load = gain·estimate + offset + hysteresis·z +
+        height·(h − reference)``, with ``z`` the wall-friction state from the heights (a fill
+        reads high, ``hysteresis_kg < 0`` takes it out). With the static method the standard
+        deviation then comes from the calibration's residuals.
     """
     result = _native.weigh(
         _as_truck(truck)._native,
@@ -836,7 +841,16 @@ def weigh(
         method=method,
         model=model,
         window_s=float(window_s),
-        calibration_run=None if calibration_run is None else _run_spec(calibration_run),
+        calibration_run=None
+        if calibration_run is None
+        else [
+            _run_spec(r)
+            for r in (
+                calibration_run
+                if isinstance(calibration_run, (list, tuple))
+                else [calibration_run]
+            )
+        ],
     )
     frame = pd.DataFrame(
         {

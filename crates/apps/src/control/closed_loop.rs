@@ -9,7 +9,7 @@
 //! virtual truck (measured; diffsol's setup is cheap), so a 6-minute scenario takes well under
 //! a second and a step API is not needed.
 
-use airsus_data::ValveState;
+use airsus_data::{Run, RunInputs, RunOutputs, ValveState};
 use airsus_model::{InitialCondition, InputSample, StateRole, SuspensionModel};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, SolverOptions, simulate};
 use airsus_truck::model::TruckModel;
@@ -84,11 +84,56 @@ pub struct ClosedLoopRun {
     pub measured_height_m: Vec<f64>,
     /// True bellow gauge pressure, Pa.
     pub bellow_gauge_pa: Vec<f64>,
+    /// What the controller read: bellow and supply gauge pressure, Pa.
+    pub measured_gauge_pa: Vec<f64>,
+    pub measured_supply_pa: Vec<f64>,
     /// Command applied over `[t_k, t_k+1)`.
     pub valve: Vec<ValveState>,
     /// Air let in through the fill channel and out through the exhaust, mol.
     pub air_filled_mol: f64,
     pub air_exhausted_mol: f64,
+}
+
+impl ClosedLoopRun {
+    /// The run as its log reads (the sensors' readings, the valve as commanded, the load as a
+    /// weighbridge would log it) and as it was (noise-free outputs), e.g. a levelling run to
+    /// weigh or to identify on. The logged load is the true load: a levelling test's loads
+    /// are known.
+    pub fn to_runs(&self, name: &str) -> (Run, Run) {
+        let n = self.time_s.len();
+        let sample_time_s = if n > 1 {
+            (self.time_s[n - 1] - self.time_s[0]) / (n - 1) as f64
+        } else {
+            0.0
+        };
+        let run = |height: &[f64], gauge: &[f64], supply: &[f64]| Run {
+            name: name.to_owned(),
+            time_s: self.time_s.clone(),
+            sample_time_s,
+            inputs: RunInputs {
+                wheel_load_kg: self.true_load_kg.clone(),
+                valve: self.valve.clone(),
+                supply_gauge_pa: supply.to_vec(),
+                road_height_m: self.road_height_m.clone(),
+            },
+            outputs: Some(RunOutputs {
+                sensor_height_m: height.to_vec(),
+                bellow_gauge_pa: gauge.to_vec(),
+            }),
+        };
+        (
+            run(
+                &self.measured_height_m,
+                &self.measured_gauge_pa,
+                &self.measured_supply_pa,
+            ),
+            run(
+                &self.height_m,
+                &self.bellow_gauge_pa,
+                &self.measured_supply_pa,
+            ),
+        )
+    }
 }
 
 /// Runs `controller` on `plant` through `scenario`, starting in static equilibrium at the first
@@ -143,6 +188,8 @@ pub fn simulate_closed_loop(
         run.height_m.push(out.sensor_height_m);
         run.measured_height_m.push(reading.sensor_height_m);
         run.bellow_gauge_pa.push(out.bellow_gauge_pa);
+        run.measured_gauge_pa.push(reading.bellow_gauge_pa);
+        run.measured_supply_pa.push(reading.supply_gauge_pa);
         run.valve.push(valve);
         if k + 1 == n {
             break;

@@ -61,6 +61,13 @@ pub struct EkfTuning {
     pub pressure_std_pa: f64,
     /// Runge–Kutta steps per sample.
     pub substeps: usize,
+    /// Innovation gate: a reading whose Mahalanobis distance from the prediction exceeds it
+    /// corrects the state only as far as the gate (bounded innovations), so a glitch (a
+    /// pressure spike, a height dropout) cannot throw the estimate. Infinity turns it off.
+    pub innovation_gate_sigma: f64,
+    /// The longest run of readings beyond the gate that is bounded as a glitch; readings that
+    /// stay beyond it longer are a real change (a load set down) and are taken whole.
+    pub glitch_samples: usize,
 }
 
 impl Default for EkfTuning {
@@ -75,8 +82,61 @@ impl Default for EkfTuning {
             height_std_m: (0.15e-3f64.powi(2) + 0.1e-3f64.powi(2) / 12.0).sqrt(),
             pressure_std_pa: (200.0f64.powi(2) + 100.0f64.powi(2) / 12.0).sqrt(),
             substeps: 20,
+            innovation_gate_sigma: 6.0,
+            glitch_samples: 2,
         }
     }
+}
+
+/// The model's own balance at the first reading: the load at which the model's equilibrium at
+/// the measured height has the measured pressure (secant iteration from the static law's
+/// load), and that equilibrium. Starting from the static law's load alone, a model whose
+/// balance differs from the law's (another structure, the lever's own weight, a tire
+/// deflection) starts millimetres from its reading, and the first corrections throw the load
+/// by hundreds of kilograms. `None` when the model has no equilibrium near there.
+fn consistent_start(
+    model: &dyn SuspensionModel,
+    first_input: &InputSample,
+    static_load_kg: f64,
+    sensor_height_m: f64,
+    gauge_pa: f64,
+) -> Option<(f64, Vec<f64>)> {
+    let balance = |load_kg: f64| -> Option<(Vec<f64>, f64)> {
+        let u = InputSample {
+            wheel_load_kg: load_kg,
+            ..*first_input
+        };
+        let x = model
+            .initial_state(
+                &u,
+                &InitialCondition::SensorHeight {
+                    height_m: sensor_height_m,
+                },
+            )
+            .ok()?;
+        let gap = model.output(&x, &u).bellow_gauge_pa - gauge_pa;
+        gap.is_finite().then_some((x, gap))
+    };
+    let (mut m0, mut m1) = (static_load_kg, static_load_kg * 1.01);
+    let (_, mut g0) = balance(m0)?;
+    let (mut x1, mut g1) = balance(m1)?;
+    for _ in 0..12 {
+        // 1 Pa is far below the sensor's noise (0.2 kPa).
+        if g1.abs() < 1.0 {
+            return (m1 > 0.0).then_some((m1, x1));
+        }
+        if g1 == g0 {
+            return None;
+        }
+        let m2 = m1 - g1 * (m1 - m0) / (g1 - g0);
+        if !(m2.is_finite() && m2 > 0.0) {
+            return None;
+        }
+        (m0, g0) = (m1, g1);
+        m1 = m2;
+        (x1, g1) = balance(m1)?;
+    }
+    None
 }
 
 /// The load filter: a model, the augmented state estimate and its covariance.
@@ -91,6 +151,8 @@ pub struct LoadEkf {
     z: DVector<f64>,
     p: DMatrix<f64>,
     time_s: f64,
+    /// Readings beyond the innovation gate in a row, up to this one.
+    beyond_gate: usize,
 }
 
 impl LoadEkf {
@@ -121,12 +183,36 @@ impl LoadEkf {
                 ));
             }
         }
-        let load = law.wheel_load_kg(sensor_height_m, gauge_pa)?;
-        let u = InputSample {
-            wheel_load_kg: load,
-            ..*first_input
+        // Infinity is allowed: no gate.
+        if tuning.innovation_gate_sigma.is_nan() || tuning.innovation_gate_sigma <= 0.0 {
+            return Err(invalid(
+                "filter tuning",
+                format!(
+                    "the innovation gate must be positive, got {}",
+                    tuning.innovation_gate_sigma
+                ),
+            ));
+        }
+        let static_load = law.wheel_load_kg(sensor_height_m, gauge_pa)?;
+        let (load, x0) = match consistent_start(
+            model.as_ref(),
+            first_input,
+            static_load,
+            sensor_height_m,
+            gauge_pa,
+        ) {
+            Some(start) => start,
+            None => {
+                let u = InputSample {
+                    wheel_load_kg: static_load,
+                    ..*first_input
+                };
+                (
+                    static_load,
+                    model.initial_state(&u, &InitialCondition::BellowPressure { gauge_pa })?,
+                )
+            }
         };
-        let x0 = model.initial_state(&u, &InitialCondition::BellowPressure { gauge_pa })?;
         let n = x0.len();
         let amount_index = model.state_index(StateRole::BellowAir);
         let rate_indices = model
@@ -157,6 +243,7 @@ impl LoadEkf {
             z,
             p,
             time_s,
+            beyond_gate: 0,
         })
     }
 
@@ -292,12 +379,25 @@ impl LoadEkf {
             t.pressure_std_pa.powi(2),
         ]));
         let innovation = DVector::from_vec(vec![sensor_height_m - y_pred[0], gauge_pa - y_pred[1]]);
-        let s = &h * &p_pred * h.transpose() + &r;
         let time_s = self.time_s + dt;
-        let s_inv = s.try_inverse().ok_or_else(|| AppError::FilterDiverged {
+        let singular = || AppError::FilterDiverged {
             time_s,
             reason: "the innovation covariance is singular".to_owned(),
-        })?;
+        };
+        let s = &h * &p_pred * h.transpose() + &r;
+        let s_inv = s.try_inverse().ok_or_else(singular)?;
+        let distance = innovation.dot(&(&s_inv * &innovation)).max(0.0).sqrt();
+        let mut innovation = innovation;
+        if distance > t.innovation_gate_sigma {
+            self.beyond_gate += 1;
+            // A glitch is short; readings that stay beyond the gate are a real change (a load
+            // set down) and are taken whole, or the estimate would crawl after it.
+            if self.beyond_gate <= t.glitch_samples {
+                innovation *= t.innovation_gate_sigma / distance;
+            }
+        } else {
+            self.beyond_gate = 0;
+        }
         let k = &p_pred * h.transpose() * s_inv;
         let z_new = DVector::from_vec(z_pred) + &k * innovation;
         let i_kh = DMatrix::identity(m, m) - &k * &h;

@@ -4,7 +4,9 @@
 //! change (by more than `steady_tolerance_kg`) and the valve stayed closed: what a truck's
 //! on-board scale is read at. A standstill sample is **after valve activity** when the valve
 //! was open at some time in the `after_valve_window_s` before that settling period, and
-//! **quiet** otherwise.
+//! **quiet** otherwise. A sample is **during valve activity** when the valve is open or closed
+//! less than `settle_s` ago while the load has been steady for `load_settle_s` (a levelling
+//! controller at work after a load change: what the estimate reads while the air moves).
 
 use airsus_data::ValveState;
 
@@ -16,6 +18,9 @@ pub struct StandstillRule {
     pub settle_s: f64,
     pub after_valve_window_s: f64,
     pub steady_tolerance_kg: f64,
+    /// How long the load must have been steady for a sample to count as during valve
+    /// activity, s (a load still arriving is not the valve's doing).
+    pub load_settle_s: f64,
 }
 
 impl Default for StandstillRule {
@@ -26,6 +31,7 @@ impl Default for StandstillRule {
             settle_s: 30.0,
             after_valve_window_s: 120.0,
             steady_tolerance_kg: 0.5,
+            load_settle_s: 10.0,
         }
     }
 }
@@ -56,6 +62,8 @@ pub struct AccuracySummary {
     pub standstill: ErrorStats,
     pub quiet_standstill: ErrorStats,
     pub after_valve: ErrorStats,
+    /// Samples with the valve open or closed less than `settle_s` ago, the load steady.
+    pub valve_activity: ErrorStats,
     /// Mean standstill error per true load level (rounded to 10 kg): `(load_kg, stats)`.
     pub by_load_level: Vec<(f64, ErrorStats)>,
 }
@@ -118,7 +126,12 @@ pub fn evaluate_weighing(
             format!("sample {k} is {} kg; it must be positive", true_kg[k]),
         ));
     }
-    let (standstill, quiet, after) = classify(time_s, true_kg, valve, rule);
+    let Classes {
+        standstill,
+        quiet,
+        after,
+        valve_activity,
+    } = classify(time_s, true_kg, valve, rule);
     let all: Vec<usize> = (0..n).collect();
     let mut levels: Vec<(f64, Vec<usize>)> = Vec::new();
     for &k in &standstill {
@@ -134,6 +147,7 @@ pub fn evaluate_weighing(
         standstill: stats(&standstill, estimate_kg, true_kg, std_kg),
         quiet_standstill: stats(&quiet, estimate_kg, true_kg, std_kg),
         after_valve: stats(&after, estimate_kg, true_kg, std_kg),
+        valve_activity: stats(&valve_activity, estimate_kg, true_kg, std_kg),
         by_load_level: levels
             .into_iter()
             .map(|(l, idx)| (l, stats(&idx, estimate_kg, true_kg, std_kg)))
@@ -148,20 +162,28 @@ pub fn standstill_indices(
     valve: &[ValveState],
     rule: &StandstillRule,
 ) -> Vec<usize> {
-    classify(time_s, load_kg, valve, rule).0
+    classify(time_s, load_kg, valve, rule).standstill
 }
 
-/// `(standstill, quiet, after valve)` sample indices.
+/// Sample indices of each class (module docs).
+struct Classes {
+    standstill: Vec<usize>,
+    quiet: Vec<usize>,
+    after: Vec<usize>,
+    valve_activity: Vec<usize>,
+}
+
 fn classify(
     time_s: &[f64],
     true_kg: &[f64],
     valve: &[ValveState],
     rule: &StandstillRule,
-) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+) -> Classes {
     let n = time_s.len().min(true_kg.len()).min(valve.len());
     let mut standstill = Vec::new();
     let mut quiet = Vec::new();
     let mut after = Vec::new();
+    let mut valve_activity = Vec::new();
     // Last time the load changed or the valve was open, scanning forward.
     let mut last_change_s = f64::NEG_INFINITY;
     let mut last_valve_s = f64::NEG_INFINITY;
@@ -177,6 +199,9 @@ fn classify(
         }
         let since_start = t - time_s[0];
         let rested = t - last_change_s.max(last_valve_s);
+        if t - last_valve_s < rule.settle_s && t - last_change_s >= rule.load_settle_s {
+            valve_activity.push(k);
+        }
         if since_start >= rule.settle_s && rested >= rule.settle_s {
             standstill.push(k);
             if t - last_valve_s <= rule.settle_s + rule.after_valve_window_s {
@@ -186,5 +211,10 @@ fn classify(
             }
         }
     }
-    (standstill, quiet, after)
+    Classes {
+        standstill,
+        quiet,
+        after,
+        valve_activity,
+    }
 }

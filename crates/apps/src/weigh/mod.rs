@@ -210,12 +210,15 @@ fn run_friction_state(time_s: &[f64], height_m: &[f64]) -> Vec<f64> {
     friction_state(height_m, sample_s, d.presliding_m, d.play_m)
 }
 
-/// A linear scale calibration `m = gain · m̂ + offset (+ hysteresis · z)`, fitted by least squares on the
-/// standstill samples of a run whose load is known (a weighbridge, or the logged load of a
-/// loading test). This is what fitters of commercial on-board scales do, and the cheapest way
-/// to take out the bias of wrong nominal parameters; it does not replace grey-box estimation
-/// (it corrects one working height and the load range it saw, nothing dynamic).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A linear scale calibration
+/// `m = gain · m̂ + offset + hysteresis · z + height · (h − h_ref)`, fitted by least squares on
+/// the standstill samples of a run whose load is known (a weighbridge, or the logged load of a
+/// loading test). Gain and offset are what fitters of commercial on-board scales set; the
+/// two terms in the sensor height (`h`, and the wall-friction state `z` computed from it) take
+/// out what a static law with wrong parameters reads differently at another height, and the
+/// wall friction's hysteresis. It does not replace grey-box estimation: it corrects the range
+/// of loads and heights the calibration run saw, nothing dynamic.
+#[derive(Debug, Clone, PartialEq)]
 pub struct LinearCalibration {
     pub gain: f64,
     pub offset_kg: f64,
@@ -224,6 +227,12 @@ pub struct LinearCalibration {
     /// (the wall friction holds part of the load after a rise, so the gas, and the estimate,
     /// read high after a fill: `hysteresis_kg < 0` takes it out). 0 without heights.
     pub hysteresis_kg: f64,
+    /// Load per mm of sensor height above [`Self::reference_height_mm`], kg/mm: the static
+    /// law's error in the effective area's slope (a nominal file's area tilts differently from
+    /// the truck's). 0 without heights.
+    pub height_kg_per_mm: f64,
+    /// The calibration's mean standstill sensor height, mm (where the height term is zero).
+    pub reference_height_mm: f64,
     /// Residual RMS of the fit, kg.
     pub residual_rms_kg: f64,
     /// 95th percentile of the residuals' magnitude, kg: the half-width of an interval that
@@ -231,6 +240,118 @@ pub struct LinearCalibration {
     /// not Gaussian, so `1.96 × rms` would cover nearly all of them.
     pub residual_q95_kg: f64,
     pub samples: usize,
+    /// Terms the calibration run could not determine, left at zero, each with the reason
+    /// (`"height: the standstill heights span 0.05 mm"`). Printed by `weigh`.
+    pub dropped: Vec<String>,
+}
+
+/// One run of known loads for [`LinearCalibration::fit_runs`], SI units.
+#[derive(Debug, Clone, Copy)]
+pub struct CalibrationRun<'a> {
+    pub time_s: &'a [f64],
+    /// The uncalibrated estimate, kg.
+    pub estimate_kg: &'a [f64],
+    /// The known (logged) load, kg.
+    pub known_kg: &'a [f64],
+    pub valve: &'a [airsus_data::ValveState],
+    /// Sensor heights, m (for the hysteresis and height terms).
+    pub height_m: Option<&'a [f64]>,
+}
+
+/// What [`fit_centred`] found: `(name, coefficient, the column's mean)` of the kept columns,
+/// the offset first, and why each dropped column was dropped.
+type Fitted = (Vec<(&'static str, f64, f64)>, Vec<String>);
+
+impl<'a> CalibrationRun<'a> {
+    /// A run with known loads and its uncalibrated estimate, with the run's sensor heights.
+    pub fn from_run(run: &'a Run, estimate: &'a WeighSeries) -> Result<Self, AppError> {
+        Ok(Self {
+            time_s: &run.time_s,
+            estimate_kg: &estimate.wheel_load_kg,
+            known_kg: &run.inputs.wheel_load_kg,
+            valve: &run.inputs.valve,
+            height_m: Some(&run.measured()?.sensor_height_m),
+        })
+    }
+}
+
+/// Least squares on centred, scaled columns, by SVD. Hand-written on nalgebra's SVD because a
+/// term that the run does not determine must be named and dropped, not solved to noise.
+/// Returns the coefficients of the kept columns (in the columns' own units) and the names and
+/// reasons of the dropped ones.
+fn fit_centred(
+    y: &[f64],
+    mut columns: Vec<(&'static str, Vec<f64>, f64)>,
+) -> Result<Fitted, AppError> {
+    // `columns`: (name, values, smallest spread that carries information, in the column's unit).
+    let m = y.len() as f64;
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / m;
+    let spread = |v: &[f64]| {
+        let mu = mean(v);
+        (v.iter().map(|x| (x - mu).powi(2)).sum::<f64>() / m).sqrt()
+    };
+    let mut dropped = Vec::new();
+    columns.retain(|(name, v, floor)| {
+        let s = spread(v);
+        let keep = name == &"estimate" || s > *floor;
+        if !keep {
+            dropped.push(format!(
+                "{name}: its standstill values spread {s:.3} (needs more than {floor})"
+            ));
+        }
+        keep
+    });
+    if spread(&columns[0].1) <= 0.0 {
+        return Err(invalid("calibration run", "the estimate does not vary"));
+    }
+    let my = mean(y);
+    loop {
+        let k = columns.len();
+        let stats: Vec<(f64, f64)> = columns
+            .iter()
+            .map(|(_, v, _)| (mean(v), spread(v)))
+            .collect();
+        let a = nalgebra::DMatrix::from_fn(y.len(), k, |i, j| {
+            (columns[j].1[i] - stats[j].0) / stats[j].1
+        });
+        let b = nalgebra::DVector::from_iterator(y.len(), y.iter().map(|v| v - my));
+        let svd = a.clone().svd(true, true);
+        let (smax, smin) = svd
+            .singular_values
+            .iter()
+            .fold((0.0f64, f64::INFINITY), |(hi, lo), &s| {
+                (hi.max(s), lo.min(s))
+            });
+        // Correlation 0.999 between two standardised columns gives smin/smax ≈ 0.022.
+        if k > 1 && smin < 0.02 * smax {
+            let (name, _, _) = columns.pop().expect("k > 1");
+            dropped.push(format!(
+                "{name}: collinear with the other terms on this run (condition {:.0})",
+                smax / smin
+            ));
+            continue;
+        }
+        let x = svd
+            .solve(&b, 0.0)
+            .map_err(|e| invalid("calibration run", e.to_owned()))?;
+        let mut intercept = my;
+        let coefficients = columns
+            .iter()
+            .zip(&stats)
+            .zip(x.iter())
+            .map(|(((name, _, _), (mu, sd)), beta)| {
+                let c = beta / sd;
+                intercept -= c * mu;
+                (*name, c, *mu)
+            })
+            .collect();
+        return Ok((
+            std::iter::once(("offset", intercept, 0.0))
+                .chain::<Vec<_>>(coefficients)
+                .collect(),
+            dropped,
+        ));
+    }
 }
 
 impl LinearCalibration {
@@ -240,15 +361,24 @@ impl LinearCalibration {
             gain: 1.0,
             offset_kg: 0.0,
             hysteresis_kg: 0.0,
+            height_kg_per_mm: 0.0,
+            reference_height_mm: 0.0,
             residual_rms_kg: 0.0,
             residual_q95_kg: 0.0,
             samples: 0,
+            dropped: Vec::new(),
         }
+    }
+
+    /// Whether [`Self::apply`] needs the run's sensor heights.
+    pub fn uses_height(&self) -> bool {
+        self.hysteresis_kg != 0.0 || self.height_kg_per_mm != 0.0
     }
 
     /// Fits the calibration on the samples where the known load has been steady and the valve
     /// closed for `rule.settle_s` (see [`evaluate`]). Needs at least two distinct load levels.
-    /// With the sensor heights, the hysteresis term is fitted too (see [`Self::hysteresis_kg`]).
+    /// With the sensor heights, the hysteresis and height terms are fitted too, each only when
+    /// the run determines it (see [`Self::dropped`]).
     pub fn fit(
         time_s: &[f64],
         estimate_kg: &[f64],
@@ -257,20 +387,60 @@ impl LinearCalibration {
         height_m: Option<&[f64]>,
         rule: &StandstillRule,
     ) -> Result<Self, AppError> {
-        let n = time_s.len();
-        if estimate_kg.len() != n
-            || known_kg.len() != n
-            || valve.len() != n
-            || height_m.is_some_and(|h| h.len() != n)
-        {
-            return Err(invalid(
-                "calibration signals",
-                "time, estimate, known load, valve and height differ in length",
-            ));
+        Self::fit_runs(
+            &[CalibrationRun {
+                time_s,
+                estimate_kg,
+                known_kg,
+                valve,
+                height_m,
+            }],
+            rule,
+        )
+    }
+
+    /// [`Self::fit`] on the standstills of several runs at once: a loading run gives the load
+    /// levels, a run at one load with the valve moving the height (data-set 3, a levelling
+    /// run) separates the height term from the load, which a loading run alone cannot (its
+    /// height falls as the load rises). Heights are used only when every run has them.
+    pub fn fit_runs(runs: &[CalibrationRun<'_>], rule: &StandstillRule) -> Result<Self, AppError> {
+        let with_heights = !runs.is_empty() && runs.iter().all(|r| r.height_m.is_some());
+        let (mut estimate, mut known, mut z, mut height_mm) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for (i, run) in runs.iter().enumerate() {
+            let n = run.time_s.len();
+            if run.estimate_kg.len() != n
+                || run.known_kg.len() != n
+                || run.valve.len() != n
+                || run.height_m.is_some_and(|h| h.len() != n)
+            {
+                return Err(invalid(
+                    format!("calibration run {}", i + 1),
+                    "time, estimate, known load, valve and height differ in length",
+                ));
+            }
+            let idx = evaluate::standstill_indices(run.time_s, run.known_kg, run.valve, rule);
+            let heights = run.height_m.filter(|_| with_heights);
+            if idx.iter().any(|&k| {
+                !run.estimate_kg[k].is_finite() || heights.is_some_and(|h| !h[k].is_finite())
+            }) {
+                return Err(invalid(
+                    format!("calibration run {}", i + 1),
+                    "an estimate or a height at a standstill is not a number",
+                ));
+            }
+            let run_z = heights.map(|h| run_friction_state(run.time_s, h));
+            for &k in &idx {
+                estimate.push(run.estimate_kg[k]);
+                known.push(run.known_kg[k]);
+                if let (Some(h), Some(rz)) = (heights, &run_z) {
+                    z.push(rz[k]);
+                    height_mm.push(h[k] * 1e3);
+                }
+            }
         }
-        let idx = evaluate::standstill_indices(time_s, known_kg, valve, rule);
         let levels = {
-            let mut l: Vec<f64> = idx.iter().map(|&k| (known_kg[k] / 10.0).round()).collect();
+            let mut l: Vec<f64> = known.iter().map(|m| (m / 10.0).round()).collect();
             l.sort_by(f64::total_cmp);
             l.dedup();
             l.len()
@@ -284,56 +454,54 @@ impl LinearCalibration {
                 ),
             ));
         }
-        let m = idx.len() as f64;
-        let z = match height_m {
-            Some(h) => run_friction_state(time_s, h),
-            None => vec![0.0; n],
-        };
-        // Least squares on [estimate, 1, z] (z only with heights), centred so that the 3x3
-        // normal equations stay well conditioned; a z that never moves drops out.
-        let mean = |v: &dyn Fn(usize) -> f64| idx.iter().map(|&k| v(k)).sum::<f64>() / m;
-        let (mx, my, mz) = (
-            mean(&|k| estimate_kg[k]),
-            mean(&|k| known_kg[k]),
-            mean(&|k| z[k]),
-        );
-        let (mut sxx, mut sxz, mut szz, mut sxy, mut szy) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for &k in &idx {
-            let (dx, dz, dy) = (estimate_kg[k] - mx, z[k] - mz, known_kg[k] - my);
-            sxx += dx * dx;
-            sxz += dx * dz;
-            szz += dz * dz;
-            sxy += dx * dy;
-            szy += dz * dy;
+        let mut columns = vec![("estimate", estimate.clone(), 0.0)];
+        if with_heights {
+            // z lies in [-1, 1]; a height spread under the sensor's resolution (0.1 mm) is noise.
+            columns.push(("hysteresis", z.clone(), 0.05));
+            columns.push(("height", height_mm.clone(), 0.1));
         }
-        if sxx <= 0.0 {
-            return Err(invalid("calibration run", "the estimate does not vary"));
+        let (coefficients, dropped) = fit_centred(&known, columns)?;
+        let mut cal = Self::identity();
+        cal.dropped = dropped;
+        cal.samples = known.len();
+        for (name, c, mu) in coefficients {
+            match name {
+                "offset" => cal.offset_kg = c,
+                "estimate" => cal.gain = c,
+                "hysteresis" => cal.hysteresis_kg = c,
+                _ => {
+                    cal.height_kg_per_mm = c;
+                    // The offset then holds the height term at the mean height: move it there.
+                    cal.reference_height_mm = mu;
+                    cal.offset_kg += c * mu;
+                }
+            }
         }
-        let det = sxx * szz - sxz * sxz;
-        let (gain, hysteresis_kg) =
-            if height_m.is_some() && szz > 1e-6 * m && det > 1e-9 * sxx * szz {
-                ((sxy * szz - szy * sxz) / det, (szy * sxx - sxy * sxz) / det)
-            } else {
-                (sxy / sxx, 0.0)
-            };
-        let offset_kg = my - gain * mx - hysteresis_kg * mz;
-        let mut residuals: Vec<f64> = idx
-            .iter()
-            .map(|&k| {
-                (gain * estimate_kg[k] + offset_kg + hysteresis_kg * z[k] - known_kg[k]).abs()
+        let mut residuals: Vec<f64> = (0..known.len())
+            .map(|k| {
+                let (zk, hk) = if with_heights {
+                    (z[k], height_mm[k] * 1e-3)
+                } else {
+                    (0.0, 0.0)
+                };
+                (cal.reading_kg(estimate[k], zk, hk) - known[k]).abs()
             })
             .collect();
-        let residual_rms_kg = (residuals.iter().map(|r| r * r).sum::<f64>() / m).sqrt();
+        let m = residuals.len() as f64;
+        cal.residual_rms_kg = (residuals.iter().map(|r| r * r).sum::<f64>() / m).sqrt();
         residuals.sort_by(f64::total_cmp);
-        let q95 = residuals[((0.95 * m).ceil() as usize).clamp(1, residuals.len()) - 1];
-        Ok(Self {
-            gain,
-            offset_kg,
-            hysteresis_kg,
-            residual_rms_kg,
-            residual_q95_kg: q95,
-            samples: idx.len(),
-        })
+        cal.residual_q95_kg = residuals[((0.95 * m).ceil() as usize).clamp(1, residuals.len()) - 1];
+        Ok(cal)
+    }
+
+    /// One calibrated reading from the estimate, the friction state and the sensor height (m).
+    fn reading_kg(&self, estimate_kg: f64, z: f64, height_m: f64) -> f64 {
+        let height_term = if self.height_kg_per_mm != 0.0 {
+            self.height_kg_per_mm * (height_m * 1e3 - self.reference_height_mm)
+        } else {
+            0.0
+        };
+        self.gain * estimate_kg + self.offset_kg + self.hysteresis_kg * z + height_term
     }
 
     /// Applies the calibration to a series.
@@ -347,14 +515,33 @@ impl LinearCalibration {
     /// standard deviation only scales with the gain: the interval from the residuals is the
     /// static method's.
     ///
-    /// The hysteresis term needs the run's sensor heights; without them it is left out.
-    pub fn apply(&self, series: &WeighSeries, height_m: Option<&[f64]>) -> WeighSeries {
+    /// A calibration with a height or hysteresis term needs the run's sensor heights, one per
+    /// sample: without them it is an error, not a silently different calibration.
+    pub fn apply(
+        &self,
+        series: &WeighSeries,
+        height_m: Option<&[f64]>,
+    ) -> Result<WeighSeries, AppError> {
         let g = self.gain.abs();
-        let z = match height_m {
-            Some(h) if h.len() == series.len() && self.hysteresis_kg != 0.0 => {
-                run_friction_state(&series.time_s, h)
+        let (z, heights) = match height_m {
+            Some(h) if h.len() == series.len() => (run_friction_state(&series.time_s, h), h),
+            Some(h) if self.uses_height() => {
+                return Err(invalid(
+                    "calibration",
+                    format!(
+                        "{} sensor heights for {} load samples",
+                        h.len(),
+                        series.len()
+                    ),
+                ));
             }
-            _ => vec![0.0; series.len()],
+            None if self.uses_height() => {
+                return Err(invalid(
+                    "calibration",
+                    "it has a height or hysteresis term and needs the run's sensor heights",
+                ));
+            }
+            _ => (vec![0.0; series.len()], &[][..]),
         };
         let std_kg = if series.measurement_std_kg.len() == series.len() && self.samples > 0 {
             series
@@ -365,16 +552,123 @@ impl LinearCalibration {
         } else {
             series.std_kg.iter().map(|s| g * s).collect()
         };
-        WeighSeries {
+        Ok(WeighSeries {
             time_s: series.time_s.clone(),
             wheel_load_kg: series
                 .wheel_load_kg
                 .iter()
-                .zip(&z)
-                .map(|(m, z)| self.gain * m + self.offset_kg + self.hysteresis_kg * z)
+                .enumerate()
+                .map(|(k, &m)| self.reading_kg(m, z[k], heights.get(k).copied().unwrap_or(0.0)))
                 .collect(),
             std_kg,
             measurement_std_kg: series.measurement_std_kg.iter().map(|s| g * s).collect(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use airsus_data::ValveState;
+
+    /// A run of synthetic standstills (valve closed throughout; the load changes once every
+    /// 100 s, and the standstill rule takes the samples 30 s after each change).
+    struct Synthetic {
+        time_s: Vec<f64>,
+        known_kg: Vec<f64>,
+        height_m: Vec<f64>,
+        estimate_kg: Vec<f64>,
+        valve: Vec<ValveState>,
+    }
+
+    /// What a static law with a 5 % slope error, a 40 kg offset and an area tilt of 2 kg/mm
+    /// reads: `known = 1.05 estimate + 40 + 2 (h - 230 mm)`.
+    fn synthetic(load: impl Fn(usize) -> f64, height: impl Fn(usize) -> f64) -> Synthetic {
+        let n = 3000;
+        let time_s: Vec<f64> = (0..n).map(|k| k as f64 * 0.1).collect();
+        let known_kg: Vec<f64> = (0..n).map(&load).collect();
+        let height_m: Vec<f64> = (0..n).map(&height).collect();
+        let estimate_kg = known_kg
+            .iter()
+            .zip(&height_m)
+            .map(|(m, h)| (m - 40.0 - 2.0 * (h * 1e3 - 230.0)) / 1.05)
+            .collect();
+        Synthetic {
+            time_s,
+            known_kg,
+            height_m,
+            estimate_kg,
+            valve: vec![ValveState::Closed; n],
         }
+    }
+
+    fn as_run(s: &Synthetic) -> CalibrationRun<'_> {
+        CalibrationRun {
+            time_s: &s.time_s,
+            estimate_kg: &s.estimate_kg,
+            known_kg: &s.known_kg,
+            valve: &s.valve,
+            height_m: Some(&s.height_m),
+        }
+    }
+
+    fn step_load(k: usize) -> f64 {
+        3000.0 + 300.0 * (k / 1000) as f64
+    }
+
+    #[test]
+    fn a_loading_run_alone_cannot_tell_height_from_load_and_says_so() {
+        // The height falls exactly with the load: the height term is collinear with the gain.
+        let loading = synthetic(step_load, |k| 0.235 - (step_load(k) - 3000.0) * 2e-5);
+        let cal =
+            LinearCalibration::fit_runs(&[as_run(&loading)], &StandstillRule::default()).unwrap();
+        assert_eq!(cal.height_kg_per_mm, 0.0);
+        assert!(
+            cal.dropped
+                .iter()
+                .any(|d| d.starts_with("height: collinear")),
+            "{:?}",
+            cal.dropped
+        );
+        // What is left still reproduces the calibration run's loads.
+        assert!(cal.residual_rms_kg < 1e-6, "{cal:?}");
+    }
+
+    #[test]
+    fn a_valve_run_at_one_load_separates_the_height_term() {
+        let loading = synthetic(step_load, |k| 0.235 - (step_load(k) - 3000.0) * 2e-5);
+        let valve = synthetic(|_| 3300.0, |k| 0.215 + 0.01 * (k / 1000) as f64);
+        let cal = LinearCalibration::fit_runs(
+            &[as_run(&loading), as_run(&valve)],
+            &StandstillRule::default(),
+        )
+        .unwrap();
+        assert!((cal.gain - 1.05).abs() < 1e-9, "{cal:?}");
+        assert!((cal.height_kg_per_mm - 2.0).abs() < 1e-6, "{cal:?}");
+        // The offset is the reading at the reference (mean) height.
+        let at_reference = 40.0 + 2.0 * (cal.reference_height_mm - 230.0);
+        assert!((cal.offset_kg - at_reference).abs() < 1e-6, "{cal:?}");
+        // A reading at a height neither run stood at.
+        let s = WeighSeries {
+            time_s: vec![0.0],
+            wheel_load_kg: vec![(3500.0 - 40.0 - 2.0 * (250.0 - 230.0)) / 1.05],
+            std_kg: vec![1.0],
+            measurement_std_kg: vec![1.0],
+        };
+        let read = cal.apply(&s, Some(&[0.250])).unwrap();
+        assert!((read.wheel_load_kg[0] - 3500.0).abs() < 1e-6, "{read:?}");
+        // Without the heights the calibration cannot be applied: an error, not a silently
+        // different calibration.
+        assert!(cal.apply(&s, None).is_err());
+        assert!(cal.apply(&s, Some(&[0.25, 0.25])).is_err());
+    }
+
+    #[test]
+    fn one_load_level_is_an_error() {
+        let valve = synthetic(|_| 3300.0, |k| 0.215 + 0.01 * (k / 1000) as f64);
+        let err = LinearCalibration::fit_runs(&[as_run(&valve)], &StandstillRule::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("1 steady load level"), "{err}");
     }
 }

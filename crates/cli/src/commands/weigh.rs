@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use airsus_apps::weigh::{
-    EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw, StaticWeigher,
-    WeighQuality, WeighingUncertainty, evaluate_weighing, quality_flags, weigh_ekf, weigh_static,
-    write_weigh_csv,
+    CalibrationRun, EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw,
+    StaticWeigher, WeighQuality, WeighingUncertainty, evaluate_weighing, quality_flags, weigh_ekf,
+    weigh_static, write_weigh_csv,
 };
 use airsus_data::{Outputs, RunSource, read_run, read_truck};
 
@@ -45,10 +45,12 @@ pub struct WeighArgs {
     #[arg(long, default_value_t = 2.0)]
     pub window_s: f64,
     /// A run whose logged load is trusted at standstill (e.g. weighbridge loads): fit a
-    /// gain, an offset and the wall friction's hysteresis on it and apply them (with the
-    /// static method, the interval then comes from its residuals).
+    /// gain, an offset, the wall friction's hysteresis and a height term on it and apply them
+    /// (with the static method, the interval then comes from its residuals). Repeat it to fit
+    /// on several runs at once: a loading run and a run at one load with the valve moving the
+    /// height (a study's estimation runs) determine the height term, a loading run alone not.
     #[arg(long, value_name = "C.csv")]
-    pub calibration_run: Option<PathBuf>,
+    pub calibration_run: Vec<PathBuf>,
     /// A run carrying the true load (the virtual truck's truth/ file): score the estimate.
     #[arg(long, value_name = "TRUTH.csv")]
     pub truth: Option<PathBuf>,
@@ -62,7 +64,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     if let Some(out) = &args.out {
         let mut inputs: Vec<&std::path::Path> = vec![&args.truck, &args.run];
         inputs.extend(source.dbc.as_deref());
-        inputs.extend(args.calibration_run.as_deref());
+        inputs.extend(args.calibration_run.iter().map(PathBuf::as_path));
         inputs.extend(args.truth.as_deref());
         refuse_overwriting_inputs(out, &inputs)?;
     }
@@ -97,29 +99,41 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     };
     let mut series = estimate(&run).with_context(|| format!("weighing {}", args.run.display()))?;
     let rule = StandstillRule::default();
-    if let Some(path) = &args.calibration_run {
-        let cal_run = read_run_file(path, Outputs::Required, &source)?;
-        let cal_est = estimate(&cal_run)?;
-        let cal = LinearCalibration::fit(
-            &cal_run.time_s,
-            &cal_est.wheel_load_kg,
-            &cal_run.inputs.wheel_load_kg,
-            &cal_run.inputs.valve,
-            Some(&cal_run.measured()?.sensor_height_m),
-            &rule,
-        )
-        .with_context(|| format!("calibrating on {}", path.display()))?;
+    if !args.calibration_run.is_empty() {
+        let mut cal_runs = Vec::new();
+        for path in &args.calibration_run {
+            let cal_run = read_run_file(path, Outputs::Required, &source)?;
+            let cal_est =
+                estimate(&cal_run).with_context(|| format!("weighing {}", path.display()))?;
+            cal_runs.push((cal_run, cal_est));
+        }
+        let runs = cal_runs
+            .iter()
+            .map(|(run, est)| CalibrationRun::from_run(run, est).map_err(anyhow::Error::from))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let names = args
+            .calibration_run
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ");
+        let cal = LinearCalibration::fit_runs(&runs, &rule)
+            .with_context(|| format!("calibrating on {names}"))?;
         println!(
-            "calibration on {}: load = {:.5} x estimate {:+.1} kg {:+.1} kg x z (wall-friction state) ({} standstill samples, residual rms {:.1} kg, 95 % within {:.1} kg)",
-            path.display(),
+            "calibration on {names}: load = {:.5} x estimate {:+.1} kg {:+.1} kg x z (wall-friction state) {:+.2} kg/mm x (height - {:.1} mm) ({} standstill samples, residual rms {:.1} kg, 95 % within {:.1} kg)",
             cal.gain,
             cal.offset_kg,
             cal.hysteresis_kg,
+            cal.height_kg_per_mm,
+            cal.reference_height_mm,
             cal.samples,
             cal.residual_rms_kg,
             cal.residual_q95_kg
         );
-        series = cal.apply(&series, Some(&run.measured()?.sensor_height_m));
+        for why in &cal.dropped {
+            eprintln!("note: calibration term left out, {why}");
+        }
+        series = cal.apply(&series, Some(&run.measured()?.sensor_height_m))?;
     }
     // How far each sample can be trusted, from the run alone.
     let quality = quality_flags(&run, &StandstillDetector::default())
@@ -198,6 +212,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             ("standstill", acc.standstill),
             ("  quiet", acc.quiet_standstill),
             ("  after valve activity", acc.after_valve),
+            ("valve at work", acc.valve_activity),
         ] {
             println!(
                 "    {:<24} {:>8} {:>+10.3} {:>10.3} {:>10.1} {:>8.1}% {:>9.1} {:>8.1}%",
