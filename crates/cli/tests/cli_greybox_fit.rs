@@ -152,8 +152,9 @@ fn greybox_names_an_unknown_parameter() {
 fn noise_level_weighting_lets_the_valve_run_count() {
     // Pooled spreads let the 1500-s loading run outweigh the valve run's small pressure
     // swings; weighting each run and output by its own noise does not. Judged on data-set 4,
-    // a valve run neither fit saw. Seed 1: −143.6 → −83.7 %. (Not on every seed: seed 5 goes
-    // −65.5 → −77.3 %, which is why noise-level weighting is not the default yet.)
+    // a valve run neither fit saw. Seed 1: −48.5 → −45.2 %. (It was −143.6 → −83.7 % while a
+    // fifth of the trial simulations failed on the damper table's corner; not on every seed,
+    // which is why noise-level weighting is not the default yet.)
     let dir = generated();
     let p = |name: &str| path(&dir, name);
     let held_out_pressure = |normalisation: &str| -> f64 {
@@ -193,7 +194,7 @@ fn noise_level_weighting_lets_the_valve_run_count() {
         held_out_pressure("noise-level"),
     );
     assert!(
-        noise > pooled + 5.0,
+        noise > pooled + 2.0,
         "data-set 4 pressure: pooled {pooled} %, noise-level {noise} %"
     );
 }
@@ -226,4 +227,37 @@ fn a_fit_whose_every_parameter_was_reset_is_not_called_converged() {
             .is_some_and(|s| s.contains("road input")),
         "{frozen}"
     );
+}
+
+#[test]
+fn model_2_on_the_valve_protocol_fails_no_trial_simulation() {
+    // Data-sets 1 and 3 from the nominal file: before the damper table's corner at zero
+    // velocity was rounded and the lever inertia floored above the mass matrix's singular
+    // point, 178 of 1180 trial simulations failed here ("too many Newton failures" at rest,
+    // a blow-up for I_g < m2² l1²/M), the failed columns read as "no sensitivity" and p1-p3
+    // were fixed for it.
+    let dir = generated();
+    let p = |name: &str| path(&dir, name);
+    let (stdout, _) = ok(&[
+        "greybox",
+        "--model",
+        "m2",
+        "--truck",
+        &p("truck.toml"),
+        "--run",
+        &p("ds1.csv"),
+        "--run",
+        &p("ds3.csv"),
+        "--json",
+    ]);
+    let json: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(json["failed_simulations"], 0, "{}", json["stop"]);
+    assert!(json["simulations"].as_u64().unwrap() > 500);
+    let fixed: Vec<&str> = json["identifiability"]["not_identifiable"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|n| n["name"].as_str()).collect())
+        .unwrap_or_default();
+    for shape in ["p1", "p2", "p3"] {
+        assert!(!fixed.contains(&shape), "{shape} fixed: {fixed:?}");
+    }
 }

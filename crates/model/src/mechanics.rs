@@ -34,12 +34,16 @@ pub struct LeverForces {
     pub friction_n: f64,
 }
 
+/// The smallest lever inertia, as a multiple of `c²/M` (see [`lever_accelerations`]).
+pub const MIN_INERTIA_MARGIN: f64 = 1.1;
+
 /// `(ẍ, α̈)` from
 /// ```text
 /// M ẍ - c α̈ = F_w - M g - m2 l1 sin α α̇²
 /// -c ẍ + I_g α̈ = cos α [ l1 (m2 g - F_w) + (l1+l2) F_b - (l1+l3) F_d - l1 F_f ]
 /// ```
-/// with `c = m2 l1 cos α`, solved in closed form.
+/// with `c = m2 l1 cos α`, solved in closed form. `I_g` is floored at
+/// [`MIN_INERTIA_MARGIN`]` · c²/M` (comment in the body).
 pub fn lever_accelerations(
     body: &LeverBody,
     sin_a: f64,
@@ -50,15 +54,21 @@ pub fn lever_accelerations(
     let g = body.gravity_m_s2;
     let m2 = body.unsprung_kg;
     let total = body.total_kg;
-    let inertia = body.inertia_kg_m2;
     let coupling = m2 * body.l1_m * cos_a;
+    // The mass matrix [[M, c], [c, I_g]] is positive definite only for I_g > c²/M: below that
+    // the lever would have negative kinetic energy and the model blows up within milliseconds
+    // (a grey-box fit drove I_g there when the runs did not determine it). I_g is floored
+    // just above it, so the model stays finite and continuous and such an I_g shows as no
+    // sensitivity. The axle alone gives I_g ≥ m2 l1², far above the floor, on a real truck.
+    let inertia = body
+        .inertia_kg_m2
+        .max(MIN_INERTIA_MARGIN * coupling * coupling / total);
     let r_x = forces.tire_n - total * g - m2 * body.l1_m * sin_a * alpha_dot * alpha_dot;
     let q_alpha = cos_a
         * (body.l1_m * (m2 * g - forces.tire_n) + body.l12_m * forces.bellow_n
             - body.l13_m * forces.damper_n
             - body.l1_m * forces.friction_n);
-    // det > 0 for admissible parameters (I_g > m2² l1² / M); the floor only keeps absurd
-    // combinations finite.
+    // det > 0 by the floor above; this one only keeps absurd (zero-mass) bodies finite.
     let det = (total * inertia - coupling * coupling).max(1e-9 * total * inertia);
     (
         (inertia * r_x + coupling * q_alpha) / det,

@@ -155,7 +155,7 @@ fn m2x_slow_force_makes_the_truck_creep_down_after_loading() {
     let (early_p, late_p, _) = load_step(plain.as_ref(), load);
     let (early_x, late_x, x) = load_step(extended.as_ref(), load);
     assert!(
-        late_p < early_p + 1e-6 && (late_p - early_p).abs() < 1e-4,
+        late_p < early_p + 1e-5 && (late_p - early_p).abs() < 1e-4,
         "m2 settles fast: {early_p} {late_p}"
     );
     let slow_creep = early_x - late_x;

@@ -86,6 +86,9 @@ pub(crate) struct Evaluator<'a> {
     pub parallel: bool,
     pub simulations: AtomicUsize,
     pub failures: AtomicUsize,
+    /// Columns (freed-parameter indices) of the last [`Self::jacobian`] whose simulations
+    /// failed in both directions (left zero).
+    pub failed_columns: std::sync::Mutex<Vec<usize>>,
 }
 
 fn std_dev(x: &[f64]) -> f64 {
@@ -199,6 +202,7 @@ impl<'a> Evaluator<'a> {
             parallel: true,
             simulations: AtomicUsize::new(0),
             failures: AtomicUsize::new(0),
+            failed_columns: std::sync::Mutex::new(Vec::new()),
         })
     }
 
@@ -302,10 +306,12 @@ impl<'a> Evaluator<'a> {
     /// `cols` (indices into the freed parameters), given the residuals `r0` at `z`.
     /// Columns are computed in parallel (rayon). The step is `+fd_step`, or `−fd_step` where
     /// that would leave the box; if the simulation fails, the other direction is tried; if
-    /// both fail, the column is zero (reported as no sensitivity) and counted.
+    /// both fail, the column is zero, counted, and listed in [`Self::failed_columns`] (the
+    /// identifiability screen then says the model does not simulate there, not that the
+    /// outputs do not depend on the parameter).
     pub fn jacobian(&self, z: &[f64], cols: &[usize], r0: &[f64], fd_step: f64) -> DMatrix<f64> {
         let m = r0.len();
-        let column = |&j: &usize| -> Vec<f64> {
+        let column = |&j: &usize| -> Option<Vec<f64>> {
             let (_, hi) = self.params[j].z_range();
             let first = if z[j] + fd_step <= hi {
                 fd_step
@@ -316,17 +322,38 @@ impl<'a> Evaluator<'a> {
                 let mut zp = z.to_vec();
                 zp[j] += step;
                 if let Some(r) = self.residuals_at(&zp) {
-                    return r.iter().zip(r0).map(|(a, b)| (a - b) / step).collect();
+                    return Some(r.iter().zip(r0).map(|(a, b)| (a - b) / step).collect());
                 }
             }
-            vec![0.0; m]
+            None
         };
-        let columns: Vec<Vec<f64>> = if self.parallel {
+        let columns: Vec<Option<Vec<f64>>> = if self.parallel {
             cols.par_iter().map(column).collect()
         } else {
             cols.iter().map(column).collect()
         };
+        let failed: Vec<usize> = cols
+            .iter()
+            .zip(&columns)
+            .filter(|(_, c)| c.is_none())
+            .map(|(&j, _)| j)
+            .collect();
+        if let Ok(mut last) = self.failed_columns.lock() {
+            *last = failed;
+        }
+        let columns: Vec<Vec<f64>> = columns
+            .into_iter()
+            .map(|c| c.unwrap_or_else(|| vec![0.0; m]))
+            .collect();
         DMatrix::from_fn(m, cols.len(), |i, j| columns[j][i])
+    }
+
+    /// The columns of the last Jacobian whose simulations failed (see [`Self::jacobian`]).
+    pub fn take_failed_columns(&self) -> Vec<usize> {
+        self.failed_columns
+            .lock()
+            .map(|mut v| std::mem::take(&mut *v))
+            .unwrap_or_default()
     }
 
     pub fn simulations(&self) -> usize {

@@ -14,7 +14,9 @@
 //!
 //! A freed parameter is reported as not identifiable from the given runs when
 //! 1. **no sensitivity**: its Jacobian column is zero (the outputs do not depend on it at
-//!    all in these runs — `rflow1` in a run where the valve never fills);
+//!    all in these runs — `rflow1` in a run where the valve never fills), or **the
+//!    simulation fails** when it moves either way (its column could not be measured; said
+//!    apart, since it is a different problem with a different cure);
 //! 2. **structural collinearity**: the column-normalised Jacobian `J D⁻¹` (`D` = column
 //!    norms) has a singular value below `rcond · s_max`; only a combination of the
 //!    parameters in the corresponding right singular vector is determined. The parameters
@@ -47,6 +49,9 @@ use serde::Serialize;
 pub enum Unidentifiable {
     /// The outputs do not depend on it in these runs (zero Jacobian column).
     NoSensitivity,
+    /// The model does not simulate when it moves from the point reached (both finite-
+    /// difference steps failed): its effect could not be measured there.
+    SimulationFails,
     /// Only a combination with these parameters is determined: a (numerical) null direction
     /// of the Jacobian, or correlations near ±1 with an uncertainty above the limit.
     Collinear { with: Vec<String> },
@@ -255,8 +260,10 @@ pub(crate) struct Screen {
 /// one parameter at a time, recomputing after each removal.
 ///
 /// `priority[c]` is column `c`'s position in the model's parameter order (the tie-break).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn select_identifiable(
     j: &DMatrix<f64>,
+    failed: &[usize],
     cols: &[usize],
     names: &[String],
     priority: &[usize],
@@ -275,7 +282,11 @@ pub(crate) fn select_identifiable(
         if zero {
             removed.push(NotIdentifiable {
                 name: names[c].clone(),
-                reason: Unidentifiable::NoSensitivity,
+                reason: if failed.contains(&c) {
+                    Unidentifiable::SimulationFails
+                } else {
+                    Unidentifiable::NoSensitivity
+                },
                 stage: screen.stage,
                 correlated_with: Vec::new(),
                 determined_by: String::new(),

@@ -197,6 +197,7 @@ pub fn estimate(
     let all: Vec<usize> = (0..n).collect();
     observer.stage("Jacobian at the nominal point");
     let j0 = ev.jacobian(&z0, &all, &r0, options.fd_step);
+    let failed0 = ev.take_failed_columns();
     let lambda_data = noise_variance_from_data(&ev);
     let before = analyse(
         &j0,
@@ -215,6 +216,7 @@ pub fn estimate(
     };
     let (identifiable, mut not_identifiable) = select_identifiable(
         &j0,
+        &failed0,
         &all,
         &names,
         &priority,
@@ -257,6 +259,7 @@ pub fn estimate(
 
         observer.stage("Jacobian at the estimate");
         let j = jacobian_full(&ev, &z, &active, &residuals, options.fd_step);
+        let failed = ev.take_failed_columns();
         lambda_post = noise_variance_from_residuals(&residuals, &blocks, active.len());
         final_j = Some(j);
         if !screening {
@@ -266,6 +269,7 @@ pub fn estimate(
         // common reason not to converge, and fixing that parameter lets the refit converge.
         let (keep, newly) = select_identifiable(
             final_j.as_ref().unwrap_or(&j0),
+            &failed,
             &active,
             &names,
             &priority,
@@ -405,7 +409,12 @@ pub fn estimate(
         },
     };
     let estimated_model = ev.model_at(&theta)?;
-    for n in &mut not_identifiable {
+    // What data would determine a parameter; not said where the model failed to simulate
+    // (more data is not the cure there).
+    for n in not_identifiable
+        .iter_mut()
+        .filter(|n| n.reason != identifiability::Unidentifiable::SimulationFails)
+    {
         if let Some(info) = ev.base.parameter_info().iter().find(|i| i.name == n.name) {
             n.determined_by = info.needs.to_owned();
         }

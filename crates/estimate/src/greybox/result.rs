@@ -188,6 +188,9 @@ fn reason_text(reason: &Unidentifiable) -> String {
         Unidentifiable::NoSensitivity => {
             "no sensitivity: the outputs do not depend on it in these runs".to_owned()
         }
+        Unidentifiable::SimulationFails => {
+            "the model does not simulate when it moves either way from the point reached: its effect could not be measured there".to_owned()
+        }
         Unidentifiable::Collinear { with } => {
             format!("only a combination with {} is determined", with.join(", "))
         }
