@@ -846,9 +846,7 @@ def weigh(
         else [
             _run_spec(r)
             for r in (
-                calibration_run
-                if isinstance(calibration_run, (list, tuple))
-                else [calibration_run]
+                calibration_run if isinstance(calibration_run, (list, tuple)) else [calibration_run]
             )
         ],
     )
