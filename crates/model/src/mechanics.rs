@@ -60,9 +60,12 @@ pub fn lever_accelerations(
     // (a grey-box fit drove I_g there when the runs did not determine it). I_g is floored
     // just above it, so the model stays finite and continuous and such an I_g shows as no
     // sensitivity. The axle alone gives I_g ≥ m2 l1², far above the floor, on a real truck.
-    let inertia = body
-        .inertia_kg_m2
-        .max(MIN_INERTIA_MARGIN * coupling * coupling / total);
+    let inertia = if total > 0.0 {
+        body.inertia_kg_m2
+            .max(MIN_INERTIA_MARGIN * coupling * coupling / total)
+    } else {
+        body.inertia_kg_m2
+    };
     let r_x = forces.tire_n - total * g - m2 * body.l1_m * sin_a * alpha_dot * alpha_dot;
     let q_alpha = cos_a
         * (body.l1_m * (m2 * g - forces.tire_n) + body.l12_m * forces.bellow_n

@@ -835,20 +835,19 @@ def weigh(
         reads high, ``hysteresis_kg < 0`` takes it out). With the static method the standard
         deviation then comes from the calibration's residuals.
     """
+    if isinstance(calibration_run, (list, tuple)):
+        if not calibration_run:
+            raise ValueError("calibration_run is an empty list: give a run, or None")
+        calibration = [_run_spec(r) for r in calibration_run]
+    else:
+        calibration = None if calibration_run is None else [_run_spec(calibration_run)]
     result = _native.weigh(
         _as_truck(truck)._native,
         _run_spec(run),
         method=method,
         model=model,
         window_s=float(window_s),
-        calibration_run=None
-        if calibration_run is None
-        else [
-            _run_spec(r)
-            for r in (
-                calibration_run if isinstance(calibration_run, (list, tuple)) else [calibration_run]
-            )
-        ],
+        calibration_run=calibration,
     )
     frame = pd.DataFrame(
         {

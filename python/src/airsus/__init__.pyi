@@ -141,7 +141,7 @@ def weigh(
     *,
     model: str = "m2",
     window_s: float = 2.0,
-    calibration_run: Optional[RunLike] = None,
+    calibration_run: Union[None, RunLike, Sequence[RunLike]] = None,
 ) -> pd.DataFrame: ...
 def study(
     path: Optional[PathLike],

@@ -88,7 +88,7 @@ def weigh(
     method: Optional[str] = None,
     model: Optional[str] = None,
     window_s: Optional[float] = None,
-    calibration_run: Optional[_RunSpec] = None,
+    calibration_run: Optional[List[_RunSpec]] = None,
 ) -> Dict[str, Any]: ...
 def study(
     study_file: Optional[str],

@@ -120,7 +120,8 @@ fn consistent_start(
     let (mut m0, mut m1) = (static_load_kg, static_load_kg * 1.01);
     let (_, mut g0) = balance(m0)?;
     let (mut x1, mut g1) = balance(m1)?;
-    for _ in 0..12 {
+    // 12 secant updates, each tested (the 13th pass only tests the last one).
+    for _ in 0..13 {
         // 1 Pa is far below the sensor's noise (0.2 kPa).
         if g1.abs() < 1.0 {
             return (m1 > 0.0).then_some((m1, x1));
@@ -156,8 +157,11 @@ pub struct LoadEkf {
 }
 
 impl LoadEkf {
-    /// Starts the filter from the first reading: the static balance `law` gives the initial
-    /// load, the model's static equilibrium at that load and the measured pressure the rest.
+    /// Starts the filter from the first reading: at the load where the model's own static
+    /// equilibrium at the measured height has the measured pressure, and in that equilibrium
+    /// (the static balance `law`'s load is the first guess). Where the model has no such
+    /// equilibrium nearby, from the law's load and the model's equilibrium at the measured
+    /// pressure.
     pub fn new(
         model: Box<dyn SuspensionModel>,
         law: &StaticLaw,
@@ -387,18 +391,20 @@ impl LoadEkf {
         let s = &h * &p_pred * h.transpose() + &r;
         let s_inv = s.try_inverse().ok_or_else(singular)?;
         let distance = innovation.dot(&(&s_inv * &innovation)).max(0.0).sqrt();
-        let mut innovation = innovation;
+        // The gain is scaled, not the innovation, so that the covariance (Joseph form, valid
+        // for any gain) says how little a bounded reading was believed.
+        let mut trust = 1.0;
         if distance > t.innovation_gate_sigma {
-            self.beyond_gate += 1;
             // A glitch is short; readings that stay beyond the gate are a real change (a load
             // set down) and are taken whole, or the estimate would crawl after it.
-            if self.beyond_gate <= t.glitch_samples {
-                innovation *= t.innovation_gate_sigma / distance;
+            if self.beyond_gate < t.glitch_samples {
+                trust = t.innovation_gate_sigma / distance;
             }
+            self.beyond_gate += 1;
         } else {
             self.beyond_gate = 0;
         }
-        let k = &p_pred * h.transpose() * s_inv;
+        let k = &p_pred * h.transpose() * s_inv * trust;
         let z_new = DVector::from_vec(z_pred) + &k * innovation;
         let i_kh = DMatrix::identity(m, m) - &k * &h;
         // Joseph form keeps P symmetric positive semi-definite.
@@ -422,8 +428,8 @@ impl LoadEkf {
 /// The filter's own covariance only knows the noise it was told about; the model's parameters
 /// are taken as exact. The reported standard deviation therefore adds, in quadrature, the
 /// parameter part of `weigher`'s static uncertainty at the filter's current load (the same
-/// parameters fix the static balance the filter converges to). `weigher.law` gives the
-/// initial load.
+/// parameters fix the static balance the filter converges to). `weigher.law` gives the first
+/// guess of the initial load ([`LoadEkf::new`]).
 pub fn weigh_ekf(
     run: &airsus_data::Run,
     model: Box<dyn SuspensionModel>,
@@ -460,6 +466,9 @@ pub fn weigh_ekf(
     series.time_s.push(run.time_s[0]);
     series.wheel_load_kg.push(m0);
     series.std_kg.push(s0.hypot(parameter_std(0)));
+    // The filter's own part (the sensors' noise and the process noise it was told about):
+    // a calibration replaces the parameter part by what its residuals measured.
+    series.measurement_std_kg.push(s0);
     for k in 1..run.len() {
         // The valve state logged at sample k-1 acted over (t_{k-1}, t_k].
         let (m, s) = ekf.step(
@@ -471,6 +480,7 @@ pub fn weigh_ekf(
         series.time_s.push(run.time_s[k]);
         series.wheel_load_kg.push(m);
         series.std_kg.push(s.hypot(parameter_std(k)));
+        series.measurement_std_kg.push(s);
     }
     Ok(series)
 }

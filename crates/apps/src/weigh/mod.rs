@@ -240,8 +240,9 @@ pub struct LinearCalibration {
     /// not Gaussian, so `1.96 × rms` would cover nearly all of them.
     pub residual_q95_kg: f64,
     pub samples: usize,
-    /// Terms the calibration run could not determine, left at zero, each with the reason
-    /// (`"height: the standstill heights span 0.05 mm"`). Printed by `weigh`.
+    /// Terms the calibration runs could not determine, left at zero, each with the reason
+    /// (`"height: collinear with the other terms on these runs (condition 63)"`). Printed
+    /// by `weigh`.
     pub dropped: Vec<String>,
 }
 
@@ -316,17 +317,29 @@ fn fit_centred(
         });
         let b = nalgebra::DVector::from_iterator(y.len(), y.iter().map(|v| v - my));
         let svd = a.clone().svd(true, true);
-        let (smax, smin) = svd
-            .singular_values
+        let sv = &svd.singular_values;
+        let (smax, smin, weakest) = sv
             .iter()
-            .fold((0.0f64, f64::INFINITY), |(hi, lo), &s| {
-                (hi.max(s), lo.min(s))
+            .enumerate()
+            .fold((0.0f64, f64::INFINITY, 0usize), |(hi, lo, at), (i, &s)| {
+                (hi.max(s), lo.min(s), if s < lo { i } else { at })
             });
-        // Correlation 0.999 between two standardised columns gives smin/smax ≈ 0.022.
+        // Correlation 0.999 between two standardised columns gives smin/smax ≈ 0.022. The
+        // term dropped is the one (never the estimate) that carries most of the weakest
+        // direction: the one the runs cannot tell from the others.
         if k > 1 && smin < 0.02 * smax {
-            let (name, _, _) = columns.pop().expect("k > 1");
+            let drop = svd
+                .v_t
+                .as_ref()
+                .and_then(|v_t| {
+                    (1..k).max_by(|&i, &j| {
+                        v_t[(weakest, i)].abs().total_cmp(&v_t[(weakest, j)].abs())
+                    })
+                })
+                .unwrap_or(k - 1);
+            let (name, _, _) = columns.remove(drop);
             dropped.push(format!(
-                "{name}: collinear with the other terms on this run (condition {:.0})",
+                "{name}: collinear with the other terms on these runs (condition {:.0})",
                 smax / smin
             ));
             continue;
@@ -422,11 +435,13 @@ impl LinearCalibration {
             let idx = evaluate::standstill_indices(run.time_s, run.known_kg, run.valve, rule);
             let heights = run.height_m.filter(|_| with_heights);
             if idx.iter().any(|&k| {
-                !run.estimate_kg[k].is_finite() || heights.is_some_and(|h| !h[k].is_finite())
+                !run.estimate_kg[k].is_finite()
+                    || !run.known_kg[k].is_finite()
+                    || heights.is_some_and(|h| !h[k].is_finite())
             }) {
                 return Err(invalid(
                     format!("calibration run {}", i + 1),
-                    "an estimate or a height at a standstill is not a number",
+                    "a known load, an estimate or a height at a standstill is not a number",
                 ));
             }
             let run_z = heights.map(|h| run_friction_state(run.time_s, h));
@@ -511,9 +526,10 @@ impl LinearCalibration {
     /// between the levels, the noise) sets it, `σ = q95 / 1.96` with `q95` the residuals' 95th
     /// percentile, and a sample noisier than the calibration's (a shorter average) widens it,
     /// `σ = max(q95 / 1.96, g σ_meas)`. The assumed parameter part is dropped: the calibration
-    /// measured what it does. Without the noise part (the EKF does not split it off), the
-    /// standard deviation only scales with the gain: the interval from the residuals is the
-    /// static method's.
+    /// measured what it does. For the EKF, `σ_meas` is the filter's own standard deviation
+    /// (wide while it converges or while the load changes). Without the noise part (an
+    /// estimator that does not split it off), the standard deviation only scales with the
+    /// gain.
     ///
     /// A calibration with a height or hysteresis term needs the run's sensor heights, one per
     /// sample: without them it is an error, not a silently different calibration.

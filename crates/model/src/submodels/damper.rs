@@ -2,7 +2,8 @@
 
 use airsus_data::DamperTable;
 
-/// Damper force against extension velocity, piecewise affine through the table points.
+/// Damper force against extension velocity, piecewise affine through the table points, with
+/// rounded corners (see [`Damper::force_n`]).
 ///
 /// Sign convention (SPEC §5): positive velocity is extension (rebound); the force is the
 /// resisting force, positive in rebound, so the power `F·v` it absorbs is non-negative for a
@@ -120,7 +121,9 @@ impl Damper {
 }
 
 /// Half-width of the rounded corners of the damper table, m/s (see [`Damper::force_n`]): at
-/// most 5 mm/s, so a force off the table's segments by at most a few newtons.
+/// most 5 mm/s. The force leaves the segments by at most `(4/27) d |s_mid − s|` (`s` a
+/// segment's slope, `s_mid` the corner's): about 7 N at the reference table's zero-velocity
+/// corner (15 and 30 kN s/m).
 pub const CORNER_HALF_WIDTH_M_S: f64 = 0.005;
 
 #[cfg(test)]
