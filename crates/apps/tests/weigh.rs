@@ -338,7 +338,12 @@ fn cal_run<'a>(run: &'a Run, est: &'a WeighSeries, h: Option<&'a [f64]>) -> Cali
         known_kg: &run.inputs.wheel_load_kg,
         valve: &run.inputs.valve,
         height_m: h,
+        quality: None,
     }
+}
+
+fn flags(run: &Run) -> Vec<WeighQuality> {
+    quality_flags(run, &StandstillDetector::default()).unwrap()
 }
 
 /// Calibrated with the nominal truck file (a larger mismatch than any estimated file) on the
@@ -476,14 +481,19 @@ fn ekf_on_a_richer_truck_calibrated_held_out() {
         let ds2 = run_experiment(&vt, &data_set_2(m2, 2), -friction, 2).unwrap();
         let (est1, est3) = (ekf(&ds1.logged), ekf(&ds3.logged));
         let (h1, h3) = (heights(&ds1.logged), heights(&ds3.logged));
+        let (q1, q3) = (flags(&ds1.logged), flags(&ds3.logged));
         let cal = LinearCalibration::fit_runs(
             &[
-                cal_run(&ds1.logged, &est1, Some(&h1)),
-                cal_run(&ds3.logged, &est3, Some(&h3)),
+                cal_run(&ds1.logged, &est1, Some(&h1)).with_quality(&q1),
+                cal_run(&ds3.logged, &est3, Some(&h3)).with_quality(&q3),
             ],
             &StandstillRule::default(),
         )
         .unwrap();
+        println!(
+            "variant {variant}: residual q95 standstill {:.1} kg, settling {:?}, valve {:?}",
+            cal.residual_q95_kg, cal.settling_q95_kg, cal.valve_q95_kg
+        );
         let raw = ekf(&ds2.logged);
         let truth = &ds2.truth.inputs.wheel_load_kg;
         let uncalibrated = score(&ds2.logged, truth, &raw);
@@ -502,6 +512,33 @@ fn ekf_on_a_richer_truck_calibrated_held_out() {
             calibrated.standstill.within_95_interval,
             calibrated.standstill.mean_std_kg,
         );
+        for (name, run, truth) in [
+            {
+                let ds4 = run_experiment(&vt, &data_set_4(m2, 4), friction, 4).unwrap();
+                ("ds4", ds4.logged, ds4.truth.inputs.wheel_load_kg)
+            },
+            {
+                let (lev, t) = levelling_run(&vt, 40 + u64::from(variant));
+                ("levelling", lev, t)
+            },
+        ] {
+            let a = score(
+                &run,
+                &truth,
+                &cal.apply_with_quality(&ekf(&run), Some(&heights(&run)), Some(&flags(&run)))
+                    .unwrap(),
+            );
+            println!(
+                "  {name}: standstill max {:.3} % cov {:.3}; after valve max {:.3} % cov {:.3}; valve at work max {:.3} % mean {:+.3} % cov {:.3}",
+                a.standstill.max_abs_error_percent,
+                a.standstill.within_95_interval,
+                a.after_valve.max_abs_error_percent,
+                a.after_valve.within_95_interval,
+                a.valve_activity.max_abs_error_percent,
+                a.valve_activity.mean_error_percent,
+                a.valve_activity.within_95_interval,
+            );
+        }
         let who = format!("variant {variant}");
         // The nominal file is 7-10 % off and its assumed parameter errors do not cover it.
         assert!(

@@ -100,11 +100,9 @@ fn run_weigh(
         })
     };
     let mut series = estimate(&run).with_context(|| format!("weighing {}", source.label()))?;
-    let quality = quality_flags(&run, &StandstillDetector::default())
-        .with_context(|| format!("flagging the samples of {}", source.label()))?
-        .into_iter()
-        .map(|q| q.as_str())
-        .collect();
+    let flags = quality_flags(&run, &StandstillDetector::default())
+        .with_context(|| format!("flagging the samples of {}", source.label()))?;
+    let quality = flags.iter().map(|q| q.as_str()).collect();
     let mut fitted = None;
     if !calibration.is_empty() {
         let rule = StandstillRule::default();
@@ -115,14 +113,20 @@ fn run_weigh(
                 .with_context(|| format!("reading {}", cal_source.label()))?;
             let cal_est =
                 estimate(&cal_run).with_context(|| format!("weighing {}", cal_source.label()))?;
-            cal_runs.push((cal_run, cal_est));
+            let cal_flags = quality_flags(&cal_run, &StandstillDetector::default())
+                .with_context(|| format!("flagging the samples of {}", cal_source.label()))?;
+            cal_runs.push((cal_run, cal_est, cal_flags));
         }
         let runs = cal_runs
             .iter()
-            .map(|(run, est)| CalibrationRun::from_run(run, est).map_err(anyhow::Error::from))
+            .map(|(run, est, flags)| Ok(CalibrationRun::from_run(run, est)?.with_quality(flags)))
             .collect::<anyhow::Result<Vec<_>>>()?;
         let cal = LinearCalibration::fit_runs(&runs, &rule).context("calibrating")?;
-        series = cal.apply(&series, Some(&run.measured()?.sensor_height_m))?;
+        series = cal.apply_with_quality(
+            &series,
+            Some(&run.measured()?.sensor_height_m),
+            Some(&flags),
+        )?;
         fitted = Some(cal);
     }
     Ok(Weighed {
@@ -179,6 +183,8 @@ pub fn weigh<'py>(
             cal.set_item("samples", c.samples)?;
             cal.set_item("residual_rms_kg", c.residual_rms_kg)?;
             cal.set_item("residual_q95_kg", c.residual_q95_kg)?;
+            cal.set_item("settling_q95_kg", c.settling_q95_kg)?;
+            cal.set_item("valve_q95_kg", c.valve_q95_kg)?;
             cal.set_item("dropped", c.dropped)?;
             out.set_item("calibration", cal)?;
         }

@@ -829,11 +829,13 @@ def weigh(
         trusted, from the run alone: ``standstill`` (read the scale here), ``settling`` or
         ``valve``. ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg,
         hysteresis_kg, height_kg_per_mm, reference_height_mm, samples, residual_rms_kg,
-        residual_q95_kg`` and ``dropped`` (the terms the run did not determine, with why) when
-        ``calibration_run`` is given: ``load = gain·estimate + offset + hysteresis·z +
-        height·(h − reference)``, with ``z`` the wall-friction state from the heights (a fill
-        reads high, ``hysteresis_kg < 0`` takes it out). With the static method the standard
-        deviation then comes from the calibration's residuals.
+        residual_q95_kg, settling_q95_kg, valve_q95_kg`` and ``dropped`` (the terms the runs
+        did not determine, with why) when ``calibration_run`` is given:
+        ``load = gain·estimate + offset + hysteresis·z + height·(h − reference)``, with ``z``
+        the wall-friction state from the heights (a fill reads high, ``hysteresis_kg < 0``
+        takes it out). The standard deviation then comes from the calibration's residuals,
+        per quality class (``settling_q95_kg`` and ``valve_q95_kg``: what the calibration
+        runs showed while the air moved; None with too few such samples).
     """
     if isinstance(calibration_run, (list, tuple)):
         if not calibration_run:

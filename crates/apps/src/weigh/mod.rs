@@ -239,6 +239,13 @@ pub struct LinearCalibration {
     /// held 95 % of the known standstill loads. Wall friction makes the residuals bounded,
     /// not Gaussian, so `1.96 × rms` would cover nearly all of them.
     pub residual_q95_kg: f64,
+    /// The same for the calibration runs' samples flagged `settling` and `valve`
+    /// ([`WeighQuality`]) while their known load had been steady for `rule.load_settle_s`,
+    /// kg: what the calibrated estimate misses while the air moves and settles. `None` when
+    /// the runs had fewer than 50 such samples (or no quality flags were given); such
+    /// samples then get the standstill interval.
+    pub settling_q95_kg: Option<f64>,
+    pub valve_q95_kg: Option<f64>,
     pub samples: usize,
     /// Terms the calibration runs could not determine, left at zero, each with the reason
     /// (`"height: collinear with the other terms on these runs (condition 63)"`). Printed
@@ -257,6 +264,18 @@ pub struct CalibrationRun<'a> {
     pub valve: &'a [airsus_data::ValveState],
     /// Sensor heights, m (for the hysteresis and height terms).
     pub height_m: Option<&'a [f64]>,
+    /// The run's quality flags ([`quality_flags`]), for the intervals away from standstill.
+    pub quality: Option<&'a [WeighQuality]>,
+}
+
+/// The 95th percentile of non-negative values (sorted in place); `None` when empty.
+fn q95(values: &mut [f64]) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    let m = values.len() as f64;
+    Some(values[((0.95 * m).ceil() as usize).clamp(1, values.len()) - 1])
 }
 
 /// What [`fit_centred`] found: `(name, coefficient, the column's mean)` of the kept columns,
@@ -272,7 +291,16 @@ impl<'a> CalibrationRun<'a> {
             known_kg: &run.inputs.wheel_load_kg,
             valve: &run.inputs.valve,
             height_m: Some(&run.measured()?.sensor_height_m),
+            quality: None,
         })
+    }
+
+    /// The same run with its quality flags ([`quality_flags`]).
+    pub fn with_quality(self, quality: &'a [WeighQuality]) -> Self {
+        Self {
+            quality: Some(quality),
+            ..self
+        }
     }
 }
 
@@ -378,6 +406,8 @@ impl LinearCalibration {
             reference_height_mm: 0.0,
             residual_rms_kg: 0.0,
             residual_q95_kg: 0.0,
+            settling_q95_kg: None,
+            valve_q95_kg: None,
             samples: 0,
             dropped: Vec::new(),
         }
@@ -407,6 +437,7 @@ impl LinearCalibration {
                 known_kg,
                 valve,
                 height_m,
+                quality: None,
             }],
             rule,
         )
@@ -504,9 +535,55 @@ impl LinearCalibration {
             .collect();
         let m = residuals.len() as f64;
         cal.residual_rms_kg = (residuals.iter().map(|r| r * r).sum::<f64>() / m).sqrt();
-        residuals.sort_by(f64::total_cmp);
-        cal.residual_q95_kg = residuals[((0.95 * m).ceil() as usize).clamp(1, residuals.len()) - 1];
+        cal.residual_q95_kg = q95(&mut residuals).unwrap_or(0.0);
+        (cal.settling_q95_kg, cal.valve_q95_kg) = cal.moving_air_q95(runs, rule, with_heights);
         Ok(cal)
+    }
+
+    /// The residuals' 95th percentiles of the samples flagged `settling` and `valve` (see
+    /// [`Self::settling_q95_kg`]).
+    fn moving_air_q95(
+        &self,
+        runs: &[CalibrationRun<'_>],
+        rule: &StandstillRule,
+        with_heights: bool,
+    ) -> (Option<f64>, Option<f64>) {
+        let (mut settling, mut valve) = (Vec::new(), Vec::new());
+        for run in runs {
+            let Some(quality) = run.quality.filter(|q| q.len() == run.time_s.len()) else {
+                continue;
+            };
+            let z = run
+                .height_m
+                .filter(|_| with_heights)
+                .map(|h| run_friction_state(run.time_s, h));
+            let mut changed_s = f64::NEG_INFINITY;
+            for k in 0..run.time_s.len() {
+                if k > 0 && (run.known_kg[k] - run.known_kg[k - 1]).abs() > rule.steady_tolerance_kg
+                {
+                    changed_s = run.time_s[k];
+                }
+                let steady = run.time_s[k] - changed_s >= rule.load_settle_s;
+                if !steady || !run.estimate_kg[k].is_finite() || !run.known_kg[k].is_finite() {
+                    continue;
+                }
+                let (zk, hk) = match (&z, run.height_m) {
+                    (Some(z), Some(h)) => (z[k], h[k]),
+                    _ => (0.0, 0.0),
+                };
+                let r = (self.reading_kg(run.estimate_kg[k], zk, hk) - run.known_kg[k]).abs();
+                if !r.is_finite() {
+                    continue;
+                }
+                match quality[k] {
+                    WeighQuality::Settling => settling.push(r),
+                    WeighQuality::Valve => valve.push(r),
+                    WeighQuality::Standstill => {}
+                }
+            }
+        }
+        let enough = |mut v: Vec<f64>| if v.len() >= 50 { q95(&mut v) } else { None };
+        (enough(settling), enough(valve))
     }
 
     /// One calibrated reading from the estimate, the friction state and the sensor height (m).
@@ -538,7 +615,35 @@ impl LinearCalibration {
         series: &WeighSeries,
         height_m: Option<&[f64]>,
     ) -> Result<WeighSeries, AppError> {
+        self.apply_with_quality(series, height_m, None)
+    }
+
+    /// [`Self::apply`], with the run's quality flags: a sample flagged `settling` or `valve`
+    /// gets the interval the calibration measured for such samples
+    /// ([`Self::settling_q95_kg`], [`Self::valve_q95_kg`]) instead of the standstill one.
+    pub fn apply_with_quality(
+        &self,
+        series: &WeighSeries,
+        height_m: Option<&[f64]>,
+        quality: Option<&[WeighQuality]>,
+    ) -> Result<WeighSeries, AppError> {
         let g = self.gain.abs();
+        if quality.is_some_and(|q| q.len() != series.len()) {
+            return Err(invalid(
+                "calibration",
+                "the quality flags and the load samples differ in number",
+            ));
+        }
+        let q95_at = |k: usize| {
+            let class = quality.map(|q| q[k]);
+            match class {
+                Some(WeighQuality::Settling) => self.settling_q95_kg,
+                Some(WeighQuality::Valve) => self.valve_q95_kg.or(self.settling_q95_kg),
+                _ => None,
+            }
+            .unwrap_or(self.residual_q95_kg)
+            .max(self.residual_q95_kg)
+        };
         let (z, heights) = match height_m {
             Some(h) if h.len() == series.len() => (run_friction_state(&series.time_s, h), h),
             Some(h) if self.uses_height() => {
@@ -563,7 +668,8 @@ impl LinearCalibration {
             series
                 .measurement_std_kg
                 .iter()
-                .map(|s| (g * s).max(self.residual_q95_kg / 1.96))
+                .enumerate()
+                .map(|(k, s)| (g * s).max(q95_at(k) / 1.96))
                 .collect()
         } else {
             series.std_kg.iter().map(|s| g * s).collect()
@@ -625,6 +731,7 @@ mod tests {
             known_kg: &s.known_kg,
             valve: &s.valve,
             height_m: Some(&s.height_m),
+            quality: None,
         }
     }
 
@@ -677,6 +784,56 @@ mod tests {
         // different calibration.
         assert!(cal.apply(&s, None).is_err());
         assert!(cal.apply(&s, Some(&[0.25, 0.25])).is_err());
+    }
+
+    #[test]
+    fn samples_away_from_standstill_get_the_interval_measured_for_them() {
+        let loading = synthetic(step_load, |k| 0.235 - (step_load(k) - 3000.0) * 2e-5);
+        let mut valve = synthetic(|_| 3300.0, |k| 0.215 + 0.01 * (k / 1000) as f64);
+        // The estimate misses by 30 kg while the air moves (flagged `valve`), not otherwise.
+        let flags: Vec<WeighQuality> = (0..valve.time_s.len())
+            .map(|k| {
+                if k % 1000 > 900 {
+                    WeighQuality::Valve
+                } else {
+                    WeighQuality::Standstill
+                }
+            })
+            .collect();
+        for (k, f) in flags.iter().enumerate() {
+            if *f == WeighQuality::Valve {
+                valve.estimate_kg[k] += if k % 2 == 0 { 30.0 } else { -30.0 } / 1.05;
+                valve.valve[k] = ValveState::Fill;
+            }
+        }
+        let cal = LinearCalibration::fit_runs(
+            &[as_run(&loading), as_run(&valve).with_quality(&flags)],
+            &StandstillRule::default(),
+        )
+        .unwrap();
+        let q = cal.valve_q95_kg.expect("enough valve samples");
+        assert!((q - 30.0).abs() < 0.5, "{cal:?}");
+        assert!(cal.residual_q95_kg < 1.0, "{cal:?}");
+        let s = WeighSeries {
+            time_s: vec![0.0, 0.1],
+            wheel_load_kg: vec![3000.0, 3000.0],
+            std_kg: vec![1.0, 1.0],
+            measurement_std_kg: vec![0.1, 0.1],
+        };
+        let h = [0.23, 0.23];
+        let read = cal
+            .apply_with_quality(
+                &s,
+                Some(&h),
+                Some(&[WeighQuality::Standstill, WeighQuality::Valve]),
+            )
+            .unwrap();
+        assert!((read.std_kg[1] - q / 1.96).abs() < 1e-9, "{read:?}");
+        assert!(read.std_kg[0] < 1.0, "{read:?}");
+        assert!(
+            cal.apply_with_quality(&s, Some(&h), Some(&[WeighQuality::Valve]))
+                .is_err()
+        );
     }
 
     #[test]

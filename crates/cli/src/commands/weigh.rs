@@ -99,17 +99,23 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     };
     let mut series = estimate(&run).with_context(|| format!("weighing {}", args.run.display()))?;
     let rule = StandstillRule::default();
+    // How far each sample can be trusted, from the run alone.
+    let quality = quality_flags(&run, &StandstillDetector::default())
+        .with_context(|| format!("flagging the samples of {}", args.run.display()))?;
+
     if !args.calibration_run.is_empty() {
         let mut cal_runs = Vec::new();
         for path in &args.calibration_run {
             let cal_run = read_run_file(path, Outputs::Required, &source)?;
             let cal_est =
                 estimate(&cal_run).with_context(|| format!("weighing {}", path.display()))?;
-            cal_runs.push((cal_run, cal_est));
+            let flags = quality_flags(&cal_run, &StandstillDetector::default())
+                .with_context(|| format!("flagging the samples of {}", path.display()))?;
+            cal_runs.push((cal_run, cal_est, flags));
         }
         let runs = cal_runs
             .iter()
-            .map(|(run, est)| CalibrationRun::from_run(run, est).map_err(anyhow::Error::from))
+            .map(|(run, est, flags)| Ok(CalibrationRun::from_run(run, est)?.with_quality(flags)))
             .collect::<anyhow::Result<Vec<_>>>()?;
         let names = args
             .calibration_run
@@ -130,14 +136,20 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             cal.residual_rms_kg,
             cal.residual_q95_kg
         );
+        if let (Some(settling), Some(valve)) = (cal.settling_q95_kg, cal.valve_q95_kg) {
+            println!(
+                "  away from standstill, 95 % within {settling:.1} kg settling, {valve:.1} kg with the valve open"
+            );
+        }
         for why in &cal.dropped {
             eprintln!("note: calibration term left out, {why}");
         }
-        series = cal.apply(&series, Some(&run.measured()?.sensor_height_m))?;
+        series = cal.apply_with_quality(
+            &series,
+            Some(&run.measured()?.sensor_height_m),
+            Some(&quality),
+        )?;
     }
-    // How far each sample can be trusted, from the run alone.
-    let quality = quality_flags(&run, &StandstillDetector::default())
-        .with_context(|| format!("flagging the samples of {}", args.run.display()))?;
     let count = |q: WeighQuality| quality.iter().filter(|&&f| f == q).count();
     let method = match args.method {
         Method::Static => format!("static force balance, {:.1} s average", args.window_s),
