@@ -9,8 +9,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use airsus_apps::weigh::{
-    CalibrationRun, EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw,
-    StaticWeigher, WeighSeries, WeighingUncertainty, quality_flags, weigh_ekf, weigh_static,
+    EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw, StaticWeigher,
+    WeighSeries, WeighingUncertainty, quality_flags, weigh_ekf, weigh_static,
 };
 use airsus_data::{Outputs, Run, TruckParameters};
 use airsus_study::{
@@ -113,15 +113,10 @@ fn run_weigh(
                 .with_context(|| format!("reading {}", cal_source.label()))?;
             let cal_est =
                 estimate(&cal_run).with_context(|| format!("weighing {}", cal_source.label()))?;
-            let cal_flags = quality_flags(&cal_run, &StandstillDetector::default())
-                .with_context(|| format!("flagging the samples of {}", cal_source.label()))?;
-            cal_runs.push((cal_run, cal_est, cal_flags));
+            cal_runs.push((cal_run, cal_est));
         }
-        let runs = cal_runs
-            .iter()
-            .map(|(run, est, flags)| Ok(CalibrationRun::from_run(run, est)?.with_quality(flags)))
-            .collect::<anyhow::Result<Vec<_>>>()?;
-        let cal = LinearCalibration::fit_runs(&runs, &rule).context("calibrating")?;
+        let runs: Vec<_> = cal_runs.iter().map(|(run, est)| (run, est)).collect();
+        let cal = LinearCalibration::fit_weighed_runs(&runs, &rule).context("calibrating")?;
         series = cal.apply_with_quality(
             &series,
             Some(&run.measured()?.sensor_height_m),

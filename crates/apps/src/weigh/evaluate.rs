@@ -165,6 +165,28 @@ pub fn standstill_indices(
     classify(time_s, load_kg, valve, rule).standstill
 }
 
+/// At every sample, the time the load last moved by more than `rule.steady_tolerance_kg`
+/// from the level it had settled at (−∞ before the first change).
+pub(crate) fn last_load_change_s(
+    time_s: &[f64],
+    load_kg: &[f64],
+    rule: &StandstillRule,
+) -> Vec<f64> {
+    let mut last_change_s = f64::NEG_INFINITY;
+    let mut reference_load = load_kg.first().copied().unwrap_or(0.0);
+    time_s
+        .iter()
+        .zip(load_kg)
+        .map(|(&t, &m)| {
+            if (m - reference_load).abs() > rule.steady_tolerance_kg {
+                last_change_s = t;
+                reference_load = m;
+            }
+            last_change_s
+        })
+        .collect()
+}
+
 /// Sample indices of each class (module docs).
 struct Classes {
     standstill: Vec<usize>,
@@ -185,15 +207,11 @@ fn classify(
     let mut after = Vec::new();
     let mut valve_activity = Vec::new();
     // Last time the load changed or the valve was open, scanning forward.
-    let mut last_change_s = f64::NEG_INFINITY;
+    let load_changed_s = last_load_change_s(&time_s[..n], &true_kg[..n], rule);
     let mut last_valve_s = f64::NEG_INFINITY;
-    let mut reference_load = true_kg.first().copied().unwrap_or(0.0);
     for k in 0..n {
         let t = time_s[k];
-        if (true_kg[k] - reference_load).abs() > rule.steady_tolerance_kg {
-            last_change_s = t;
-            reference_load = true_kg[k];
-        }
+        let last_change_s = load_changed_s[k];
         if valve[k] != ValveState::Closed {
             last_valve_s = t;
         }

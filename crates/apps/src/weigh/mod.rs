@@ -344,7 +344,7 @@ fn fit_centred(
             (columns[j].1[i] - stats[j].0) / stats[j].1
         });
         let b = nalgebra::DVector::from_iterator(y.len(), y.iter().map(|v| v - my));
-        let svd = a.clone().svd(true, true);
+        let svd = a.svd(true, true);
         let sv = &svd.singular_values;
         let (smax, smin, weakest) = sv
             .iter()
@@ -451,6 +451,8 @@ impl LinearCalibration {
         let with_heights = !runs.is_empty() && runs.iter().all(|r| r.height_m.is_some());
         let (mut estimate, mut known, mut z, mut height_mm) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        // Each run's wall-friction state, for the fit and the intervals away from standstill.
+        let mut run_zs = Vec::with_capacity(runs.len());
         for (i, run) in runs.iter().enumerate() {
             let n = run.time_s.len();
             if run.estimate_kg.len() != n
@@ -484,6 +486,7 @@ impl LinearCalibration {
                     height_mm.push(h[k] * 1e3);
                 }
             }
+            run_zs.push(run_z);
         }
         let levels = {
             let mut l: Vec<f64> = known.iter().map(|m| (m / 10.0).round()).collect();
@@ -536,8 +539,30 @@ impl LinearCalibration {
         let m = residuals.len() as f64;
         cal.residual_rms_kg = (residuals.iter().map(|r| r * r).sum::<f64>() / m).sqrt();
         cal.residual_q95_kg = q95(&mut residuals).unwrap_or(0.0);
-        (cal.settling_q95_kg, cal.valve_q95_kg) = cal.moving_air_q95(runs, rule, with_heights);
+        (cal.settling_q95_kg, cal.valve_q95_kg) = cal.moving_air_q95(runs, &run_zs, rule);
         Ok(cal)
+    }
+
+    /// [`Self::fit_runs`] on runs with known loads and their uncalibrated estimates, each
+    /// with its sensor heights and its quality flags ([`quality_flags`]): what `weigh
+    /// --calibration-run` fits.
+    pub fn fit_weighed_runs(
+        runs: &[(&Run, &WeighSeries)],
+        rule: &StandstillRule,
+    ) -> Result<Self, AppError> {
+        let detector = StandstillDetector::default();
+        let flags = runs
+            .iter()
+            .map(|(run, _)| quality_flags(run, &detector))
+            .collect::<Result<Vec<_>, _>>()?;
+        let calibration_runs = runs
+            .iter()
+            .zip(&flags)
+            .map(|((run, estimate), flags)| {
+                Ok(CalibrationRun::from_run(run, estimate)?.with_quality(flags))
+            })
+            .collect::<Result<Vec<_>, AppError>>()?;
+        Self::fit_runs(&calibration_runs, rule)
     }
 
     /// The residuals' 95th percentiles of the samples flagged `settling` and `valve` (see
@@ -545,29 +570,21 @@ impl LinearCalibration {
     fn moving_air_q95(
         &self,
         runs: &[CalibrationRun<'_>],
+        run_zs: &[Option<Vec<f64>>],
         rule: &StandstillRule,
-        with_heights: bool,
     ) -> (Option<f64>, Option<f64>) {
         let (mut settling, mut valve) = (Vec::new(), Vec::new());
-        for run in runs {
+        for (run, z) in runs.iter().zip(run_zs) {
             let Some(quality) = run.quality.filter(|q| q.len() == run.time_s.len()) else {
                 continue;
             };
-            let z = run
-                .height_m
-                .filter(|_| with_heights)
-                .map(|h| run_friction_state(run.time_s, h));
-            let mut changed_s = f64::NEG_INFINITY;
+            let load_changed_s = evaluate::last_load_change_s(run.time_s, run.known_kg, rule);
             for k in 0..run.time_s.len() {
-                if k > 0 && (run.known_kg[k] - run.known_kg[k - 1]).abs() > rule.steady_tolerance_kg
-                {
-                    changed_s = run.time_s[k];
-                }
-                let steady = run.time_s[k] - changed_s >= rule.load_settle_s;
+                let steady = run.time_s[k] - load_changed_s[k] >= rule.load_settle_s;
                 if !steady || !run.estimate_kg[k].is_finite() || !run.known_kg[k].is_finite() {
                     continue;
                 }
-                let (zk, hk) = match (&z, run.height_m) {
+                let (zk, hk) = match (z, run.height_m) {
                     (Some(z), Some(h)) => (z[k], h[k]),
                     _ => (0.0, 0.0),
                 };

@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use airsus_apps::weigh::{
-    CalibrationRun, EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw,
-    StaticWeigher, WeighQuality, WeighingUncertainty, evaluate_weighing, quality_flags, weigh_ekf,
-    weigh_static, write_weigh_csv,
+    EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw, StaticWeigher,
+    WeighQuality, WeighingUncertainty, evaluate_weighing, quality_flags, weigh_ekf, weigh_static,
+    write_weigh_csv,
 };
 use airsus_data::{Outputs, RunSource, read_run, read_truck};
 
@@ -102,28 +102,22 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     // How far each sample can be trusted, from the run alone.
     let quality = quality_flags(&run, &StandstillDetector::default())
         .with_context(|| format!("flagging the samples of {}", args.run.display()))?;
-
     if !args.calibration_run.is_empty() {
         let mut cal_runs = Vec::new();
         for path in &args.calibration_run {
             let cal_run = read_run_file(path, Outputs::Required, &source)?;
             let cal_est =
                 estimate(&cal_run).with_context(|| format!("weighing {}", path.display()))?;
-            let flags = quality_flags(&cal_run, &StandstillDetector::default())
-                .with_context(|| format!("flagging the samples of {}", path.display()))?;
-            cal_runs.push((cal_run, cal_est, flags));
+            cal_runs.push((cal_run, cal_est));
         }
-        let runs = cal_runs
-            .iter()
-            .map(|(run, est, flags)| Ok(CalibrationRun::from_run(run, est)?.with_quality(flags)))
-            .collect::<anyhow::Result<Vec<_>>>()?;
+        let runs: Vec<_> = cal_runs.iter().map(|(run, est)| (run, est)).collect();
         let names = args
             .calibration_run
             .iter()
             .map(|p| p.display().to_string())
             .collect::<Vec<_>>()
             .join(", ");
-        let cal = LinearCalibration::fit_runs(&runs, &rule)
+        let cal = LinearCalibration::fit_weighed_runs(&runs, &rule)
             .with_context(|| format!("calibrating on {names}"))?;
         println!(
             "calibration on {names}: load = {:.5} x estimate {:+.1} kg {:+.1} kg x z (wall-friction state) {:+.2} kg/mm x (height - {:.1} mm) ({} standstill samples, residual rms {:.1} kg, 95 % within {:.1} kg)",
