@@ -10,7 +10,7 @@ use airsus_data::DamperTable;
 /// passive table. Beyond the table's ends the force is **extrapolated linearly** with the slope
 /// of the first/last segment (a real damper keeps resisting harder; clamping would make it
 /// force-free at high speed). The slopes are precomputed so [`Damper::force_n`] does no
-/// division and no allocation.
+/// allocation and, outside the rounded corners, no division.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Damper {
     velocity_m_s: Vec<f64>,
