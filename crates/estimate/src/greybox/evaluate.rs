@@ -86,9 +86,6 @@ pub(crate) struct Evaluator<'a> {
     pub parallel: bool,
     pub simulations: AtomicUsize,
     pub failures: AtomicUsize,
-    /// Columns (freed-parameter indices) of the last [`Self::jacobian`] whose simulations
-    /// failed in both directions (left zero).
-    pub failed_columns: std::sync::Mutex<Vec<usize>>,
 }
 
 fn std_dev(x: &[f64]) -> f64 {
@@ -202,7 +199,6 @@ impl<'a> Evaluator<'a> {
             parallel: true,
             simulations: AtomicUsize::new(0),
             failures: AtomicUsize::new(0),
-            failed_columns: std::sync::Mutex::new(Vec::new()),
         })
     }
 
@@ -306,10 +302,16 @@ impl<'a> Evaluator<'a> {
     /// `cols` (indices into the freed parameters), given the residuals `r0` at `z`.
     /// Columns are computed in parallel (rayon). The step is `+fd_step`, or `−fd_step` where
     /// that would leave the box; if the simulation fails, the other direction is tried; if
-    /// both fail, the column is zero, counted, and listed in [`Self::failed_columns`] (the
-    /// identifiability screen then says the model does not simulate there, not that the
-    /// outputs do not depend on the parameter).
-    pub fn jacobian(&self, z: &[f64], cols: &[usize], r0: &[f64], fd_step: f64) -> DMatrix<f64> {
+    /// both fail, the column is zero, counted, and returned in the list of failed columns
+    /// (freed-parameter indices: the identifiability screen then says the model does not
+    /// simulate there, not that the outputs do not depend on the parameter).
+    pub fn jacobian(
+        &self,
+        z: &[f64],
+        cols: &[usize],
+        r0: &[f64],
+        fd_step: f64,
+    ) -> (DMatrix<f64>, Vec<usize>) {
         let m = r0.len();
         let column = |&j: &usize| -> Option<Vec<f64>> {
             let (_, hi) = self.params[j].z_range();
@@ -338,22 +340,14 @@ impl<'a> Evaluator<'a> {
             .filter(|(_, c)| c.is_none())
             .map(|(&j, _)| j)
             .collect();
-        if let Ok(mut last) = self.failed_columns.lock() {
-            *last = failed;
-        }
         let columns: Vec<Vec<f64>> = columns
             .into_iter()
             .map(|c| c.unwrap_or_else(|| vec![0.0; m]))
             .collect();
-        DMatrix::from_fn(m, cols.len(), |i, j| columns[j][i])
-    }
-
-    /// The columns of the last Jacobian whose simulations failed (see [`Self::jacobian`]).
-    pub fn take_failed_columns(&self) -> Vec<usize> {
-        self.failed_columns
-            .lock()
-            .map(|mut v| std::mem::take(&mut *v))
-            .unwrap_or_default()
+        (
+            DMatrix::from_fn(m, cols.len(), |i, j| columns[j][i]),
+            failed,
+        )
     }
 
     pub fn simulations(&self) -> usize {

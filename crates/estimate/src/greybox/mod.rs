@@ -130,20 +130,21 @@ fn noise_variance_from_residuals(
 }
 
 /// The Jacobian with all freed parameters as columns, computed for `cols` only (the others
-/// are held fixed: zero columns), so column indices stay parameter indices.
+/// are held fixed: zero columns), so column indices stay parameter indices; and the columns
+/// whose simulations failed.
 fn jacobian_full(
     ev: &Evaluator<'_>,
     z: &[f64],
     cols: &[usize],
     r: &[f64],
     fd_step: f64,
-) -> nalgebra::DMatrix<f64> {
-    let part = ev.jacobian(z, cols, r, fd_step);
+) -> (nalgebra::DMatrix<f64>, Vec<usize>) {
+    let (part, failed) = ev.jacobian(z, cols, r, fd_step);
     let mut j = nalgebra::DMatrix::zeros(r.len(), z.len());
     for (k, &c) in cols.iter().enumerate() {
         j.set_column(c, &part.column(k));
     }
-    j
+    (j, failed)
 }
 
 /// Estimates the freed parameters of `problem` (module docs). Fails only on malformed
@@ -196,8 +197,7 @@ pub fn estimate(
 
     let all: Vec<usize> = (0..n).collect();
     observer.stage("Jacobian at the nominal point");
-    let j0 = ev.jacobian(&z0, &all, &r0, options.fd_step);
-    let failed0 = ev.take_failed_columns();
+    let (j0, failed0) = ev.jacobian(&z0, &all, &r0, options.fd_step);
     let lambda_data = noise_variance_from_data(&ev);
     let before = analyse(
         &j0,
@@ -258,8 +258,7 @@ pub fn estimate(
         iterations += outcome.iterations;
 
         observer.stage("Jacobian at the estimate");
-        let j = jacobian_full(&ev, &z, &active, &residuals, options.fd_step);
-        let failed = ev.take_failed_columns();
+        let (j, failed) = jacobian_full(&ev, &z, &active, &residuals, options.fd_step);
         lambda_post = noise_variance_from_residuals(&residuals, &blocks, active.len());
         final_j = Some(j);
         if !screening {

@@ -152,7 +152,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for LmFit<'_, '_, '_> {
             simulations: self.ev.simulations(),
             failed_simulations: self.ev.failures(),
         });
-        let jd = self.ev.jacobian(
+        let (jd, _) = self.ev.jacobian(
             &self.z,
             &self.active,
             &r.as_slice()[..n_data],
