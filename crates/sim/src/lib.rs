@@ -29,8 +29,8 @@ pub mod solve;
 
 pub use error::{NamedState, SimError, SolverFailure, StateViolation};
 pub use problem::{
-    AbsoluteTolerance, DEFAULT_SUPPLY_DEADBAND_PA, InitialState, InputSeries, Method, RoadInput,
-    SimulationProblem, SolverOptions, StateBounds, SupplyRelevance,
+    AbsoluteTolerance, DEFAULT_SUPPLY_DEADBAND_PA, InitialState, InputSeries, LoadInput, Method,
+    RoadInput, SimulationProblem, SolverOptions, StateBounds, SupplyRelevance,
 };
 pub use response::{SimulationResponse, SolverStatistics, StateHistory};
 pub use solve::{input_change_matters, simulate, simulate_into};

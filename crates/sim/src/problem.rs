@@ -106,6 +106,11 @@ impl<'a> InputSeries<'a> {
         self.time_s
     }
 
+    /// The wheel load at every sample, kg.
+    pub fn wheel_load_kg(&self) -> &'a [f64] {
+        self.wheel_load_kg
+    }
+
     /// The road height at every sample, m.
     pub fn road_height_m(&self) -> &'a [f64] {
         self.road_height_m
@@ -271,6 +276,20 @@ pub enum RoadInput {
     Hold,
 }
 
+/// How the wheel load acts between samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LoadInput {
+    /// Held constant between samples, restarting where it changes (zero-order hold, the
+    /// default): a logged load changes in steps.
+    #[default]
+    Hold,
+    /// Linear between samples (first-order hold), and a load sample ends no segment: for a
+    /// load that is itself a smooth transition (a logged step eased over seconds,
+    /// `airsus_estimate::ramp_logged_load`), which held would be a staircase restarting the
+    /// solver at every sample (540 restarts and 6× the time on a 25-minute loading run).
+    Linear,
+}
+
 /// How to integrate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolverOptions {
@@ -285,6 +304,7 @@ pub struct SolverOptions {
     pub supply: SupplyRelevance,
     pub bounds: StateBounds,
     pub road: RoadInput,
+    pub load: LoadInput,
 }
 
 impl Default for SolverOptions {
@@ -298,6 +318,7 @@ impl Default for SolverOptions {
             supply: SupplyRelevance::default(),
             bounds: StateBounds::default(),
             road: RoadInput::default(),
+            load: LoadInput::default(),
         }
     }
 }
@@ -325,6 +346,11 @@ impl SolverOptions {
 
     pub fn with_road(mut self, road: RoadInput) -> Self {
         self.road = road;
+        self
+    }
+
+    pub fn with_load(mut self, load: LoadInput) -> Self {
+        self.load = load;
         self
     }
 
