@@ -60,14 +60,16 @@ def test_a_frame_simulates_like_its_file(reference: Path, short_run: Path) -> No
         for column in ("time_s", "height_mm", "pressure_kpa"):
             assert other[column].to_numpy().tobytes() == from_file[column].to_numpy().tobytes()
     assert from_file.attrs["model"] == "m2"
-    assert from_file.attrs["initial"].startswith("static equilibrium at sensor height")
+    # The default start: the history states fitted to the run's first seconds.
+    assert "fitted to the first seconds" in from_file.attrs["initial"]
     assert from_file.attrs["nrmse"]["height_mm"] is not None
 
 
 def test_states_and_initial_conditions(reference: Path, short_run: Path) -> None:
     truck = reference / "truck.toml"
     run = airsus.read_run(short_run)
-    sim = airsus.simulate("m2", truck, run, states=True)
+    sim = airsus.simulate("m2", truck, run, initial_state="equilibrium", states=True)
+    assert sim.attrs["initial"].startswith("static equilibrium at sensor height")
     states = airsus.models().set_index("name").loc["m2"]["states"]
     assert list(sim.columns) == ["time_s", "height_mm", "pressure_kpa", *states]
     # Starting from a given state (the state at the first sample) reproduces the run.

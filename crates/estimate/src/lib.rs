@@ -9,6 +9,8 @@
 //! * [`submodel`] — the thesis' submodel fits as plain functions from data: gas-volume
 //!   cross-section (eq 5.1–5.3), effective area (eq 3.16/5.4), valve flow resistances
 //!   (eq 3.19/5.5/5.6) and the slow-dynamics OE block (5.2.4).
+//! * [`initial_state`], [`joint`] — a run's start fitted to its first seconds, and
+//!   parameters and starts estimated together.
 //! * [`load_ramp`] — the load the wheel felt from the load that was logged: each logged
 //!   step eased over a transition time estimated from the runs.
 //! * [`progress`] — observers of a running estimation (an `indicatif` display on a
@@ -29,6 +31,7 @@
 pub mod error;
 pub mod greybox;
 pub mod initial_state;
+pub mod joint;
 pub mod load_ramp;
 pub mod progress;
 pub mod submodel;
@@ -42,7 +45,9 @@ pub use greybox::{
 pub use initial_state::{
     EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,
 };
+pub use joint::{JointEstimate, JointRound, estimate_jointly, estimate_with_starts, prefix_starts};
 pub use load_ramp::{
     LoadRampFit, MAX_LOAD_RAMP_S, check_load_ramp_s, fit_load_ramp, ramp_logged_load,
+    solver_for_ramp,
 };
 pub use progress::{IterationInfo, NoProgress, Observer, TerminalProgress};

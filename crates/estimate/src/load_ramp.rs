@@ -14,6 +14,7 @@
 //! ([`fit_load_ramp`]); `τ = 0` is the logged load itself.
 
 use airsus_data::Run;
+use airsus_sim::{LoadInput, SolverOptions};
 
 use crate::error::EstimateError;
 use crate::greybox::{GreyboxOptions, GreyboxProblem, estimate};
@@ -104,6 +105,7 @@ pub fn fit_load_ramp(problem: &GreyboxProblem<'_>) -> Result<LoadRampFit, Estima
         let fixed = GreyboxProblem {
             runs: ramped.iter().collect(),
             free: vec![],
+            solver: solver_for_ramp(&problem.solver, tau),
             ..problem.clone()
         };
         Ok(estimate(&fixed, &options, &mut NoProgress)?.loss_estimated)
@@ -151,6 +153,18 @@ pub fn fit_load_ramp(problem: &GreyboxProblem<'_>) -> Result<LoadRampFit, Estima
         loss_ramped,
         evaluations,
     })
+}
+
+/// The solver options for a run whose load was eased over `duration_s`
+/// ([`ramp_logged_load`]): the eased load followed linearly between samples
+/// ([`LoadInput::Linear`]) rather than as a staircase that restarts the solver at every
+/// sample; `options` unchanged for the load as logged (`duration_s` 0).
+pub fn solver_for_ramp(options: &SolverOptions, duration_s: f64) -> SolverOptions {
+    if duration_s > 0.0 {
+        options.clone().with_load(LoadInput::Linear)
+    } else {
+        options.clone()
+    }
 }
 
 /// The least relative loss reduction for which [`fit_load_ramp`] eases the load at all.

@@ -120,7 +120,9 @@ impl StudyOptions {
             models: study_models().iter().map(|m| (*m).to_owned()).collect(),
             protocols,
             max_iterations: 60,
-            initial: airsus_estimate::StartMethod::default(),
+            // Starts fitted to each run's first seconds: jointly with the parameters in
+            // estimation runs, with them fixed in validation runs (issue #12, item 2).
+            initial: airsus_estimate::StartMethod::Prefix,
             normalisation: airsus_estimate::Normalisation::default(),
             starts: 1,
             load_ramp: LoadRamp::default(),

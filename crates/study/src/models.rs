@@ -6,12 +6,14 @@ use std::time::Instant;
 use airsus_data::{Run, TruckParameters, ValveState, write_truck};
 use airsus_estimate::{
     GreyboxEstimate, GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, PrefixOptions,
-    StartChoice, StartMethod, StopReason, estimate, estimate_initial_state, estimate_multistart,
-    fit_load_ramp, ramp_logged_load, resolve_start,
+    StartChoice, StartMethod, StopReason, estimate, estimate_jointly, estimate_multistart,
+    fit_load_ramp, prefix_starts, ramp_logged_load, resolve_start, solver_for_ramp,
 };
 use airsus_model::SuspensionModel;
 use airsus_report::results::{ModelResult, OutputFit, ParameterEstimate, ResidualSummary, RunFit};
-use airsus_sim::{InitialState, InputSeries, SimulationProblem, SimulationResponse, simulate};
+use airsus_sim::{
+    InitialState, InputSeries, SimulationProblem, SimulationResponse, SolverOptions, simulate,
+};
 use airsus_truck::models::{build_any_model, model_entry};
 use airsus_validate::{
     Correlation, DEFAULT_CONFIDENCE, ValidateError, input_residual_correlation, nrmse_percent,
@@ -42,104 +44,32 @@ fn bounds(model: &dyn SuspensionModel, name: &str) -> Option<(f64, f64)> {
 
 /// Simulates `model` over a measured run for scoring; it starts by `method` (the estimator's
 /// assumption: static equilibrium, or that with the history states fitted to the first
-/// seconds). The score covers the whole run.
+/// seconds). `load_ramp_s`: the run's load was eased over that time
+/// ([`ramp_logged_load`]) and is followed linearly between samples. The score covers the
+/// whole run.
 pub fn simulate_run(
     model: &dyn SuspensionModel,
     run: &Run,
     method: StartMethod,
+    load_ramp_s: Option<f64>,
 ) -> Result<SimulationResponse, String> {
-    let inputs = InputSeries::from_run(run).map_err(|e| e.to_string())?;
     let choice = StartChoice::FromRun(method, PrefixOptions::default());
     let (initial, _) = resolve_start(model, run, &choice).map_err(|e| e.to_string())?;
-    simulate(&SimulationProblem::new(model, inputs, initial)).map_err(|e| e.to_string())
+    simulate_from(model, run, initial, load_ramp_s)
 }
 
-/// Each run's history states fitted to its first seconds under `model` (None where the fit
-/// failed: that run starts in equilibrium).
-fn prefix_offsets(model: &dyn SuspensionModel, runs: &[&Run]) -> Vec<Option<Vec<f64>>> {
-    runs.iter()
-        .map(|run| {
-            estimate_initial_state(model, run, StartMethod::Prefix, &PrefixOptions::default())
-                .ok()
-                .and_then(|start| match start.initial {
-                    InitialState::EquilibriumOffset { offsets, .. } => Some(offsets),
-                    _ => None,
-                })
-        })
-        .collect()
-}
-
-/// Joint estimation of parameters and starts, by alternation: with the parameters of
-/// `first`, each estimation run's history states are fitted to its first seconds; then the
-/// parameters are refitted from those starts. The refit is kept when it explains the
-/// estimation runs better than `first` does from the same starts. Returns the estimate and
-/// its joint loss (parameters and starts together), which candidates are compared on.
-fn refit_from_estimated_starts(
-    first: GreyboxEstimate,
-    estimation: &[&Run],
-    problem: &GreyboxProblem<'_>,
-    options: &GreyboxOptions,
-    notes: &mut Vec<String>,
-) -> (GreyboxEstimate, f64) {
-    let offsets = prefix_offsets(&*first.estimated_model, estimation);
-    let refit = GreyboxProblem {
-        model: &*first.estimated_model,
-        runs: estimation.to_vec(),
-        start_offsets: offsets,
-        ..problem.clone()
-    };
-    // The first fit's point from the same starts: what the refit must beat.
-    let baseline = GreyboxProblem {
-        free: vec![],
-        ..refit.clone()
-    };
-    let baseline_loss = estimate(&baseline, options, &mut NoProgress)
-        .map(|e| e.loss_estimated)
-        .unwrap_or(f64::INFINITY);
-    // A refit starts next to the fit it refines: a few iterations settle it.
-    let refit_options = options
-        .clone()
-        .with_max_iterations(options.max_iterations.min(REFIT_ITERATIONS));
-    match estimate(&refit, &refit_options, &mut NoProgress) {
-        Ok(second) if second.loss_estimated < baseline_loss => {
-            notes.push(format!(
-                "refitted from starts estimated on the first 10 s of each estimation run: loss {:.4e} → {:.4e}",
-                baseline_loss, second.loss_estimated
-            ));
-            let loss = second.loss_estimated;
-            (second, loss)
-        }
-        Ok(_) | Err(_) => {
-            notes.push(
-                "a refit from estimated starts did not improve the fit; the estimate before it is kept".to_owned(),
-            );
-            (first, baseline_loss)
-        }
-    }
-}
-
-/// The other way into the same joint estimate: starts fitted under the start values first,
-/// the parameters fitted from them, then one alternation. An equilibrium-start fit can drift
-/// to compensate starts it gets wrong (on the virtual truck, a valve run begun after a raise
-/// has its wall friction holding the bellow down, and the gas volume's scale drifts 27 %
-/// from its true value to absorb that); fitted starts from the outset keep that error out of
-/// the parameters. None when the first fit fails.
-fn fit_from_start_value_starts(
-    estimation: &[&Run],
-    problem: &GreyboxProblem<'_>,
-    options: &GreyboxOptions,
-    notes: &mut Vec<String>,
-) -> Option<(GreyboxEstimate, f64)> {
-    let offsets = prefix_offsets(problem.model, estimation);
-    let first = GreyboxProblem {
-        runs: estimation.to_vec(),
-        start_offsets: offsets,
-        ..problem.clone()
-    };
-    let first = estimate(&first, options, &mut NoProgress).ok()?;
-    Some(refit_from_estimated_starts(
-        first, estimation, problem, options, notes,
-    ))
+/// [`simulate_run`] from a given start (an estimation run's start estimated jointly with
+/// the parameters).
+pub fn simulate_from(
+    model: &dyn SuspensionModel,
+    run: &Run,
+    initial: InitialState,
+    load_ramp_s: Option<f64>,
+) -> Result<SimulationResponse, String> {
+    let inputs = InputSeries::from_run(run).map_err(|e| e.to_string())?;
+    let options = solver_for_ramp(&SolverOptions::default(), load_ramp_s.unwrap_or(0.0));
+    simulate(&SimulationProblem::new(model, inputs, initial).with_options(options))
+        .map_err(|e| e.to_string())
 }
 
 /// Iterations of the parameter refit after the load transition is fitted.
@@ -187,6 +117,7 @@ fn refit_with_load_ramp(
     let refit = GreyboxProblem {
         model: &*first.estimated_model,
         runs: eased.iter().collect(),
+        solver: solver_for_ramp(&problem.solver, fit.duration_s),
         ..problem.clone()
     };
     let tau = fit.duration_s;
@@ -382,132 +313,128 @@ pub fn fit_and_validate(
         count: options.starts,
         ..MultiStart::default()
     };
+    // With fitted starts, the first fit already starts every estimation run from its prefix
+    // under the start values: an equilibrium-start fit drifts to compensate starts it gets
+    // wrong (on the virtual truck, a valve run begun after a raise has its wall friction
+    // holding the bellow down, and the gas volume's scale drifted 27 % to absorb that).
+    if initial == StartMethod::Prefix {
+        problem.start_states = prefix_starts(&*nominal, &estimation, &PrefixOptions::default());
+    }
     // The transition time the logged load is eased over, once estimated (None: as logged).
     let mut load_ramp_s: Option<f64> = None;
-    let estimated: Box<dyn SuspensionModel> = match estimate_multistart(
-        &problem,
-        &fit_options,
-        &global,
-        &mut NoProgress,
-    ) {
-        Err(e) => {
-            result.error = Some(format!(
-                "grey-box estimation failed: {e}; validated with the start values"
-            ));
-            nominal.clone()
-        }
-        Ok((est, summary)) => {
-            // Everything reported below describes the fit whose model is validated.
-            // The load transition first (from equilibrium starts, as the first fit), so
-            // that estimated starts are then fitted to the load the model is fed.
-            let est = match options.load_ramp {
-                crate::LoadRamp::Logged => est,
-                crate::LoadRamp::Estimate => {
-                    let (est, tau) = refit_with_load_ramp(
-                        est,
-                        &estimation,
-                        &problem,
-                        &fit_options,
-                        &mut result.notes,
-                    );
-                    load_ramp_s = tau;
-                    est
-                }
-            };
-            let eased: Vec<Run> = estimation
-                .iter()
-                .map(|r| ramp_logged_load(r, load_ramp_s.unwrap_or(0.0)))
-                .collect();
-            let eased: Vec<&Run> = eased.iter().collect();
-            let est = match initial {
-                StartMethod::Equilibrium => est,
-                StartMethod::Prefix => {
-                    // Two ways into the joint fit; the notes are the chosen one's.
-                    let mut fit_notes = Vec::new();
-                    let (from_fit, loss_from_fit) = refit_from_estimated_starts(
-                        est,
-                        &eased,
-                        &problem,
-                        &fit_options,
-                        &mut fit_notes,
-                    );
-                    let mut start_notes = Vec::new();
-                    match fit_from_start_value_starts(
-                        &eased,
-                        &problem,
-                        &fit_options,
-                        &mut start_notes,
-                    ) {
-                        Some((from_starts, loss)) if loss < loss_from_fit => {
-                            result.notes.push(format!(
-                                "starts fitted under the start values first explain the estimation runs better than starts fitted after an equilibrium-start fit (joint loss {loss_from_fit:.4e} → {loss:.4e}): that estimate is used"
-                            ));
-                            result.notes.extend(start_notes);
-                            from_starts
-                        }
-                        _ => {
-                            result.notes.extend(fit_notes);
-                            from_fit
-                        }
+    // The estimation runs' starts estimated jointly with the parameters, by run name: those
+    // runs are scored from them.
+    let mut joint_starts: Vec<(String, InitialState)> = Vec::new();
+    let estimated: Box<dyn SuspensionModel> =
+        match estimate_multistart(&problem, &fit_options, &global, &mut NoProgress) {
+            Err(e) => {
+                result.error = Some(format!(
+                    "grey-box estimation failed: {e}; validated with the start values"
+                ));
+                nominal.clone()
+            }
+            Ok((est, summary)) => {
+                // Everything reported below describes the fit whose model is validated.
+                let est = match options.load_ramp {
+                    crate::LoadRamp::Logged => est,
+                    crate::LoadRamp::Estimate => {
+                        let (est, tau) = refit_with_load_ramp(
+                            est,
+                            &estimation,
+                            &problem,
+                            &fit_options,
+                            &mut result.notes,
+                        );
+                        load_ramp_s = tau;
+                        est
                     }
-                }
-            };
-            result.stop_reason = Some(est.stop.to_string());
-            result.gradient_norm = est.gradient_norm;
-            result.simulations = est.simulations;
-            result.starts = summary.starts;
-            result.local_optima_losses = summary.losses;
-            if matches!(est.stop, StopReason::NoParameterMoved { .. }) {
-                result.notes.push(est.stop.to_string());
-            } else if !est.stop.is_converged() {
-                result.notes.push(format!(
-                    "the fit did not converge ({}); the best point found is used",
-                    est.stop
-                ));
-            }
-            if est.failed_simulations > 0 {
-                result.notes.push(format!(
-                    "{} of {} trial simulations failed and counted as large losses",
-                    est.failed_simulations, est.simulations
-                ));
-            }
-            for n in &est.identifiability.not_identifiable {
-                let with: Vec<String> = n
-                    .correlated_with
+                };
+                let eased: Vec<Run> = estimation
                     .iter()
-                    .map(|(p, c)| format!("{p} ({c:+.3})"))
+                    .map(|r| ramp_logged_load(r, load_ramp_s.unwrap_or(0.0)))
                     .collect();
-                result.notes.push(format!(
-                    "{} is not determined by {}: kept at its start value{}{}",
-                    n.name,
-                    protocol.estimation.join(" + "),
-                    if with.is_empty() {
-                        String::new()
-                    } else {
-                        format!("; correlated with {}", with.join(", "))
-                    },
-                    if n.determined_by.is_empty() {
-                        String::new()
-                    } else {
-                        format!("; it needs {}", n.determined_by)
+                let eased: Vec<&Run> = eased.iter().collect();
+                let eased_problem = GreyboxProblem {
+                    runs: eased.clone(),
+                    solver: solver_for_ramp(&problem.solver, load_ramp_s.unwrap_or(0.0)),
+                    ..problem.clone()
+                };
+                let est = match initial {
+                    StartMethod::Equilibrium => est,
+                    StartMethod::Prefix => {
+                        let joint = estimate_jointly(
+                            est,
+                            &eased_problem,
+                            &fit_options,
+                            &PrefixOptions::default(),
+                        );
+                        result
+                            .notes
+                            .push(joint.describe(PrefixOptions::default().prefix_s));
+                        joint_starts = estimation
+                            .iter()
+                            .zip(&joint.starts)
+                            .filter_map(|(run, start)| Some((run.name.clone(), start.clone()?)))
+                            .collect();
+                        joint.estimate
                     }
-                ));
+                };
+                result.stop_reason = Some(est.stop.to_string());
+                result.gradient_norm = est.gradient_norm;
+                result.simulations = est.simulations;
+                result.starts = summary.starts;
+                result.local_optima_losses = summary.losses;
+                if matches!(est.stop, StopReason::NoParameterMoved { .. }) {
+                    result.notes.push(est.stop.to_string());
+                } else if !est.stop.is_converged() {
+                    result.notes.push(format!(
+                        "the fit did not converge ({}); the best point found is used",
+                        est.stop
+                    ));
+                }
+                if est.failed_simulations > 0 {
+                    result.notes.push(format!(
+                        "{} of {} trial simulations failed and counted as large losses",
+                        est.failed_simulations, est.simulations
+                    ));
+                }
+                for n in &est.identifiability.not_identifiable {
+                    let with: Vec<String> = n
+                        .correlated_with
+                        .iter()
+                        .map(|(p, c)| format!("{p} ({c:+.3})"))
+                        .collect();
+                    result.notes.push(format!(
+                        "{} is not determined by {}: kept at its start value{}{}",
+                        n.name,
+                        protocol.estimation.join(" + "),
+                        if with.is_empty() {
+                            String::new()
+                        } else {
+                            format!("; correlated with {}", with.join(", "))
+                        },
+                        if n.determined_by.is_empty() {
+                            String::new()
+                        } else {
+                            format!("; it needs {}", n.determined_by)
+                        }
+                    ));
+                }
+                result.estimates = est
+                    .parameters
+                    .iter()
+                    .map(|p| ParameterEstimate {
+                        name: p.name.clone(),
+                        unit: p.unit.clone(),
+                        nominal: p.nominal,
+                        estimate: p.estimate,
+                        std: p.std,
+                        identifiable: !est.is_not_identifiable(&p.name),
+                    })
+                    .collect();
+                est.estimated_model
             }
-            result.estimates = est
-                .parameters
-                .iter()
-                .map(|p| ParameterEstimate {
-                    name: p.name.clone(),
-                    unit: p.unit.clone(),
-                    nominal: p.nominal,
-                    estimate: p.estimate,
-                    std: p.std,
-                    identifiable: !est.is_not_identifiable(&p.name),
-                })
-                .collect();
-            est.estimated_model
-        }
-    };
+        };
     result.estimation_time_s = started.elapsed().as_secs_f64();
     result.load_ramp_s = load_ramp_s;
     // Every run is validated with the load the models were fitted to.
@@ -542,14 +469,29 @@ pub fn fit_and_validate(
             }
             .to_owned(),
             // The start values as the user had them: the load as logged.
-            nominal: simulate_run(&*nominal, &run.run, initial)
+            nominal: simulate_run(&*nominal, &run.run, initial, None)
                 .ok()
                 .and_then(|r| output_fit(&run.run, &r)),
             estimated: None,
             residuals: vec![],
             error: None,
         };
-        match simulate_run(&*estimated, &fed(&run.run, load_ramp_s), initial) {
+        let joint_start = joint_starts
+            .iter()
+            .find(|(name, _)| *name == run.run.name)
+            .map(|(_, start)| start.clone());
+        let simulated = match joint_start {
+            Some(start) => {
+                simulate_from(&*estimated, &fed(&run.run, load_ramp_s), start, load_ramp_s)
+            }
+            None => simulate_run(
+                &*estimated,
+                &fed(&run.run, load_ramp_s),
+                initial,
+                load_ramp_s,
+            ),
+        };
+        match simulated {
             Ok(response) => {
                 fit.estimated = output_fit(&run.run, &response);
                 let correlations = residual_correlations(&fed(&run.run, load_ramp_s), &response);

@@ -3,59 +3,13 @@
 //! ceiling, where static equilibrium at the first measured height stays far below it.
 
 use airsus_estimate::{PrefixOptions, StartMethod, estimate_initial_state};
-use airsus_model::{InitialCondition, StateRole, SuspensionModel, build_model};
+use airsus_model::{InitialCondition, StateRole, build_model};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, simulate};
 use airsus_study::ceiling::noise_ceiling;
 use airsus_study::load_study;
-use airsus_truck::model::TruckModel;
+use airsus_study::models::simulate_run;
+use airsus_truck::models::build_any_model;
 use airsus_validate::nrmse_percent;
-
-#[test]
-fn with_the_true_parameters_the_prefix_start_reaches_the_noise_ceiling() {
-    let dir = tempfile::tempdir().unwrap();
-    let generated = airsus_truck::experiments::generate(dir.path(), 1, &mut |_| {}).unwrap();
-    let input = load_study(&generated.study).unwrap();
-    // The virtual truck itself, its true thesis-structure parameters and effects.
-    let truth = airsus_data::read_truck(&dir.path().join("truth/truck.toml")).unwrap();
-    let model = TruckModel::from_truck_parameters(&truth.parameters);
-    for name in ["data-set 3", "data-set 4"] {
-        let run = input.run(name).unwrap();
-        let ceiling = noise_ceiling(run).unwrap();
-        let measured = run.run.outputs.as_ref().unwrap();
-        let score = |method| {
-            let start = estimate_initial_state(&model, &run.run, method, &PrefixOptions::default())
-                .unwrap();
-            let inputs = InputSeries::from_run(&run.run).unwrap();
-            let r = simulate(&SimulationProblem::new(
-                &model as &dyn SuspensionModel,
-                inputs,
-                start.initial,
-            ))
-            .unwrap();
-            (
-                nrmse_percent(&measured.sensor_height_m, &r.sensor_height_m).unwrap(),
-                nrmse_percent(&measured.bellow_gauge_pa, &r.bellow_gauge_pa).unwrap(),
-            )
-        };
-        let (h_eq, p_eq) = score(StartMethod::Equilibrium);
-        let (h_pre, p_pre) = score(StartMethod::Prefix);
-        // Measured on seed 1: ds3 pressure 76.3 → 90.8 % (ceiling 90.8), ds4 90.9 → 97.0 %.
-        assert!(
-            ceiling.pressure_percent - p_pre < 0.5,
-            "{name}: prefix pressure {p_pre:.2} %, ceiling {:.2} %",
-            ceiling.pressure_percent
-        );
-        assert!(
-            ceiling.height_percent - h_pre < 4.0,
-            "{name}: prefix height {h_pre:.2} %, ceiling {:.2} %",
-            ceiling.height_percent
-        );
-        assert!(
-            p_pre - p_eq > 5.0 && h_pre > h_eq,
-            "{name}: equilibrium {h_eq:.2}/{p_eq:.2} %, prefix {h_pre:.2}/{p_pre:.2} %"
-        );
-    }
-}
 
 #[test]
 fn a_known_offset_in_the_air_amount_is_recovered_from_the_prefix() {
@@ -106,4 +60,51 @@ fn a_known_offset_in_the_air_amount_is_recovered_from_the_prefix() {
         "air amount off by {relative:e}: {start:?}"
     );
     assert!(start.prefix_rms_estimated < 0.1 * start.prefix_rms_equilibrium);
+}
+
+#[test]
+fn with_the_true_parameters_the_prefix_start_reaches_the_noise_ceiling() {
+    // The virtual truck's own model at its true values, fed the logged inputs of the valve
+    // runs (no load changes, so no input error): only the start separates it from the noise
+    // ceiling. Data-sets 3 and 4 begin after a raise, the wall friction holding the bellow
+    // down. A start fitted to 10 s, anchored at the first second's mean height and with the
+    // gas temperature held near ambient unless the data say otherwise. Measured on seed 7:
+    // data-set 3 91.8/90.7 % (ceiling 94.2/90.7), data-set 4 99.3/96.8 % (99.3/96.8);
+    // anchored at the first sample the height was 88.4 %, without the temperature prior
+    // 88.2 %; from the equilibrium 57.4/74.2 and 95.5/90.5 %.
+    for seed in [1, 7] {
+        let dir = tempfile::tempdir().unwrap();
+        let generated =
+            airsus_truck::experiments::generate_variant(dir.path(), seed, 0, &mut |_| {}).unwrap();
+        let input = load_study(&generated.study).unwrap();
+        // The whole truth as a `truck`-structure file: the model built from it is the virtual
+        // truck.
+        let truth =
+            airsus_data::read_truck(&dir.path().join("truth/truck_structure.toml")).unwrap();
+        let model = build_any_model("truck", &truth.parameters).unwrap();
+        for name in ["data-set 3", "data-set 4"] {
+            let run = input.run(name).unwrap();
+            let ceiling = noise_ceiling(run).unwrap();
+            let measured = run.run.outputs.as_ref().unwrap();
+            let score = |method| {
+                let sim = simulate_run(&*model, &run.run, method, None).unwrap();
+                (
+                    nrmse_percent(&measured.sensor_height_m, &sim.sensor_height_m).unwrap(),
+                    nrmse_percent(&measured.bellow_gauge_pa, &sim.bellow_gauge_pa).unwrap(),
+                )
+            };
+            let (h_eq, p_eq) = score(StartMethod::Equilibrium);
+            let (h, p) = score(StartMethod::Prefix);
+            assert!(
+                h > ceiling.height_percent - 3.0 && p > ceiling.pressure_percent - 0.5,
+                "seed {seed}, {name}: {h:.1}/{p:.1} % against the ceiling {:.1}/{:.1} %",
+                ceiling.height_percent,
+                ceiling.pressure_percent
+            );
+            assert!(
+                p - p_eq > 5.0 && h > h_eq,
+                "seed {seed}, {name}: equilibrium {h_eq:.2}/{p_eq:.2} %, prefix {h:.2}/{p:.2} %"
+            );
+        }
+    }
 }

@@ -10,7 +10,9 @@
 //! - `study.toml` (the thesis' protocol: estimate on data-set 1) and `study_valve.toml`
 //!   (ours: data-set 1 plus the valve pulses of data-set 3);
 //! - `truth/`: the noise-free truth of every run (true load, true tank pressure, true outputs)
-//!   and `truth/truck.toml`, the true values of the thesis-structure parameters.
+//!   and `truth/truck.toml`, the true values of the thesis-structure parameters;
+//!   `truth/truck_structure.toml`, the whole truth as a file of the `truck` structure (its
+//!   laws and `[effects]`), from which the `truck` model is the virtual truck itself.
 //!
 //! Everything is deterministic for a seed: the same seed writes the same bytes.
 
@@ -290,6 +292,14 @@ pub fn generate_variant(
     let true_truck = truth_dir.join("truck.toml");
     write_truck(&true_truck, &truck.physical)?;
     files.push(true_truck);
+    // The truth as a file of the `truck` structure (its laws and effects resolved): the
+    // `truck` model built from it is the virtual truck, so an estimate can be compared with
+    // it and a study or a grey-box fit started at it.
+    let mut resolved = truck.clone();
+    resolved.resolve_laws();
+    let structure = truth_dir.join("truck_structure.toml");
+    write_truck(&structure, &resolved.physical)?;
+    files.push(structure);
     let effects = truth_dir.join("effects.toml");
     airsus_data::atomic::write_text_atomically(
         &effects,

@@ -293,7 +293,7 @@ pub fn study<'py>(
     let fit = StudyOptions {
         models,
         max_iterations: max_iterations.unwrap_or(60),
-        initial: crate::simulate::parse_start(initial_state.as_deref().unwrap_or("equilibrium"))
+        initial: crate::simulate::parse_start(initial_state.as_deref().unwrap_or("prefix"))
             .or_py()?,
         normalisation: crate::greybox::parse_normalisation(
             normalisation.as_deref().unwrap_or("pooled-spread"),

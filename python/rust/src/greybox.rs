@@ -7,7 +7,7 @@ use pyo3::types::PyDict;
 use airsus_data::{Outputs, TruckParameters};
 use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
-    Normalisation, OutputWeights, estimate,
+    MultiStart, Normalisation, OutputWeights, PrefixOptions, StartMethod, estimate_with_starts,
 };
 use airsus_truck::models::{build_any_model, default_free};
 
@@ -28,6 +28,7 @@ struct Settings {
     max_relative_std: f64,
     keep_unidentifiable: bool,
     normalisation: Normalisation,
+    start: StartMethod,
 }
 
 /// The loss normalisation by the command's name (`--normalisation`).
@@ -44,6 +45,8 @@ pub fn parse_normalisation(name: &str) -> anyhow::Result<Normalisation> {
 struct Estimated {
     json: String,
     text: String,
+    /// How the runs started, in words (the joint estimate's rounds for prefix starts).
+    start: String,
     stop: String,
     converged: bool,
     truck: TruckParameters,
@@ -99,7 +102,19 @@ fn run_greybox(
         ..GreyboxOptions::default()
     };
     let mut observer = ProgressObserver(progress);
-    let result = estimate(&problem, &options, &mut observer)?;
+    let (joint, _) = estimate_with_starts(
+        &problem,
+        &options,
+        &MultiStart::default(),
+        settings.start,
+        &PrefixOptions::default(),
+        &mut observer,
+    )?;
+    let start = match settings.start {
+        StartMethod::Prefix => joint.describe(PrefixOptions::default().prefix_s),
+        StartMethod::Equilibrium => "every run starts in static equilibrium".to_owned(),
+    };
+    let result = joint.estimate;
 
     // What `--json` prints (compact here; the values are the same) and what the command
     // prints without it.
@@ -109,6 +124,7 @@ fn run_greybox(
     Ok(Estimated {
         json,
         text,
+        start,
         stop: result.stop.to_string(),
         converged: result.stop.is_converged(),
         truck,
@@ -121,7 +137,7 @@ fn run_greybox(
 /// Returns `{"report": JSON text of `--json`, "text": the command's printout, "stop_reason",
 /// "converged", "truck": the truck with the estimates written back (as `--out`)}`.
 #[pyfunction]
-#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None, normalisation=None))]
+#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None, normalisation=None, initial_state=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn greybox<'py>(
     py: Python<'py>,
@@ -139,6 +155,7 @@ pub fn greybox<'py>(
     keep_unidentifiable: bool,
     progress: Option<Py<PyAny>>,
     normalisation: Option<String>,
+    initial_state: Option<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = truck.params.clone();
     drop(truck);
@@ -155,8 +172,20 @@ pub fn greybox<'py>(
             )));
         }
     };
+    // As the command: prefix starts unless the equilibrium is fixed by the first pressure.
+    let start = match (initial, initial_state.as_deref()) {
+        (InitialChoice::BellowPressure, Some("prefix")) => {
+            return Err(crate::error::to_py(anyhow::anyhow!(
+                "initial=\"pressure\" starts every run in equilibrium at its first pressure: a prefix start (initial_state=\"prefix\") is anchored at the measured height"
+            )));
+        }
+        (InitialChoice::BellowPressure, None) => StartMethod::Equilibrium,
+        (_, Some(name)) => crate::simulate::parse_start(name).or_py()?,
+        (InitialChoice::SensorHeight, None) => StartMethod::Prefix,
+    };
     let defaults = GreyboxOptions::default();
     let settings = Settings {
+        start,
         free,
         bounds: bounds.unwrap_or_default(),
         max_iterations: max_iterations.unwrap_or(defaults.max_iterations),
@@ -181,6 +210,7 @@ pub fn greybox<'py>(
     out.set_item("text", estimated.text)?;
     out.set_item("stop_reason", estimated.stop)?;
     out.set_item("converged", estimated.converged)?;
+    out.set_item("start", estimated.start)?;
     out.set_item("truck", NativeTruck::new(estimated.truck))?;
     Ok(out)
 }

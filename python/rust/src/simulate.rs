@@ -71,10 +71,13 @@ fn run_simulation(
         .with_context(|| format!("the start of run {}", source.label()))?;
 
     let inputs = InputSeries::from_run(&run)?;
-    let options = SolverOptions::default()
-        .with_method(method)
-        .with_rtol(rtol)
-        .with_states(record_states);
+    let options = airsus_estimate::solver_for_ramp(
+        &SolverOptions::default()
+            .with_method(method)
+            .with_rtol(rtol)
+            .with_states(record_states),
+        load_ramp_s.unwrap_or(0.0),
+    );
     let problem = SimulationProblem::new(&*model, inputs, initial).with_options(options);
     let response = airsus_sim::simulate(&problem).with_context(|| {
         format!(
@@ -150,8 +153,10 @@ pub fn simulate<'py>(
     drop(truck);
     let source = RunSource::from_spec(run)?;
     let initial = match initial_kind.as_deref() {
-        Some("prefix") => StartChoice::FromRun(StartMethod::Prefix, PrefixOptions::default()),
-        None | Some("equilibrium") => {
+        None | Some("prefix") => {
+            StartChoice::FromRun(StartMethod::Prefix, PrefixOptions::default())
+        }
+        Some("equilibrium") => {
             StartChoice::FromRun(StartMethod::Equilibrium, PrefixOptions::default())
         }
         Some(kind @ ("pressure_kpa" | "height_mm")) => {

@@ -404,11 +404,12 @@ def simulate(
         truck: a :class:`Truck` or the path of a truck file.
         run: a run file path, a DataFrame or a dict of arrays (file units); only the inputs
             are used, the measured outputs (if any) fix the start.
-        initial_state: where the state starts. ``None`` or ``"equilibrium"``: static
-            equilibrium at the run's first measured sensor height (the command's default; an
-            inputs-only run then needs one of the others). ``"prefix"``: that equilibrium with
-            the states that carry the run's history (friction, creep, gas temperature, air
-            amount) fitted to its first 10 s (``--initial-state prefix``).
+        initial_state: where the state starts. ``None`` or ``"prefix"``: static equilibrium
+            with the states that carry the run's history (friction, creep, gas temperature,
+            air amount, the height it is anchored at) fitted to the run's first 10 s (the
+            command's default; an inputs-only run then needs a height, pressure or state).
+            ``"equilibrium"``: static equilibrium at the run's first measured sensor height
+            (``--initial-state equilibrium``).
             ``{"height_mm": h}`` or ``{"pressure_kpa": p}``: static equilibrium at that sensor
             height or bellow gauge pressure (the command's
             ``--initial-height-mm``/``--initial-pressure-kpa``). A sequence of floats: the
@@ -494,6 +495,8 @@ class GreyboxResult:
             status, identifiable`` (``std`` NaN where fixed, at a bound or undetermined).
         stop_reason: why the solver stopped, as the command prints it.
         converged: whether that is a (local) minimum.
+        start: how the runs started, in words (for prefix starts, the joint estimate's
+            rounds).
         nrmse: DataFrame indexed by run: ``samples, height_nominal, height_estimated,
             pressure_nominal, pressure_estimated`` (percent, thesis eq 3.33).
         report: the full result, as ``airsus greybox --json`` prints it (a dict).
@@ -505,6 +508,7 @@ class GreyboxResult:
         self.text: str = native["text"]
         self.stop_reason: str = native["stop_reason"]
         self.converged: bool = bool(native["converged"])
+        self.start: str = native["start"]
         self.truck: Truck = Truck(native["truck"])
         parameters = self.report.get("parameters", [])
         self.estimates: pd.DataFrame = pd.DataFrame(
@@ -567,14 +571,18 @@ def greybox(
     keep_unidentifiable: bool = False,
     normalisation: str = "pooled-spread",
     progress: Progress = None,
+    initial_state: Optional[str] = None,
 ) -> GreyboxResult:
     """Estimate named physical parameters of a model from one or more runs at once, as
     ``airsus greybox`` does (thesis 5.2.6; MATLAB ``nlgreyest`` with simulation focus).
 
     The loss is the simulation error of height and pressure, each normalised by its spread
     pooled over all runs (or, with ``normalisation="noise-level"``, each run and output by
-    its own measurement noise, every run weighing the same); each run starts in static
-    equilibrium at its first measured height (or pressure, with ``initial="pressure"``).
+    its own measurement noise, every run weighing the same). Each run starts from its first
+    10 s: the states that carry its history are fitted to them and estimated jointly with
+    the parameters (``initial_state="prefix"``, the default); or in static equilibrium at its
+    first measured height (``initial_state="equilibrium"``) or pressure
+    (``initial="pressure"``, which implies it).
     Freed parameters the runs cannot determine are kept at their nominal values and reported
     (unless ``keep_unidentifiable``).
 
@@ -599,6 +607,8 @@ def greybox(
             determined by the runs.
         keep_unidentifiable: estimate parameters found not identifiable anyway.
         normalisation: ``"pooled-spread"`` or ``"noise-level"`` (see above).
+        initial_state: ``"prefix"`` or ``"equilibrium"`` (see above), as
+            ``--initial-state``; ``None``: prefix, or equilibrium with ``initial="pressure"``.
         progress: called with a dict per event while the fit runs (the GIL is released):
             ``{"event": "stage", "message": ...}`` or ``{"event": "iteration", "round",
             "iteration", "loss", "simulations", "failed_simulations"}``.
@@ -626,6 +636,7 @@ def greybox(
         keep_unidentifiable=bool(keep_unidentifiable),
         progress=progress,
         normalisation=normalisation,
+        initial_state=initial_state,
     )
     return GreyboxResult(native)
 
@@ -872,7 +883,7 @@ def study(
     models: Optional[Sequence[str]] = None,
     max_iterations: int = 60,
     seed: Optional[int] = None,
-    initial_state: str = "equilibrium",
+    initial_state: str = "prefix",
     normalisation: str = "pooled-spread",
     starts: int = 1,
     variant: Optional[int] = None,
@@ -890,8 +901,9 @@ def study(
         models: the models to estimate (default all: ``m1, m2, m2x, m2xh, m3, truck``).
         max_iterations: iteration limit of each grey-box fit.
         seed: seed of the built-in study (only with ``path=None``; default 1).
-        initial_state: ``"equilibrium"`` or ``"prefix"`` (runs start from their first 10 s,
-            the parameters refitted from those starts), as ``--initial-state``.
+        initial_state: ``"prefix"`` (default: runs start from their first 10 s, fitted
+            jointly with the parameters in estimation runs) or ``"equilibrium"``, as
+            ``--initial-state``.
         normalisation: ``"pooled-spread"`` or ``"noise-level"``, as ``--normalisation``.
         starts: starts of each grey-box fit's global stage, as ``--starts``.
         variant: member of the virtual truck family for the built-in study (only with

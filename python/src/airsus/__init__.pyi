@@ -74,6 +74,7 @@ class GreyboxResult:
     estimates: pd.DataFrame
     stop_reason: str
     converged: bool
+    start: str
     nrmse: pd.DataFrame
     report: Dict[str, Any]
     text: str
@@ -95,6 +96,7 @@ def greybox(
     keep_unidentifiable: bool = False,
     normalisation: str = "pooled-spread",
     progress: Progress = None,
+    initial_state: Optional[str] = None,
 ) -> GreyboxResult: ...
 
 class LinearModel:
@@ -150,7 +152,7 @@ def study(
     models: Optional[Sequence[str]] = None,
     max_iterations: int = 60,
     seed: Optional[int] = None,
-    initial_state: str = "equilibrium",
+    initial_state: str = "prefix",
     normalisation: str = "pooled-spread",
     starts: int = 1,
     progress: Progress = None,

@@ -66,6 +66,7 @@ def greybox(
     keep_unidentifiable: bool = False,
     progress: _Progress = None,
     normalisation: Optional[str] = None,
+    initial_state: Optional[str] = None,
 ) -> Dict[str, Any]: ...
 def ident(
     data: _RunSpec,

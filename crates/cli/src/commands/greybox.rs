@@ -7,9 +7,13 @@
 //! same as JSON with `--json`. `--out` writes the truck file with the estimates, which loads
 //! back with `--truck`.
 //!
-//! Each run starts in static equilibrium at its first measured sensor height (default; the
-//! reference truck's effective area is flat near its working point, so the pressure would pin
-//! the height poorly), or at its first measured pressure with `--initial pressure`.
+//! Each run starts from its first seconds (`--initial-state prefix`, the default): the
+//! states that carry its history are fitted to them under the start values, the parameters
+//! are fitted from those starts, and starts and parameters are then refitted in turn (the
+//! joint estimate, `airsus_estimate::estimate_jointly`). With `--initial-state equilibrium`
+//! each run starts in static equilibrium at its first measured sensor height (the reference
+//! truck's effective area is flat near its working point, so the pressure would pin the
+//! height poorly), or at its first measured pressure with `--initial pressure`.
 
 use airsus_data::atomic::refuse_overwriting_inputs;
 use std::path::PathBuf;
@@ -17,8 +21,8 @@ use std::path::PathBuf;
 use airsus_data::{Outputs, read_truck, write_truck};
 use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
-    MultiStart, NoProgress, Normalisation, Observer, OutputWeights, TerminalProgress,
-    estimate_multistart,
+    MultiStart, NoProgress, Normalisation, Observer, OutputWeights, PrefixOptions,
+    TerminalProgress, estimate_with_starts, initial_state::DEFAULT_PREFIX_S,
 };
 use airsus_truck::models::{build_any_model, default_free};
 
@@ -72,6 +76,15 @@ pub struct GreyboxArgs {
     /// What fixes each run's initial equilibrium.
     #[arg(long, value_enum, default_value_t = InitialArg::Height)]
     pub initial: InitialArg,
+    /// How runs start: `prefix` (the default, except with `--initial pressure`) fits the
+    /// states that carry each run's history (friction, creep, gas temperature, air amount) to
+    /// its first seconds and estimates starts and parameters jointly; `equilibrium` starts
+    /// every run in static equilibrium.
+    #[arg(long, value_enum)]
+    pub initial_state: Option<crate::commands::simulate::StartArg>,
+    /// Length of the prefix each start is fitted to, s.
+    #[arg(long, default_value_t = DEFAULT_PREFIX_S)]
+    pub prefix_s: f64,
     /// How the loss weighs runs and outputs: `pooled-spread` (each output by its spread over
     /// all runs; long runs count more) or `noise-level` (each run and output by its own
     /// measurement noise, every run equally).
@@ -213,7 +226,16 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     let mut terminal = TerminalProgress::new();
     let mut quiet = NoProgress;
     let observer: &mut dyn Observer = if args.json { &mut quiet } else { &mut terminal };
-    let (result, global) = estimate_multistart(
+    use crate::commands::simulate::StartArg;
+    let initial_state = match (args.initial, args.initial_state) {
+        (InitialArg::Pressure, Some(StartArg::Prefix)) => bail!(
+            "--initial pressure starts every run in equilibrium at its first pressure: a prefix start (--initial-state prefix) is anchored at the measured height"
+        ),
+        (InitialArg::Pressure, None) => StartArg::Equilibrium,
+        (_, Some(chosen)) => chosen,
+        (InitialArg::Height, None) => StartArg::Prefix,
+    };
+    let (joint, global) = estimate_with_starts(
         &problem,
         &options,
         &MultiStart {
@@ -221,8 +243,17 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
             spread: args.start_spread,
             seed: 1,
         },
+        initial_state.into(),
+        &PrefixOptions {
+            prefix_s: args.prefix_s,
+            ..PrefixOptions::default()
+        },
         observer,
     )?;
+    if initial_state == StartArg::Prefix {
+        eprintln!("{}", joint.describe(args.prefix_s));
+    }
+    let result = joint.estimate;
     if args.starts > 1 {
         eprintln!(
             "global stage: {} starts ({} failed), best from start {}; local optima's losses {}",

@@ -81,11 +81,12 @@ pub struct SimulateArgs {
     /// Start in static equilibrium at this sensor height (mm).
     #[arg(long, conflicts_with = "initial_state")]
     pub initial_height_mm: Option<f64>,
-    /// How a run with measured outputs starts: `equilibrium` is static equilibrium at the
-    /// first measured height (as the grey-box estimator assumes); `prefix` also fits the
-    /// states that carry the run's history (friction, creep, gas temperature, air amount) to
-    /// its first seconds: right when the parameters are.
-    #[arg(long, value_enum, default_value_t = StartArg::Equilibrium)]
+    /// How a run with measured outputs starts: `prefix` (default, as the grey-box estimator
+    /// and the study start runs) is static equilibrium with the states that carry the run's
+    /// history (friction, creep, gas temperature, air amount, and the height it is anchored
+    /// at) fitted to its first seconds; `equilibrium` is static equilibrium at the first
+    /// measured height.
+    #[arg(long, value_enum, default_value_t = StartArg::Prefix)]
     pub initial_state: StartArg,
     /// Length of the prefix the start is fitted to, s.
     #[arg(long, default_value_t = DEFAULT_PREFIX_S)]
@@ -145,9 +146,12 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         .with_context(|| format!("the start of run {}", args.run.display()))?;
 
     let inputs = InputSeries::from_run(&run)?;
-    let options = SolverOptions::default()
-        .with_method(args.method.into())
-        .with_rtol(args.rtol);
+    let options = airsus_estimate::solver_for_ramp(
+        &SolverOptions::default()
+            .with_method(args.method.into())
+            .with_rtol(args.rtol),
+        args.load_ramp_s.unwrap_or(0.0),
+    );
     let problem = SimulationProblem::new(&*model, inputs, initial).with_options(options);
     let started = Instant::now();
     let response = simulate(&problem).with_context(|| {

@@ -39,10 +39,10 @@ pub struct StudyArgs {
     /// Models to estimate (comma-separated).
     #[arg(long, value_delimiter = ',', default_values_t = study_models().iter().map(|m| (*m).to_owned()).collect::<Vec<_>>())]
     pub models: Vec<String>,
-    /// How runs start: `equilibrium` (static, at the first measured height) or `prefix`
-    /// (history states fitted to the first seconds; estimation refits the parameters from
-    /// those starts).
-    #[arg(long, value_enum, default_value_t = crate::commands::simulate::StartArg::Equilibrium)]
+    /// How runs start: `prefix` (default: each run's history states fitted to its first
+    /// 10 s; in estimation runs jointly with the parameters, in validation runs with the
+    /// parameters fixed) or `equilibrium` (static, at the first measured height).
+    #[arg(long, value_enum, default_value_t = crate::commands::simulate::StartArg::Prefix)]
     pub initial_state: crate::commands::simulate::StartArg,
     /// How the grey-box loss weighs runs and outputs: `pooled-spread` (each output by its
     /// spread over all runs; long runs count more) or `noise-level` (each run and output by

@@ -163,8 +163,8 @@ impl<'a> Evaluator<'a> {
         }
         let mut runs = Vec::with_capacity(problem.runs.len());
         for (i, run) in problem.runs.iter().enumerate() {
-            let offsets = problem.start_offsets.get(i).cloned().flatten();
-            runs.push(run_data(run, problem, w, offsets)?);
+            let start = problem.start_states.get(i).cloned().flatten();
+            runs.push(run_data(run, problem, w, start)?);
         }
         match problem.normalisation {
             Normalisation::PooledSpread => {
@@ -363,7 +363,7 @@ fn run_data<'a>(
     run: &'a Run,
     problem: &GreyboxProblem<'a>,
     w: super::problem::OutputWeights,
-    offsets: Option<Vec<f64>>,
+    start: Option<InitialState>,
 ) -> Result<RunData<'a>, EstimateError> {
     let invalid = |reason: String| EstimateError::InvalidRun {
         run: run.name.clone(),
@@ -407,20 +407,7 @@ fn run_data<'a>(
     Ok(RunData {
         name: run.name.clone(),
         inputs,
-        initial: match offsets {
-            // Offsets are estimated from the height equilibrium (`estimate_initial_state`):
-            // on top of another equilibrium they would mean nothing.
-            Some(_) if problem.initial != InitialChoice::SensorHeight => {
-                return Err(EstimateError::InvalidOption(
-                    "start offsets apply to the sensor-height equilibrium only".to_owned(),
-                ));
-            }
-            Some(offsets) => InitialState::EquilibriumOffset {
-                condition: ic,
-                offsets,
-            },
-            None => InitialState::Equilibrium(ic),
-        },
+        initial: start.unwrap_or(InitialState::Equilibrium(ic)),
         height: &outputs.sensor_height_m,
         pressure: &outputs.bellow_gauge_pa,
         height_factor: w.height,

@@ -3,7 +3,7 @@
 
 use airsus_data::Run;
 use airsus_model::SuspensionModel;
-use airsus_sim::SolverOptions;
+use airsus_sim::{InitialState, SolverOptions};
 
 /// One freed parameter: a short name of the model (SPEC §5, `parameter_info`) and optional
 /// bounds that narrow the model's admissible range (its [`airsus_model::ParameterInfo`]
@@ -114,9 +114,11 @@ pub struct GreyboxProblem<'a> {
     pub weights: OutputWeights,
     pub normalisation: Normalisation,
     pub initial: InitialChoice,
-    /// Per run (in `runs` order), offsets from that equilibrium to start from: the history
-    /// states a prefix fit estimated ([`crate::estimate_initial_state`]). Empty: none.
-    pub start_offsets: Vec<Option<Vec<f64>>>,
+    /// Per run (in `runs` order), the start a prefix fit estimated
+    /// ([`crate::estimate_initial_state`]: an equilibrium at a fitted height plus offsets of
+    /// the history states, re-solved under every trial parameter set). `None` or empty: the
+    /// equilibrium `initial` names.
+    pub start_states: Vec<Option<InitialState>>,
     /// ODE solver options of every simulation (default: BDF, rtol 1e-6, as `airsus-sim`).
     pub solver: SolverOptions,
 }
@@ -131,14 +133,14 @@ impl<'a> GreyboxProblem<'a> {
             weights: OutputWeights::default(),
             normalisation: Normalisation::default(),
             initial: InitialChoice::default(),
-            start_offsets: Vec::new(),
+            start_states: Vec::new(),
             solver: SolverOptions::default(),
         }
     }
 
-    /// Starts run `i` from its equilibrium plus `offsets[i]` (when `Some`).
-    pub fn with_start_offsets(mut self, offsets: Vec<Option<Vec<f64>>>) -> Self {
-        self.start_offsets = offsets;
+    /// Starts run `i` from `starts[i]` (when `Some`).
+    pub fn with_start_states(mut self, starts: Vec<Option<InitialState>>) -> Self {
+        self.start_states = starts;
         self
     }
 
