@@ -426,7 +426,9 @@ pub fn fit_and_validate(
                     .map(|p| ParameterEstimate {
                         name: p.name.clone(),
                         unit: p.unit.clone(),
-                        nominal: p.nominal,
+                        // The start values the study began from: a refit (after the load
+                        // transition, or from new starts) starts at the previous estimate.
+                        nominal: nominal.parameter(&p.name).unwrap_or(p.nominal),
                         estimate: p.estimate,
                         std: p.std,
                         identifiable: !est.is_not_identifiable(&p.name),

@@ -131,6 +131,28 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         .filter(|e| e.identifiable && (e.estimate / e.nominal - 1.0).abs() > 0.02)
         .count();
     assert!(moved >= 2, "{:?}", m2.estimates);
+    // "nominal" is where the study started (the submodel fits), not where a refit (after
+    // the load transition, or from new starts) began.
+    let mut compared = 0;
+    for e in &m2.estimates {
+        let fitted = r
+            .submodels
+            .fits
+            .iter()
+            .flat_map(|f| &f.parameters)
+            .find(|v| v.name == e.name);
+        if let Some(fitted) = fitted {
+            assert!(
+                (e.nominal / fitted.value - 1.0).abs() < 1e-9,
+                "{}: nominal {} but the submodel fit gave {}",
+                e.name,
+                e.nominal,
+                fitted.value
+            );
+            compared += 1;
+        }
+    }
+    assert!(compared >= 3, "{:?}", m2.estimates);
 
     // Against the truth (structure mismatch: the virtual truck has hysteresis, creep, a
     // pressure-dependent area and an orifice valve that m2 lacks). The parameters themselves
