@@ -82,7 +82,19 @@ pub struct StudyOptions {
     /// Whether the logged load's steps are eased over a transition time estimated from the
     /// estimation runs (and the parameters refitted with it), or used as logged.
     pub load_ramp: LoadRamp,
+    /// Seconds after each logged load change that the estimation's loss leaves out
+    /// (`GreyboxProblem::exclude_after_load_change_s`; 0: none). Default
+    /// [`DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S`].
+    pub exclude_after_load_change_s: f64,
 }
+
+/// The study's default for [`StudyOptions::exclude_after_load_change_s`]: none yet. Leaving
+/// 10 s out (the longest transition a loading traverse takes on the virtual truck, 3-8 s,
+/// with a margin) kept a fit started at the truth there, but from the nominal values it
+/// moved the `truck` structure's held-out data-set 4 from 94.8/63.7 % to 92.1/31.6 % on
+/// variant 0, from 94.9/60.1 % to 96.2/83.8 % on variant 1, and to far below on variants 2
+/// and 3 (seed 1): not a default until it helps across the family.
+pub const DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S: f64 = 0.0;
 
 /// How a study feeds the logged load to the models.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -126,6 +138,7 @@ impl StudyOptions {
             normalisation: airsus_estimate::Normalisation::default(),
             starts: 1,
             load_ramp: LoadRamp::default(),
+            exclude_after_load_change_s: DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S,
         }
     }
 }

@@ -90,9 +90,12 @@ fn refit_with_load_ramp(
     if !estimation.iter().any(|r| changes(r)) {
         return (first, None);
     }
+    // The transition is fitted to the seconds after each change, which the parameters' loss
+    // may leave out.
     let at_first = GreyboxProblem {
         model: &*first.estimated_model,
         runs: estimation.to_vec(),
+        exclude_after_load_change_s: 0.0,
         ..problem.clone()
     };
     let fit = match fit_load_ramp(&at_first) {
@@ -301,8 +304,9 @@ pub fn fit_and_validate(
         .map(|entry| entry.free_parameters(valve_action, &*nominal))
         .unwrap_or_default();
     result.free = free.iter().map(|s| (*s).to_owned()).collect();
-    let mut problem =
-        GreyboxProblem::new(&*nominal, &estimation, &free).with_normalisation(normalisation);
+    let mut problem = GreyboxProblem::new(&*nominal, &estimation, &free)
+        .with_normalisation(normalisation)
+        .with_exclusion_after_load_changes(options.exclude_after_load_change_s);
     for name in &free {
         if let Some((lo, hi)) = bounds(&*nominal, name) {
             problem = problem.with_bounds(name, lo, hi);

@@ -18,6 +18,7 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         normalisation: airsus_estimate::Normalisation::PooledSpread,
         starts: 2,
         load_ramp: airsus_study::LoadRamp::Estimate,
+        exclude_after_load_change_s: airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S,
     };
     let out = dir.path().join("out");
     let events = std::sync::Mutex::new(Vec::new());
@@ -232,6 +233,7 @@ fn a_protocol_without_estimation_runs_is_a_clear_error() {
         normalisation: airsus_estimate::Normalisation::PooledSpread,
         starts: 1,
         load_ramp: airsus_study::LoadRamp::Logged,
+        exclude_after_load_change_s: 0.0,
     };
     let err = run_study(&input, &options, &dir.path().join("out"), &|_| {})
         .err()
@@ -304,6 +306,7 @@ fn a_study_can_start_its_runs_from_the_first_seconds_and_says_so() {
         normalisation: airsus_estimate::Normalisation::PooledSpread,
         starts: 1,
         load_ramp: airsus_study::LoadRamp::Logged,
+        exclude_after_load_change_s: 0.0,
     };
     let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
     let r = &outcome.results;

@@ -85,6 +85,11 @@ pub struct GreyboxArgs {
     /// Length of the prefix each start is fitted to, s.
     #[arg(long, default_value_t = DEFAULT_PREFIX_S)]
     pub prefix_s: f64,
+    /// Seconds after each logged load change that the loss leaves out (0, the default:
+    /// none): a log records a step where the wheel takes the load over seconds, and fitted
+    /// to those seconds the parameters absorb the transition.
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
+    pub exclude_after_load_change_s: f64,
     /// How the loss weighs runs and outputs: `pooled-spread` (each output by its spread over
     /// all runs; long runs count more) or `noise-level` (each run and output by its own
     /// measurement noise, every run equally).
@@ -147,6 +152,12 @@ fn parse_bounds(text: &str) -> anyhow::Result<(String, f64, f64)> {
 }
 
 pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
+    if !(args.exclude_after_load_change_s.is_finite() && args.exclude_after_load_change_s >= 0.0) {
+        bail!(
+            "--exclude-after-load-change-s {}: expected a time in seconds, 0 or more",
+            args.exclude_after_load_change_s
+        );
+    }
     let source = args.source.source()?;
     if let Some(out) = &args.out {
         let mut inputs: Vec<&std::path::Path> = vec![&args.truck];
@@ -210,7 +221,8 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
             InitialArg::Height => InitialChoice::SensorHeight,
             InitialArg::Pressure => InitialChoice::BellowPressure,
         })
-        .with_normalisation(args.normalisation.into());
+        .with_normalisation(args.normalisation.into())
+        .with_exclusion_after_load_changes(args.exclude_after_load_change_s);
     problem.free = free;
     let options = GreyboxOptions {
         max_iterations: args.max_iterations,

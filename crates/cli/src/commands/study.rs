@@ -62,6 +62,11 @@ pub struct StudyArgs {
     /// load change as a step while the wheel takes it over seconds).
     #[arg(long, value_enum, default_value_t = LoadRampArg::Estimate)]
     pub load_ramp: LoadRampArg,
+    /// Seconds after each logged load change that the estimation's loss leaves out (0:
+    /// none): a log records a step where the wheel takes the load over seconds, each time
+    /// differently, and fitted to those seconds the parameters absorb the transition.
+    #[arg(long, value_name = "SECONDS", default_value_t = airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S)]
+    pub exclude_after_load_change_s: f64,
 }
 
 /// `--load-ramp`.
@@ -83,6 +88,12 @@ impl From<LoadRampArg> for airsus_study::LoadRamp {
 pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     check_models(&args.models)?;
+    if !(args.exclude_after_load_change_s.is_finite() && args.exclude_after_load_change_s >= 0.0) {
+        bail!(
+            "--exclude-after-load-change-s {}: expected a time in seconds, 0 or more",
+            args.exclude_after_load_change_s
+        );
+    }
     if args.max_iterations == 0 {
         bail!("--max-iterations must be at least 1");
     }
@@ -119,6 +130,7 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
         normalisation: args.normalisation.into(),
         starts: args.starts,
         load_ramp: args.load_ramp.into(),
+        exclude_after_load_change_s: args.exclude_after_load_change_s,
         ..StudyOptions::new(vec![])
     };
     let outcome = match &args.study {

@@ -65,6 +65,9 @@ pub(crate) struct RunData<'a> {
     /// `w_h / σ_h` and `w_p / σ_p`.
     pub height_factor: f64,
     pub pressure_factor: f64,
+    /// Per sample 1, or 0 where the loss leaves it out (just after a logged load change,
+    /// [`GreyboxProblem::exclude_after_load_change_s`]); empty: every sample counts.
+    pub sample_weight: Vec<f64>,
 }
 
 impl RunData<'_> {
@@ -266,13 +269,18 @@ impl<'a> Evaluator<'a> {
         for (run, response) in self.runs.iter().zip(responses) {
             let n = run.len();
             let (h_out, rest) = out[start..start + 2 * n].split_at_mut(n);
+            let weight = |k: usize| run.sample_weight.get(k).copied().unwrap_or(1.0);
             match response {
                 Ok(sim) => {
                     for (k, r) in h_out.iter_mut().enumerate() {
-                        *r = run.height_factor * (run.height[k] - sim.sensor_height_m[k]);
+                        *r = weight(k)
+                            * run.height_factor
+                            * (run.height[k] - sim.sensor_height_m[k]);
                     }
                     for (k, r) in rest.iter_mut().enumerate() {
-                        *r = run.pressure_factor * (run.pressure[k] - sim.bellow_gauge_pa[k]);
+                        *r = weight(k)
+                            * run.pressure_factor
+                            * (run.pressure[k] - sim.bellow_gauge_pa[k]);
                     }
                 }
                 Err(_) => {
@@ -412,7 +420,36 @@ fn run_data<'a>(
         pressure: &outputs.bellow_gauge_pa,
         height_factor: w.height,
         pressure_factor: w.pressure,
+        sample_weight: load_change_weights(run, problem.exclude_after_load_change_s),
     })
+}
+
+/// 0 for the samples within `window_s` after a change of the logged load (from the change
+/// on, through an eased transition, to `window_s` after its last changing sample), 1
+/// elsewhere; empty when nothing is left out.
+fn load_change_weights(run: &Run, window_s: f64) -> Vec<f64> {
+    if !(window_s > 0.0) {
+        return Vec::new();
+    }
+    let load = &run.inputs.wheel_load_kg;
+    let mut last_change = f64::NEG_INFINITY;
+    let weights: Vec<f64> = (0..run.len())
+        .map(|k| {
+            if k > 0 && load[k] != load[k - 1] {
+                last_change = run.time_s[k];
+            }
+            if run.time_s[k] - last_change < window_s {
+                0.0
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    if weights.iter().all(|w| *w == 1.0) {
+        Vec::new()
+    } else {
+        weights
+    }
 }
 
 /// The within-run spread of one output pooled over all runs,

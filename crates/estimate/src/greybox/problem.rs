@@ -121,6 +121,13 @@ pub struct GreyboxProblem<'a> {
     pub start_states: Vec<Option<InitialState>>,
     /// ODE solver options of every simulation (default: BDF, rtol 1e-6, as `airsus-sim`).
     pub solver: SolverOptions,
+    /// Seconds after each change of the logged load that the loss leaves out (0: none).
+    /// A log records a step where the wheel takes the load over seconds, each time
+    /// differently; fitted to those seconds, the parameters absorb the transition's shape. On
+    /// the virtual truck, the `truck` structure started at its true values on data-sets 1
+    /// and 3 ran away to a creep time of 0.9 s and an unsprung mass of 158 kg (data-set 3
+    /// pressure 90.8 → 7.9 %); with 10 s left out it stayed near the truth (88.0 %).
+    pub exclude_after_load_change_s: f64,
 }
 
 impl<'a> GreyboxProblem<'a> {
@@ -135,6 +142,7 @@ impl<'a> GreyboxProblem<'a> {
             initial: InitialChoice::default(),
             start_states: Vec::new(),
             solver: SolverOptions::default(),
+            exclude_after_load_change_s: 0.0,
         }
     }
 
@@ -158,6 +166,12 @@ impl<'a> GreyboxProblem<'a> {
 
     pub fn with_weights(mut self, weights: OutputWeights) -> Self {
         self.weights = weights;
+        self
+    }
+
+    /// Leaves the `seconds` after each logged load change out of the loss.
+    pub fn with_exclusion_after_load_changes(mut self, seconds: f64) -> Self {
+        self.exclude_after_load_change_s = seconds;
         self
     }
 
