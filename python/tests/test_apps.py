@@ -143,6 +143,7 @@ def test_study_takes_the_commands_fit_options(reference: Path, tmp_path: Path) -
         initial_state="prefix",
         normalisation="noise-level",
         starts=2,
+        exclude_after_load_change_s=10.0,
     )
     assert results["initial_state"] == "prefix"
     (model,) = results["protocols"][0]["models"]
@@ -153,3 +154,7 @@ def test_study_takes_the_commands_fit_options(reference: Path, tmp_path: Path) -
         airsus.study(reference / "study.toml", tmp_path / "o2", normalisation="spread")
     with pytest.raises(airsus.AirsusError, match="starts must be at least 1"):
         airsus.study(reference / "study.toml", tmp_path / "o3", models=["m2"], starts=0)
+    with pytest.raises(airsus.AirsusError, match="exclude_after_load_change_s -1"):
+        airsus.study(
+            reference / "study.toml", tmp_path / "o4", models=["m2"], exclude_after_load_change_s=-1
+        )

@@ -147,8 +147,6 @@ pub fn run_experiment_with(
     })
 }
 
-/// The virtual truck's extra effects as TOML, keyed by the `truck` model's parameter names,
-/// so an estimate of the `truck` structure can be compared with the truth.
 /// The decimals of a logged run: each sensor at its resolution (0.1 mm, 0.1 kPa, 1 kPa
 /// supply), the time at the sample clock's, the logged load to 0.1 kg, the road to 0.01 mm.
 pub fn logged_precision() -> RunPrecision {
@@ -166,6 +164,8 @@ pub fn logged_precision() -> RunPrecision {
     }
 }
 
+/// The virtual truck's extra effects as TOML, keyed by the `truck` model's parameter names,
+/// so an estimate of the `truck` structure can be compared with the truth.
 pub fn effects_toml(truck: &VirtualTruck) -> String {
     let e = &truck.effect_parameters;
     let f = &truck.effects;

@@ -258,7 +258,7 @@ fn run_the_study(
 /// `study` is None). Returns `{"results": path of results.json, "report": path of report.html,
 /// "notes", "chart_failures"}`.
 #[pyfunction]
-#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, variant=None, load_ramp=None))]
+#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, variant=None, load_ramp=None, exclude_after_load_change_s=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn study<'py>(
     py: Python<'py>,
@@ -273,7 +273,15 @@ pub fn study<'py>(
     starts: Option<usize>,
     variant: Option<u32>,
     load_ramp: Option<String>,
+    exclude_after_load_change_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let exclude_after_load_change_s =
+        exclude_after_load_change_s.unwrap_or(airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S);
+    if !(exclude_after_load_change_s.is_finite() && exclude_after_load_change_s >= 0.0) {
+        return Err(crate::error::to_py(anyhow::anyhow!(
+            "exclude_after_load_change_s {exclude_after_load_change_s}: expected a time in seconds, 0 or more"
+        )));
+    }
     let load_ramp = match load_ramp.as_deref().unwrap_or("estimate") {
         "estimate" => airsus_study::LoadRamp::Estimate,
         "logged" => airsus_study::LoadRamp::Logged,
@@ -301,6 +309,7 @@ pub fn study<'py>(
         .or_py()?,
         starts: starts.unwrap_or(1),
         load_ramp,
+        exclude_after_load_change_s,
         ..StudyOptions::new(vec![])
     };
     let builtin = (seed.unwrap_or(1), variant.unwrap_or(0));

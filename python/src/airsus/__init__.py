@@ -889,6 +889,7 @@ def study(
     variant: Optional[int] = None,
     load_ramp: str = "estimate",
     progress: Progress = None,
+    exclude_after_load_change_s: float = 0.0,
 ) -> Dict[str, Any]:
     """Run the whole thesis pipeline, as ``airsus study STUDY.toml --out OUT``: submodel fits,
     grey-box estimation of every model, validation with residual analysis on every run, and
@@ -911,6 +912,8 @@ def study(
         load_ramp: ``"estimate"`` (each logged load change eased over a transition time
             fitted on the estimation runs, the parameters refitted) or ``"logged"``, as
             ``--load-ramp``.
+        exclude_after_load_change_s: seconds after each logged load change that the
+            estimation's loss leaves out (0: none), as ``--exclude-after-load-change-s``.
         progress: called with a dict per event (the GIL is released while the study runs):
             ``{"event": "stage", "message": ...}`` or ``{"event": "model_done", "protocol",
             "model", "seconds", "done", "total"}``.
@@ -931,6 +934,7 @@ def study(
         starts=int(starts),
         variant=None if variant is None else int(variant),
         load_ramp=load_ramp,
+        exclude_after_load_change_s=float(exclude_after_load_change_s),
     )
     with open(native["results"], encoding="utf-8") as f:
         results: Dict[str, Any] = json.load(f)

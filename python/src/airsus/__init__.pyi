@@ -155,7 +155,10 @@ def study(
     initial_state: str = "prefix",
     normalisation: str = "pooled-spread",
     starts: int = 1,
+    variant: Optional[int] = None,
+    load_ramp: str = "estimate",
     progress: Progress = None,
+    exclude_after_load_change_s: float = 0.0,
 ) -> Dict[str, Any]: ...
 def generate(out: PathLike, seed: int = 1, *, progress: Progress = None) -> Dict[str, Any]: ...
 def nrmse(y: _ArrayLike, yhat: _ArrayLike) -> float: ...
