@@ -22,7 +22,8 @@ use airsus_data::Run;
 use airsus_model::SuspensionModel;
 use airsus_sim::InitialState;
 
-use crate::greybox::{GreyboxEstimate, GreyboxOptions, GreyboxProblem, estimate};
+use crate::error::EstimateError;
+use crate::greybox::{GreyboxEstimate, GreyboxOptions, GreyboxProblem, InitialChoice, estimate};
 use crate::initial_state::{PrefixOptions, StartMethod, estimate_initial_state};
 use crate::progress::NoProgress;
 
@@ -197,6 +198,26 @@ pub fn estimate_jointly(
     }
 }
 
+/// How a grey-box estimate's runs start: `requested`, or by default from the prefix, unless
+/// each run's equilibrium is fixed at its first pressure, which takes the equilibrium (a
+/// prefix start is anchored at the measured height, so the two cannot be combined). What
+/// `airsus greybox` and Python's `greybox` resolve their options with.
+pub fn estimation_start(
+    initial: InitialChoice,
+    requested: Option<StartMethod>,
+) -> Result<StartMethod, EstimateError> {
+    match (initial, requested) {
+        (InitialChoice::BellowPressure, Some(StartMethod::Prefix)) => {
+            Err(EstimateError::InvalidOption(
+                "an equilibrium at each run's first pressure starts it at rest: starts fitted to a prefix are anchored at the measured height".to_owned(),
+            ))
+        }
+        (_, Some(method)) => Ok(method),
+        (InitialChoice::SensorHeight, None) => Ok(StartMethod::Prefix),
+        (InitialChoice::BellowPressure, None) => Ok(StartMethod::Equilibrium),
+    }
+}
+
 /// A grey-box estimate whose runs start by `method`: the equilibrium, or (`Prefix`) starts
 /// fitted to each run's first seconds under the start values, the multi-start fit from
 /// them, then [`estimate_jointly`]. What `airsus greybox` and Python's `greybox` run. The
@@ -209,7 +230,7 @@ pub fn estimate_with_starts(
     method: StartMethod,
     prefix: &PrefixOptions,
     observer: &mut dyn crate::progress::Observer,
-) -> Result<(JointEstimate, crate::greybox::MultiStartSummary), crate::error::EstimateError> {
+) -> Result<(JointEstimate, crate::greybox::MultiStartSummary), EstimateError> {
     match method {
         StartMethod::Equilibrium => {
             let (estimate, summary) =
@@ -224,11 +245,7 @@ pub fn estimate_with_starts(
             ))
         }
         StartMethod::Prefix => {
-            if problem.initial != crate::greybox::InitialChoice::SensorHeight {
-                return Err(crate::error::EstimateError::InvalidOption(
-                    "starts fitted to a prefix are anchored at the measured height: the equilibrium at the first pressure needs equilibrium starts".to_owned(),
-                ));
-            }
+            estimation_start(problem.initial, Some(method))?;
             let started = GreyboxProblem {
                 start_states: prefix_starts(problem.model, &problem.runs, prefix),
                 ..problem.clone()

@@ -40,12 +40,15 @@ pub use error::EstimateError;
 pub use greybox::{
     FreeParameter, GreyboxEstimate, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
     InitialChoice, MultiStart, MultiStartSummary, Normalisation, OutputWeights, StopReason,
-    estimate, estimate_multistart,
+    check_load_change_exclusion_s, estimate, estimate_multistart,
 };
 pub use initial_state::{
     EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,
 };
-pub use joint::{JointEstimate, JointRound, estimate_jointly, estimate_with_starts, prefix_starts};
+pub use joint::{
+    JointEstimate, JointRound, estimate_jointly, estimate_with_starts, estimation_start,
+    prefix_starts,
+};
 pub use load_ramp::{
     LoadRampFit, MAX_LOAD_RAMP_S, check_load_ramp_s, fit_load_ramp, ramp_logged_load,
     solver_for_ramp,

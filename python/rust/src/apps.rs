@@ -275,13 +275,10 @@ pub fn study<'py>(
     load_ramp: Option<String>,
     exclude_after_load_change_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let exclude_after_load_change_s =
-        exclude_after_load_change_s.unwrap_or(airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S);
-    if !(exclude_after_load_change_s.is_finite() && exclude_after_load_change_s >= 0.0) {
-        return Err(crate::error::to_py(anyhow::anyhow!(
-            "exclude_after_load_change_s {exclude_after_load_change_s}: expected a time in seconds, 0 or more"
-        )));
-    }
+    let exclude_after_load_change_s = airsus_estimate::check_load_change_exclusion_s(
+        exclude_after_load_change_s.unwrap_or(airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S),
+    )
+    .map_err(|e| crate::error::to_py(anyhow::anyhow!("exclude_after_load_change_s {e}")))?;
     let load_ramp = match load_ramp.as_deref().unwrap_or("estimate") {
         "estimate" => airsus_study::LoadRamp::Estimate,
         "logged" => airsus_study::LoadRamp::Logged,

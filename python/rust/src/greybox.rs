@@ -8,6 +8,7 @@ use airsus_data::{Outputs, TruckParameters};
 use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
     MultiStart, Normalisation, OutputWeights, PrefixOptions, StartMethod, estimate_with_starts,
+    estimation_start,
 };
 use airsus_truck::models::{build_any_model, default_free};
 
@@ -173,16 +174,14 @@ pub fn greybox<'py>(
         }
     };
     // As the command: prefix starts unless the equilibrium is fixed by the first pressure.
-    let start = match (initial, initial_state.as_deref()) {
-        (InitialChoice::BellowPressure, Some("prefix")) => {
-            return Err(crate::error::to_py(anyhow::anyhow!(
-                "initial=\"pressure\" starts every run in equilibrium at its first pressure: a prefix start (initial_state=\"prefix\") is anchored at the measured height"
-            )));
-        }
-        (InitialChoice::BellowPressure, None) => StartMethod::Equilibrium,
-        (_, Some(name)) => crate::simulate::parse_start(name).or_py()?,
-        (InitialChoice::SensorHeight, None) => StartMethod::Prefix,
-    };
+    let requested = initial_state
+        .as_deref()
+        .map(crate::simulate::parse_start)
+        .transpose()
+        .or_py()?;
+    let start = estimation_start(initial, requested)
+        .map_err(|e| anyhow::anyhow!("initial=\"pressure\" with initial_state=\"prefix\": {e}"))
+        .or_py()?;
     let defaults = GreyboxOptions::default();
     let settings = Settings {
         start,

@@ -21,8 +21,8 @@ use std::path::PathBuf;
 use airsus_data::{Outputs, read_truck, write_truck};
 use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
-    MultiStart, NoProgress, Normalisation, Observer, OutputWeights, PrefixOptions,
-    TerminalProgress, estimate_with_starts, initial_state::DEFAULT_PREFIX_S,
+    MultiStart, NoProgress, Normalisation, Observer, OutputWeights, PrefixOptions, StartMethod,
+    TerminalProgress, estimate_with_starts, estimation_start, initial_state::DEFAULT_PREFIX_S,
 };
 use airsus_truck::models::{build_any_model, default_free};
 
@@ -152,12 +152,8 @@ fn parse_bounds(text: &str) -> anyhow::Result<(String, f64, f64)> {
 }
 
 pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
-    if !(args.exclude_after_load_change_s.is_finite() && args.exclude_after_load_change_s >= 0.0) {
-        bail!(
-            "--exclude-after-load-change-s {}: expected a time in seconds, 0 or more",
-            args.exclude_after_load_change_s
-        );
-    }
+    airsus_estimate::check_load_change_exclusion_s(args.exclude_after_load_change_s)
+        .map_err(|e| anyhow::anyhow!("--exclude-after-load-change-s {e}"))?;
     let source = args.source.source()?;
     if let Some(out) = &args.out {
         let mut inputs: Vec<&std::path::Path> = vec![&args.truck];
@@ -238,15 +234,8 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     let mut terminal = TerminalProgress::new();
     let mut quiet = NoProgress;
     let observer: &mut dyn Observer = if args.json { &mut quiet } else { &mut terminal };
-    use crate::commands::simulate::StartArg;
-    let initial_state = match (args.initial, args.initial_state) {
-        (InitialArg::Pressure, Some(StartArg::Prefix)) => bail!(
-            "--initial pressure starts every run in equilibrium at its first pressure: a prefix start (--initial-state prefix) is anchored at the measured height"
-        ),
-        (InitialArg::Pressure, None) => StartArg::Equilibrium,
-        (_, Some(chosen)) => chosen,
-        (InitialArg::Height, None) => StartArg::Prefix,
-    };
+    let start = estimation_start(problem.initial, args.initial_state.map(Into::into))
+        .map_err(|e| anyhow::anyhow!("--initial pressure with --initial-state prefix: {e}"))?;
     let (joint, global) = estimate_with_starts(
         &problem,
         &options,
@@ -255,14 +244,14 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
             spread: args.start_spread,
             seed: 1,
         },
-        initial_state.into(),
+        start,
         &PrefixOptions {
             prefix_s: args.prefix_s,
             ..PrefixOptions::default()
         },
         observer,
     )?;
-    if initial_state == StartArg::Prefix {
+    if start == StartMethod::Prefix {
         eprintln!("{}", joint.describe(args.prefix_s));
     }
     let result = joint.estimate;

@@ -88,12 +88,8 @@ impl From<LoadRampArg> for airsus_study::LoadRamp {
 pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     check_models(&args.models)?;
-    if !(args.exclude_after_load_change_s.is_finite() && args.exclude_after_load_change_s >= 0.0) {
-        bail!(
-            "--exclude-after-load-change-s {}: expected a time in seconds, 0 or more",
-            args.exclude_after_load_change_s
-        );
-    }
+    airsus_estimate::check_load_change_exclusion_s(args.exclude_after_load_change_s)
+        .map_err(|e| anyhow::anyhow!("--exclude-after-load-change-s {e}"))?;
     if args.max_iterations == 0 {
         bail!("--max-iterations must be at least 1");
     }

@@ -37,7 +37,7 @@ pub use identifiability::{
 pub use multistart::{MultiStart, MultiStartSummary, estimate_multistart};
 pub use problem::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
-    Normalisation, OutputWeights,
+    Normalisation, OutputWeights, check_load_change_exclusion_s,
 };
 pub use result::{
     Correlation, EstimatedParameter, GreyboxEstimate, IdentifiabilityReport, ParameterStatus,

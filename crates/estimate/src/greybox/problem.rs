@@ -130,6 +130,16 @@ pub struct GreyboxProblem<'a> {
     pub exclude_after_load_change_s: f64,
 }
 
+/// Checks a time to leave out after each logged load change, given by a user
+/// (`--exclude-after-load-change-s`, Python's `exclude_after_load_change_s`).
+pub fn check_load_change_exclusion_s(seconds: f64) -> Result<f64, String> {
+    if seconds.is_finite() && seconds >= 0.0 {
+        Ok(seconds)
+    } else {
+        Err(format!("{seconds}: expected a time in seconds, 0 or more"))
+    }
+}
+
 impl<'a> GreyboxProblem<'a> {
     /// A problem freeing `free` (short names, default bounds) on `runs`.
     pub fn new(model: &'a dyn SuspensionModel, runs: &[&'a Run], free: &[&str]) -> Self {
@@ -169,7 +179,8 @@ impl<'a> GreyboxProblem<'a> {
         self
     }
 
-    /// Leaves the `seconds` after each logged load change out of the loss.
+    /// Leaves the `seconds` after each logged load change out of the loss (checked with
+    /// [`check_load_change_exclusion_s`] where a user gives it).
     pub fn with_exclusion_after_load_changes(mut self, seconds: f64) -> Self {
         self.exclude_after_load_change_s = seconds;
         self
