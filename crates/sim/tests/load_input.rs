@@ -3,11 +3,14 @@
 //! solver at every sample; followed linearly it restarts only where the ramp starts and
 //! ends, and the two agree with each other and with an explicit solution.
 
+mod common;
+
 use airsus_data::{TruckParameters, ValveState};
 use airsus_model::{InitialCondition, build_model};
 use airsus_sim::{
     InitialState, InputSeries, LoadInput, Method, SimulationProblem, SolverOptions, simulate,
 };
+use common::max_abs_diff;
 
 /// Smoothstep from 0 to 1 over `[0, 1]`.
 fn smoothstep(x: f64) -> f64 {
@@ -46,24 +49,18 @@ fn an_eased_load_followed_linearly_restarts_only_where_it_starts_and_stops_movin
         held.statistics,
         linear.statistics
     );
-    let worst = |a: &[f64], b: &[f64]| {
-        a.iter()
-            .zip(b)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max)
-    };
     let explicit = run(SolverOptions::default()
         .with_method(Method::Tsit45)
         .with_load(LoadInput::Linear));
-    let w = worst(&linear.sensor_height_m, &explicit.sensor_height_m);
+    let w = max_abs_diff(&linear.sensor_height_m, &explicit.sensor_height_m);
     assert!(
         w < 1e-5,
         "linear load: height differs by {w} m between methods"
     );
     // The staircase lags the polyline by half a sample: at the ramp's steepest (75 kg/s)
     // about 4 kg, 0.22 mm of height while the truck moves.
-    let w = worst(&held.sensor_height_m, &linear.sensor_height_m);
+    let w = max_abs_diff(&held.sensor_height_m, &linear.sensor_height_m);
     assert!(w < 5e-4, "held vs linear load: {w} m");
-    let moved = worst(&held.sensor_height_m, &vec![held.sensor_height_m[0]; n]);
+    let moved = max_abs_diff(&held.sensor_height_m, &vec![held.sensor_height_m[0]; n]);
     assert!(moved > 5e-3, "the load moved the truck: {moved} m");
 }

@@ -1,5 +1,7 @@
 //! The engine against models with known answers (crate `reference` module).
 
+mod common;
+
 use airsus_data::ValveState;
 use airsus_model::{InitialCondition, SuspensionModel};
 use airsus_sim::reference::{
@@ -10,6 +12,7 @@ use airsus_sim::{
     SimulationResponse, SolverFailure, SolverOptions, StateViolation, SupplyRelevance, simulate,
     simulate_into,
 };
+use common::max_abs_diff;
 
 fn grid(n: usize, dt: f64) -> Vec<f64> {
     (0..n).map(|k| k as f64 * dt).collect()
@@ -45,13 +48,6 @@ impl Signals {
         )
         .expect("valid inputs")
     }
-}
-
-fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
 }
 
 fn step_load(t: f64) -> f64 {

@@ -3,11 +3,14 @@
 //! finishes the run; followed linearly (the default, no restarts), BDF finishes by itself.
 //! Both agree with an independent explicit solution.
 
+mod common;
+
 use airsus_data::{TruckParameters, ValveState};
 use airsus_model::{InitialCondition, build_model};
 use airsus_sim::{
     InitialState, InputSeries, Method, RoadInput, SimulationProblem, SolverOptions, simulate,
 };
+use common::max_abs_diff;
 
 #[test]
 fn a_road_run_that_defeats_bdf_finishes_with_tr_bdf2_and_matches_tsit45() {
@@ -38,12 +41,6 @@ fn a_road_run_that_defeats_bdf_finishes_with_tr_bdf2_and_matches_tsit45() {
     let default = run(SolverOptions::default()).expect("BDF finishes a linear road");
     assert_eq!(default.statistics.fallback, None);
     assert_eq!(default.statistics.restarts, 0);
-    let worst = |a: &[f64], b: &[f64]| {
-        a.iter()
-            .zip(b)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max)
-    };
     for road in [RoadInput::Hold, RoadInput::Linear] {
         let explicit = run(SolverOptions::default()
             .with_method(Method::Tsit45)
@@ -55,14 +52,14 @@ fn a_road_run_that_defeats_bdf_finishes_with_tr_bdf2_and_matches_tsit45() {
         } else {
             &default
         };
-        let w = worst(&implicit.sensor_height_m, &explicit.sensor_height_m);
+        let w = max_abs_diff(&implicit.sensor_height_m, &explicit.sensor_height_m);
         assert!(
             w < 1e-5,
             "{road:?}: height differs by {w} m between methods"
         );
     }
     // Held and linear roads differ by about half a sample of road motion, not more.
-    let w = worst(&held.sensor_height_m, &default.sensor_height_m);
+    let w = max_abs_diff(&held.sensor_height_m, &default.sensor_height_m);
     assert!(w < 1e-3, "held vs linear road: {w} m");
     // The road moves the corner: the check is not comparing two constants.
     let spread = default

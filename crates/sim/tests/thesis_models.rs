@@ -1,21 +1,17 @@
 //! The engine on the thesis models (`airsus_model::build_model`) with the reference truck.
 
+mod common;
+
 use airsus_data::{TruckParameters, ValveState};
 use airsus_model::{InitialCondition, THESIS_MODELS, build_model};
 use airsus_sim::reference::load_step_run;
 use airsus_sim::{
     InitialState, InputSeries, RoadInput, SimulationProblem, SolverOptions, simulate,
 };
+use common::max_abs_diff;
 
 const AT_350_KPA: InitialState =
     InitialState::Equilibrium(InitialCondition::BellowPressure { gauge_pa: 350e3 });
-
-fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-}
 
 #[test]
 fn every_model_holds_its_static_equilibrium() {
