@@ -46,11 +46,11 @@ pub use initial_state::{
     EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,
 };
 pub use joint::{
-    JointEstimate, JointRound, estimate_jointly, estimate_with_starts, estimation_start,
-    prefix_starts,
+    JointEstimate, JointRound, estimate_jointly, estimate_jointly_with_transitions,
+    estimate_with_starts, estimation_start, prefix_starts,
 };
 pub use load_ramp::{
-    LoadRampFit, MAX_LOAD_RAMP_S, check_load_ramp_s, fit_load_ramp, ramp_logged_load,
-    solver_for_ramp,
+    LoadRampFit, LoadTransitionsFit, MAX_LOAD_RAMP_S, check_load_ramp_s, ease_logged_load,
+    fit_load_ramp, fit_load_transitions, logged_load_changes, ramp_logged_load, solver_for_ramp,
 };
 pub use progress::{IterationInfo, NoProgress, Observer, TerminalProgress};
