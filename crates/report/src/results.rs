@@ -262,12 +262,24 @@ pub struct ModelResult {
     /// validation alike (`--load-ramp estimate`); absent when the load was used as logged.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub load_ramp_s: Option<f64>,
+    /// Each logged load change of an estimation run eased over its own fitted time (the
+    /// validation runs keep `load_ramp_s`); empty when no change has its own time.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub load_transitions: Vec<LoadTransitions>,
     pub runs: Vec<RunFit>,
     /// The estimated truck file, relative to the output folder.
     pub truck_file: Option<String>,
     pub notes: Vec<String>,
     /// Set when the model failed as a whole (its runs may be empty).
     pub error: Option<String>,
+}
+
+/// The transition time of each logged load change of one estimation run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LoadTransitions {
+    pub run: String,
+    /// In the order of the run's logged changes, s.
+    pub durations_s: Vec<f64>,
 }
 
 impl ModelResult {
@@ -285,6 +297,7 @@ impl ModelResult {
             estimation_time_s: 0.0,
             gradient_norm: None,
             load_ramp_s: None,
+            load_transitions: vec![],
             runs: vec![],
             truck_file: None,
             notes: vec![],
@@ -358,6 +371,10 @@ mod tests {
                     estimation_time_s: 0.2,
                     gradient_norm: Some(2.5e-6),
                     load_ramp_s: Some(5.5),
+                    load_transitions: vec![LoadTransitions {
+                        run: "data-set 1".to_owned(),
+                        durations_s: vec![4.9, 6.6],
+                    }],
                     runs: vec![RunFit {
                         run: "data-set 1".to_owned(),
                         role: "estimation".to_owned(),
@@ -505,6 +522,9 @@ mod tests {
             "protocols[].models[].free",
             "protocols[].models[].gradient_norm",
             "protocols[].models[].load_ramp_s",
+            "protocols[].models[].load_transitions",
+            "protocols[].models[].load_transitions[].durations_s",
+            "protocols[].models[].load_transitions[].run",
             "protocols[].models[].local_optima_losses",
             "protocols[].models[].model",
             "protocols[].models[].notes",

@@ -5,9 +5,10 @@ use std::time::Instant;
 
 use airsus_data::{Run, TruckParameters, ValveState, write_truck};
 use airsus_estimate::{
-    GreyboxEstimate, GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, PrefixOptions,
-    StartChoice, StartMethod, StopReason, estimate, estimate_jointly, estimate_multistart,
-    fit_load_ramp, prefix_starts, ramp_logged_load, resolve_start, solver_for_ramp,
+    GreyboxEstimate, GreyboxOptions, GreyboxProblem, LoadTransitionsFit, MultiStart, NoProgress,
+    PrefixOptions, StartChoice, StartMethod, StopReason, ease_logged_load, estimate_jointly,
+    estimate_jointly_with_transitions, estimate_multistart, fit_load_ramp, logged_load_changes,
+    prefix_starts, ramp_logged_load, resolve_start, solver_for_ramp,
 };
 use airsus_model::SuspensionModel;
 use airsus_report::results::{ModelResult, OutputFit, ParameterEstimate, ResidualSummary, RunFit};
@@ -72,23 +73,48 @@ pub fn simulate_from(
         .map_err(|e| e.to_string())
 }
 
-/// Iterations of the parameter refit after the load transition is fitted.
-const REFIT_ITERATIONS: usize = 15;
+/// The load the models were fed: the logged steps eased over a common transition time
+/// (validation runs), and in estimation runs each change over its own.
+#[derive(Debug, Clone, Default)]
+pub struct FeltLoad {
+    /// The common time, s; `None`: the load as logged.
+    pub common_s: Option<f64>,
+    /// Per estimation run with load changes (by name), each change's own time, s.
+    pub per_run: Vec<(String, Vec<f64>)>,
+}
 
-/// Eases the logged load of the estimation runs over a transition time fitted with the
-/// first fit's parameters, then refits the parameters with it; the refit is kept when it
-/// explains the eased runs better than the first fit does. Returns the estimate and the
-/// transition time (None when easing did not help or the runs have no load changes).
-fn refit_with_load_ramp(
-    first: GreyboxEstimate,
+impl FeltLoad {
+    /// `run` as the models see it.
+    pub fn feed<'r>(&self, run: &'r Run) -> std::borrow::Cow<'r, Run> {
+        if let Some((_, durations)) = self.per_run.iter().find(|(name, _)| *name == run.name) {
+            return std::borrow::Cow::Owned(ease_logged_load(run, durations));
+        }
+        match self.common_s {
+            Some(tau) => std::borrow::Cow::Owned(ramp_logged_load(run, tau)),
+            None => std::borrow::Cow::Borrowed(run),
+        }
+    }
+
+    /// The longest transition any run is eased over, s (0: as logged).
+    pub fn longest_s(&self) -> f64 {
+        self.per_run
+            .iter()
+            .flat_map(|(_, d)| d.iter().copied())
+            .fold(self.common_s.unwrap_or(0.0), f64::max)
+    }
+}
+
+/// The one transition time that eases the estimation runs' logged load changes best under
+/// the first fit's parameters ([`fit_load_ramp`]): where each change's own time starts in
+/// the alternation. `None` when the runs have no load changes or easing did not help.
+fn common_load_ramp(
+    first: &GreyboxEstimate,
     estimation: &[&Run],
     problem: &GreyboxProblem<'_>,
-    options: &GreyboxOptions,
     notes: &mut Vec<String>,
-) -> (GreyboxEstimate, Option<f64>) {
-    let changes = |run: &Run| run.inputs.wheel_load_kg.windows(2).any(|w| w[0] != w[1]);
-    if !estimation.iter().any(|r| changes(r)) {
-        return (first, None);
+) -> Option<f64> {
+    if estimation.iter().all(|r| logged_load_changes(r).is_empty()) {
+        return None;
     }
     // The transition is fitted to the seconds after each change, which the parameters' loss
     // may leave out.
@@ -98,51 +124,25 @@ fn refit_with_load_ramp(
         exclude_after_load_change_s: 0.0,
         ..problem.clone()
     };
-    let fit = match fit_load_ramp(&at_first) {
-        Ok(fit) if fit.duration_s > 0.0 => fit,
+    match fit_load_ramp(&at_first) {
+        Ok(fit) if fit.duration_s > 0.0 => {
+            notes.push(format!(
+                "logged load steps eased over {:.2} s under the first fit's parameters (loss {:.4e} as logged → {:.4e})",
+                fit.duration_s, fit.loss_logged, fit.loss_ramped
+            ));
+            Some(fit.duration_s)
+        }
         Ok(_) => {
             notes.push(
                 "easing the logged load steps did not help: the load is used as logged".to_owned(),
             );
-            return (first, None);
+            None
         }
         Err(e) => {
             notes.push(format!(
                 "the load transition time could not be fitted ({e}): the load is used as logged"
             ));
-            return (first, None);
-        }
-    };
-    let eased: Vec<Run> = estimation
-        .iter()
-        .map(|r| ramp_logged_load(r, fit.duration_s))
-        .collect();
-    let refit = GreyboxProblem {
-        model: &*first.estimated_model,
-        runs: eased.iter().collect(),
-        solver: solver_for_ramp(&problem.solver, fit.duration_s),
-        ..problem.clone()
-    };
-    let tau = fit.duration_s;
-    // The refit starts next to the first fit's optimum: a few iterations settle it, and the
-    // study's time stays within its budget.
-    let refit_options = options
-        .clone()
-        .with_max_iterations(options.max_iterations.min(REFIT_ITERATIONS));
-    match estimate(&refit, &refit_options, &mut NoProgress) {
-        Ok(second) if second.loss_estimated < fit.loss_ramped => {
-            notes.push(format!(
-                "logged load steps eased over {tau:.2} s (fitted: loss {:.4e} as logged → {:.4e}), parameters refitted: → {:.4e}",
-                fit.loss_logged, fit.loss_ramped, second.loss_estimated
-            ));
-            (second, Some(tau))
-        }
-        Ok(_) | Err(_) => {
-            notes.push(format!(
-                "logged load steps eased over {tau:.2} s (fitted: loss {:.4e} as logged → {:.4e}); a refit did not improve it",
-                fit.loss_logged, fit.loss_ramped
-            ));
-            (first, Some(tau))
+            None
         }
     }
 }
@@ -325,131 +325,172 @@ pub fn fit_and_validate(
         problem.start_states = prefix_starts(&*nominal, &estimation, &PrefixOptions::default());
     }
     // The transition time the logged load is eased over, once estimated (None: as logged).
-    let mut load_ramp_s: Option<f64> = None;
+    let mut felt = FeltLoad::default();
     // The estimation runs' starts estimated jointly with the parameters, by run name: those
     // runs are scored from them.
     let mut joint_starts: Vec<(String, InitialState)> = Vec::new();
-    let estimated: Box<dyn SuspensionModel> =
-        match estimate_multistart(&problem, &fit_options, &global, &mut NoProgress) {
-            Err(e) => {
-                result.error = Some(format!(
-                    "grey-box estimation failed: {e}; validated with the start values"
-                ));
-                nominal.clone()
-            }
-            Ok((est, summary)) => {
-                // Everything reported below describes the fit whose model is validated.
-                let est = match options.load_ramp {
-                    crate::LoadRamp::Logged => est,
-                    crate::LoadRamp::Estimate => {
-                        let (est, tau) = refit_with_load_ramp(
-                            est,
-                            &estimation,
-                            &problem,
-                            &fit_options,
-                            &mut result.notes,
-                        );
-                        load_ramp_s = tau;
-                        est
-                    }
-                };
-                let eased: Vec<Run> = estimation
-                    .iter()
-                    .map(|r| ramp_logged_load(r, load_ramp_s.unwrap_or(0.0)))
-                    .collect();
-                let eased: Vec<&Run> = eased.iter().collect();
-                let eased_problem = GreyboxProblem {
-                    runs: eased.clone(),
-                    solver: solver_for_ramp(&problem.solver, load_ramp_s.unwrap_or(0.0)),
-                    ..problem.clone()
-                };
-                let est = match initial {
-                    StartMethod::Equilibrium => est,
-                    StartMethod::Prefix => {
-                        let joint = estimate_jointly(
-                            est,
-                            &eased_problem,
-                            &fit_options,
-                            &PrefixOptions::default(),
-                        );
-                        result
-                            .notes
-                            .push(joint.describe(PrefixOptions::default().prefix_s));
+    let estimated: Box<dyn SuspensionModel> = match estimate_multistart(
+        &problem,
+        &fit_options,
+        &global,
+        &mut NoProgress,
+    ) {
+        Err(e) => {
+            result.error = Some(format!(
+                "grey-box estimation failed: {e}; validated with the start values"
+            ));
+            nominal.clone()
+        }
+        Ok((est, summary)) => {
+            // Everything reported below describes the fit whose model is validated.
+            let common_s = match options.load_ramp {
+                crate::LoadRamp::Logged => None,
+                crate::LoadRamp::Estimate => {
+                    common_load_ramp(&est, &estimation, &problem, &mut result.notes)
+                }
+            };
+            let prefix = PrefixOptions::default();
+            let joint = match (initial, common_s) {
+                (StartMethod::Equilibrium, None) => Err(est),
+                (StartMethod::Prefix, None) => {
+                    Ok(estimate_jointly(est, &problem, &fit_options, &prefix))
+                }
+                (_, Some(tau)) => Ok(estimate_jointly_with_transitions(
+                    est,
+                    &problem,
+                    &fit_options,
+                    (initial == StartMethod::Prefix).then_some(&prefix),
+                    LoadTransitionsFit::common(&estimation, tau),
+                )),
+            };
+            felt.common_s = common_s;
+            let est = match joint {
+                Err(est) => est,
+                Ok(joint) => {
+                    result.notes.push(joint.describe(prefix.prefix_s));
+                    if initial == StartMethod::Prefix {
                         joint_starts = estimation
                             .iter()
                             .zip(&joint.starts)
                             .filter_map(|(run, start)| Some((run.name.clone(), start.clone()?)))
                             .collect();
-                        joint.estimate
                     }
-                };
-                result.stop_reason = Some(est.stop.to_string());
-                result.gradient_norm = est.gradient_norm;
-                result.simulations = est.simulations;
-                result.starts = summary.starts;
-                result.local_optima_losses = summary.losses;
-                if matches!(est.stop, StopReason::NoParameterMoved { .. }) {
-                    result.notes.push(est.stop.to_string());
-                } else if !est.stop.is_converged() {
-                    result.notes.push(format!(
-                        "the fit did not converge ({}); the best point found is used",
-                        est.stop
-                    ));
+                    if let (false, Some(transitions)) =
+                        (joint.rounds.is_empty(), &joint.transitions_s)
+                    {
+                        felt.per_run = estimation
+                            .iter()
+                            .zip(transitions)
+                            .filter(|(_, d)| !d.is_empty())
+                            .map(|(run, d)| (run.name.clone(), d.clone()))
+                            .collect();
+                    }
+                    joint.estimate
                 }
-                if est.failed_simulations > 0 {
-                    result.notes.push(format!(
-                        "{} of {} trial simulations failed and counted as large losses",
-                        est.failed_simulations, est.simulations
-                    ));
-                }
-                for n in &est.identifiability.not_identifiable {
-                    let with: Vec<String> = n
-                        .correlated_with
-                        .iter()
-                        .map(|(p, c)| format!("{p} ({c:+.3})"))
-                        .collect();
-                    result.notes.push(format!(
-                        "{} is not determined by {}: kept at its start value{}{}",
-                        n.name,
-                        protocol.estimation.join(" + "),
-                        if with.is_empty() {
-                            String::new()
-                        } else {
-                            format!("; correlated with {}", with.join(", "))
-                        },
-                        if n.determined_by.is_empty() {
-                            String::new()
-                        } else {
-                            format!("; it needs {}", n.determined_by)
-                        }
-                    ));
-                }
-                result.estimates = est
-                    .parameters
+            };
+            // Validation runs are eased over one time for all their changes: the one
+            // that explains the estimation runs best under the final parameters (the
+            // time fitted under the first fit is biased by what that fit absorbed).
+            if felt.common_s.is_some() && !felt.per_run.is_empty() {
+                let starts: Vec<Option<InitialState>> = estimation
                     .iter()
-                    .map(|p| ParameterEstimate {
-                        name: p.name.clone(),
-                        unit: p.unit.clone(),
-                        // The start values the study began from: a refit (after the load
-                        // transition, or from new starts) starts at the previous estimate.
-                        nominal: nominal.parameter(&p.name).unwrap_or(p.nominal),
-                        estimate: p.estimate,
-                        std: p.std,
-                        identifiable: !est.is_not_identifiable(&p.name),
+                    .map(|run| {
+                        joint_starts
+                            .iter()
+                            .find(|(name, _)| *name == run.name)
+                            .map(|(_, start)| start.clone())
                     })
                     .collect();
-                est.estimated_model
+                let at_final = GreyboxProblem {
+                    model: &*est.estimated_model,
+                    runs: estimation.to_vec(),
+                    exclude_after_load_change_s: 0.0,
+                    ..problem.clone()
+                }
+                .with_start_states(starts);
+                if let Ok(fit) = fit_load_ramp(&at_final)
+                    && fit.duration_s > 0.0
+                {
+                    result.notes.push(format!(
+                        "validation runs' load steps eased over {:.2} s, fitted to the estimation runs under the final parameters",
+                        fit.duration_s
+                    ));
+                    felt.common_s = Some(fit.duration_s);
+                }
             }
-        };
-    result.estimation_time_s = started.elapsed().as_secs_f64();
-    result.load_ramp_s = load_ramp_s;
-    // Every run is validated with the load the models were fitted to.
-    fn fed(run: &Run, load_ramp_s: Option<f64>) -> std::borrow::Cow<'_, Run> {
-        match load_ramp_s {
-            Some(tau) => std::borrow::Cow::Owned(ramp_logged_load(run, tau)),
-            None => std::borrow::Cow::Borrowed(run),
+            result.stop_reason = Some(est.stop.to_string());
+            result.gradient_norm = est.gradient_norm;
+            result.simulations = est.simulations;
+            result.starts = summary.starts;
+            result.local_optima_losses = summary.losses;
+            if matches!(est.stop, StopReason::NoParameterMoved { .. }) {
+                result.notes.push(est.stop.to_string());
+            } else if !est.stop.is_converged() {
+                result.notes.push(format!(
+                    "the fit did not converge ({}); the best point found is used",
+                    est.stop
+                ));
+            }
+            if est.failed_simulations > 0 {
+                result.notes.push(format!(
+                    "{} of {} trial simulations failed and counted as large losses",
+                    est.failed_simulations, est.simulations
+                ));
+            }
+            for n in &est.identifiability.not_identifiable {
+                let with: Vec<String> = n
+                    .correlated_with
+                    .iter()
+                    .map(|(p, c)| format!("{p} ({c:+.3})"))
+                    .collect();
+                result.notes.push(format!(
+                    "{} is not determined by {}: kept at its start value{}{}",
+                    n.name,
+                    protocol.estimation.join(" + "),
+                    if with.is_empty() {
+                        String::new()
+                    } else {
+                        format!("; correlated with {}", with.join(", "))
+                    },
+                    if n.determined_by.is_empty() {
+                        String::new()
+                    } else {
+                        format!("; it needs {}", n.determined_by)
+                    }
+                ));
+            }
+            result.estimates = est
+                .parameters
+                .iter()
+                .map(|p| ParameterEstimate {
+                    name: p.name.clone(),
+                    unit: p.unit.clone(),
+                    // The start values the study began from: a refit (after the load
+                    // transition, or from new starts) starts at the previous estimate.
+                    nominal: nominal.parameter(&p.name).unwrap_or(p.nominal),
+                    estimate: p.estimate,
+                    std: p.std,
+                    identifiable: !est.is_not_identifiable(&p.name),
+                })
+                .collect();
+            est.estimated_model
         }
-    }
+    };
+    result.estimation_time_s = started.elapsed().as_secs_f64();
+    result.load_ramp_s = felt.common_s;
+    result.load_transitions = felt
+        .per_run
+        .iter()
+        .map(
+            |(run, durations_s)| airsus_report::results::LoadTransitions {
+                run: run.clone(),
+                durations_s: durations_s.clone(),
+            },
+        )
+        .collect();
+    // Every run is validated with the load the models were fitted to; an estimation run
+    // with each change eased over its own time.
+    let load_ramp_s = (felt.longest_s() > 0.0).then(|| felt.longest_s());
 
     let mut truck = start.clone();
     estimated.write_parameters(&mut truck);
@@ -487,20 +528,13 @@ pub fn fit_and_validate(
             .find(|(name, _)| *name == run.run.name)
             .map(|(_, start)| start.clone());
         let simulated = match joint_start {
-            Some(start) => {
-                simulate_from(&*estimated, &fed(&run.run, load_ramp_s), start, load_ramp_s)
-            }
-            None => simulate_run(
-                &*estimated,
-                &fed(&run.run, load_ramp_s),
-                initial,
-                load_ramp_s,
-            ),
+            Some(start) => simulate_from(&*estimated, &felt.feed(&run.run), start, load_ramp_s),
+            None => simulate_run(&*estimated, &felt.feed(&run.run), initial, load_ramp_s),
         };
         match simulated {
             Ok(response) => {
                 fit.estimated = output_fit(&run.run, &response);
-                let correlations = residual_correlations(&fed(&run.run, load_ramp_s), &response);
+                let correlations = residual_correlations(&felt.feed(&run.run), &response);
                 fit.residuals = residual_summaries(&correlations);
                 responses.push((run.name.clone(), response, correlations));
             }

@@ -57,9 +57,10 @@ pub struct StudyArgs {
     #[arg(long, default_value_t = 60)]
     pub max_iterations: usize,
     /// How the logged load reaches the models: `logged` (steps stay steps) or `estimate`
-    /// (each logged change eased over a transition time fitted on the estimation runs, the
-    /// parameters refitted with it, validation runs eased alike; for logs that record a
-    /// load change as a step while the wheel takes it over seconds).
+    /// (each logged change of the estimation runs eased over its own transition time,
+    /// estimated in turn with the parameters; validation runs eased over one time fitted to
+    /// the estimation runs; for logs that record a load change as a step while the wheel
+    /// takes it over seconds).
     #[arg(long, value_enum, default_value_t = LoadRampArg::Estimate)]
     pub load_ramp: LoadRampArg,
     /// Seconds after each logged load change that the estimation's loss leaves out (0:

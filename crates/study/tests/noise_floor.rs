@@ -1,0 +1,57 @@
+//! Issue #12's measure of an identification: on the built-in virtual truck under our valve
+//! protocol, the `truck` structure estimated from the nominal truck file explains every run
+//! up to the sensors' noise. The data are the virtual truck's, made by a richer simulation
+//! than the structure fitted (Dahl friction, gas heat exchange, the supply line, an ISO 6358
+//! valve, a pressure-dependent area, lever flex) and logged as a real truck logs them: the
+//! load as steps the wheel takes over 3-8 s, one load change not logged at all.
+
+use airsus_study::{LoadRamp, Protocol, StudyOptions, load_study, run_study};
+
+#[test]
+fn the_truck_structure_reaches_the_noise_ceiling_on_the_runs_whose_inputs_are_logged() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let generated = airsus_truck::experiments::generate(&data, 1, &mut |_| {}).unwrap();
+    let input = load_study(&generated.study_valve).unwrap();
+    // The study's defaults: starts fitted with the parameters, each logged load change eased
+    // over its own time.
+    let options = StudyOptions {
+        models: vec!["truck".to_owned()],
+        ..StudyOptions::new(vec![Protocol::from_roles(&input)])
+    };
+    assert_eq!(options.load_ramp, LoadRamp::Estimate);
+    let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
+    let r = &outcome.results;
+    let truck = &r.protocols[0].models[0];
+    assert!(truck.error.is_none(), "{:?}", truck.error);
+    // (run, points allowed below the ceiling). Data-set 2, held out, has a load change its
+    // log does not show (a mishap at 960 s) and is eased over one common time: measured
+    // 92.5/90.3 % against 98.5/99.1 %.
+    for (run, allowed) in [
+        ("data-set 1", 2.0),
+        ("data-set 3", 2.0),
+        ("data-set 4", 2.0),
+        ("data-set 2", 10.0),
+    ] {
+        let ceiling = r
+            .runs
+            .iter()
+            .find(|info| info.name == run)
+            .and_then(|info| info.ceiling.clone())
+            .expect("a generated run has its truth");
+        let fit = truck.run(run).and_then(|f| f.estimated).expect(run);
+        for (output, got, best) in [
+            ("height", fit.height_percent, ceiling.height_percent),
+            ("pressure", fit.pressure_percent, ceiling.pressure_percent),
+        ] {
+            assert!(
+                got > best - allowed,
+                "{run} {output}: {got:.1} % against the ceiling {best:.1} %; notes {:?}",
+                truck.notes
+            );
+        }
+    }
+    // Each logged change of the loading run was eased over its own time.
+    assert_eq!(truck.load_transitions.len(), 1, "{:?}", truck.notes);
+    assert_eq!(truck.load_transitions[0].durations_s.len(), 6);
+}
