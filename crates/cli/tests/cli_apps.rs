@@ -230,6 +230,23 @@ fn control_holds_the_band_with_both_controllers_and_plots_atomically() {
         "{}",
         String::from_utf8_lossy(&bad.stderr)
     );
+    // A model named for a variant plant is refused, not silently ignored.
+    let ignored = airsus(&[
+        "control",
+        "--truck",
+        &p("truck.toml"),
+        "--plant",
+        "variant:2",
+        "--model",
+        "m2",
+    ]);
+    assert!(!ignored.status.success());
+    assert!(
+        String::from_utf8_lossy(&ignored.stderr)
+            .contains("--model m2 applies to a truck-file plant"),
+        "{}",
+        String::from_utf8_lossy(&ignored.stderr)
+    );
     let svg = std::fs::read_to_string(p("c.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
     let leftovers: Vec<_> = std::fs::read_dir(dir.path())

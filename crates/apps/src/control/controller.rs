@@ -262,7 +262,10 @@ pub struct DeadbandController {
 impl DeadbandController {
     pub fn new(settings: GuardSettings) -> Self {
         Self {
-            stop_margin_m: 1e-3,
+            // Within the band whatever its width: a fill stopped 1 mm short of the target
+            // leaves a ±0.5 mm band's error outside it, and the next opening follows the
+            // rest time (chained pulses).
+            stop_margin_m: STOP_MARGIN_M.min(MARGIN_SHARE_OF_BAND * settings.tolerance_m),
             lead_s: 0.8,
             guard: ValveGuard::new(settings.clone()),
             filter: HeightFilter::new(settings.filter_time_constant_s),
@@ -380,6 +383,13 @@ impl ValveModel {
     }
 }
 
+/// The deadband controller's stop margin and the predictive controller's inner band for
+/// the default ±5 mm band, m; bands under ±2 mm scale them by [`MARGIN_SHARE_OF_BAND`] (and
+/// 1.5 times that), which keeps both inside the band.
+const STOP_MARGIN_M: f64 = 1e-3;
+const INNER_BAND_M: f64 = 1.5e-3;
+const MARGIN_SHARE_OF_BAND: f64 = 0.5;
+
 /// Model-based pulse length (module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PredictiveController {
@@ -409,7 +419,8 @@ impl PredictiveController {
         Self {
             gain: 0.85,
             max_pulse_s: 30.0,
-            inner_band_m: 1.5e-3,
+            // Inside the tolerance band whatever its width (see `DeadbandController::new`).
+            inner_band_m: INNER_BAND_M.min(1.5 * MARGIN_SHARE_OF_BAND * settings.tolerance_m),
             follow_up_wait_s: 3.0,
             active: false,
             last_pulse_end_s: f64::NEG_INFINITY,

@@ -41,9 +41,10 @@ pub struct ControlArgs {
     /// load-steps, height-change or road.
     #[arg(long, default_value = "load-steps")]
     pub scenario: String,
-    /// The model a `--plant` truck file is simulated with (`airsus models`).
-    #[arg(long, default_value = "truck")]
-    pub model: String,
+    /// The model a `--plant` truck file is simulated with (`airsus models`; default
+    /// `truck`). A `variant:K` plant is the virtual truck itself: no model applies.
+    #[arg(long)]
+    pub model: Option<String>,
     #[arg(long, value_enum, default_value_t = ControllerChoice::Both)]
     pub controller: ControllerChoice,
     /// Half-width of the tolerance band around the target, mm.
@@ -68,7 +69,7 @@ pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
     let truck = read_truck(&args.truck)
         .with_context(|| format!("reading truck file {}", args.truck.display()))?
         .parameters;
-    let (plant, plant_name) = build_plant(&args.plant, &args.model)?;
+    let (plant, plant_name) = build_plant(&args.plant, args.model.as_deref())?;
     let scenario = level_scenario(&args.scenario, args.target_mm * 1e-3, args.load_kg)
         .with_context(|| format!("scenarios: {}", SCENARIO_NAMES.join(", ")))?;
     if !(args.band_mm.is_finite() && args.band_mm > 0.0) {
@@ -182,8 +183,14 @@ pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
 
 /// The plant of `--plant`: a virtual truck variant (`variant:K`) or a truck file simulated
 /// with `model`; and how to name it.
-fn build_plant(plant: &str, model: &str) -> anyhow::Result<(Plant, String)> {
+fn build_plant(plant: &str, model: Option<&str>) -> anyhow::Result<(Plant, String)> {
     if let Some(k) = plant.strip_prefix("variant:") {
+        // Said, not ignored: a user who names a model expects the plant to be simulated with it.
+        if let Some(model) = model {
+            anyhow::bail!(
+                "--model {model} applies to a truck-file plant; --plant {plant} is the virtual truck itself, simulated with its own laws (give --plant a truck file to simulate it with {model})"
+            );
+        }
         let k: u32 = k.trim().parse().with_context(|| {
             format!(
                 "--plant {plant}: expected variant:K with K a whole number (0 = the built-in truck)"
@@ -203,7 +210,7 @@ fn build_plant(plant: &str, model: &str) -> anyhow::Result<(Plant, String)> {
             )
         })?
         .parameters;
-    let model = airsus_truck::models::build_any_model(model, &truck)?;
+    let model = airsus_truck::models::build_any_model(model.unwrap_or("truck"), &truck)?;
     let name = format!("{} with {}", model.name(), path.display());
     Ok((Plant::Model(model), name))
 }
