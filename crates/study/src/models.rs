@@ -35,6 +35,8 @@ fn bounds(model: &dyn SuspensionModel, name: &str) -> Option<(f64, f64)> {
     let (lo, hi) = match name {
         "m2" => (0.6, 1.6),
         "ig" => (0.25, 4.0),
+        "a0" => (0.5, 2.0),
+        "c1" | "c2" | "rflow1" | "rflow2" => (1.0 / 3.0, 3.0),
         _ => return None,
     };
     Some((
