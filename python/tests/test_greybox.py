@@ -110,3 +110,24 @@ def test_default_free_set_and_noise_weighting_equal_the_command(
         assert (got["name"], got["estimate"]) == (want["name"], want["estimate"])
     with pytest.raises(airsus.AirsusError, match="normalisation `noise`"):
         airsus.greybox("m2", truck, short_run, normalisation="noise")
+
+
+def test_logged_load_steps_are_eased_each_over_its_own_time(
+    reference: Path, short_run: Path
+) -> None:
+    # The short run holds one logged load change, which the virtual truck's wheel took over
+    # seconds: by default it is eased over a time estimated with the parameters.
+    truck = reference / "truck.toml"
+    eased = airsus.greybox("m2", truck, short_run, free="p0,m2", max_iterations=5)
+    assert "logged load steps eased over" in eased.load, eased.load
+    [[transition_s]] = eased.load_transitions_s
+    assert 1.0 < transition_s <= 15.0
+    assert eased.load_ramp_s is not None and 0.0 < eased.load_ramp_s <= 15.0
+    logged = airsus.greybox(
+        "m2", truck, short_run, free="p0,m2", max_iterations=5, load_ramp="logged"
+    )
+    assert (logged.load, logged.load_transitions_s, logged.load_ramp_s) == ("", [[]], None)
+    fits = [f.nrmse.loc[f.nrmse.index[0]] for f in (logged, eased)]
+    assert fits[1]["height_estimated"] > fits[0]["height_estimated"]
+    with pytest.raises(airsus.AirsusError, match="load_ramp `bogus`"):
+        airsus.greybox("m2", truck, short_run, free="p0", load_ramp="bogus")

@@ -25,6 +25,7 @@ use airsus_sim::InitialState;
 use crate::error::EstimateError;
 use crate::greybox::{GreyboxEstimate, GreyboxOptions, GreyboxProblem, InitialChoice, estimate};
 use crate::initial_state::{PrefixOptions, StartMethod, estimate_initial_state};
+use crate::load_ramp::{LoadRamp, LoadTransitionsFit, fit_load_ramp, logged_load_changes};
 use crate::progress::NoProgress;
 
 /// Rounds of the alternation at most.
@@ -78,6 +79,12 @@ pub struct JointEstimate {
     /// Per run, each logged load change's transition time the estimate was fitted with, s
     /// ([`estimate_jointly_with_transitions`]); `None`: the runs as the problem gave them.
     pub transitions_s: Option<Vec<Vec<f64>>>,
+    /// The one transition time the logged load of other runs (validation runs) is eased
+    /// over, s: fitted to the estimation runs under the final parameters
+    /// ([`estimate_with_starts`] with [`LoadRamp::Estimate`]); `None`: the load as logged.
+    pub load_ramp_s: Option<f64>,
+    /// What the load easing did, one line each, for a report.
+    pub load_notes: Vec<String>,
 }
 
 impl JointEstimate {
@@ -341,6 +348,8 @@ fn alternate(
         rounds,
         starts: current_starts,
         transitions_s: current_durations,
+        load_ramp_s: None,
+        load_notes: Vec::new(),
     }
 }
 
@@ -364,42 +373,128 @@ pub fn estimation_start(
     }
 }
 
-/// A grey-box estimate whose runs start by `method`: the equilibrium, or (`Prefix`) starts
-/// fitted to each run's first seconds under the start values, the multi-start fit from
-/// them, then [`estimate_jointly`]. What `airsus greybox` and Python's `greybox` run. The
-/// problem's own starts are replaced for `Prefix`; for `Equilibrium` the joint estimate's
-/// rounds are empty.
+/// A grey-box estimate whose runs start by `method` and whose logged load is fed as `load`
+/// says: the multi-start fit (from starts fitted to each run's first seconds under the start
+/// values, for `Prefix`), then the alternation ([`estimate_jointly`]; with
+/// [`LoadRamp::Estimate`] and logged load changes, [`estimate_jointly_with_transitions`] from
+/// the one time [`fit_load_ramp`] fits under the first fit). What `airsus greybox`, Python's
+/// `greybox` and the study run. The problem's own starts are replaced for `Prefix`; for
+/// `Equilibrium` with the load as logged the joint estimate's rounds are empty.
 pub fn estimate_with_starts(
     problem: &GreyboxProblem<'_>,
     options: &GreyboxOptions,
     multistart: &crate::greybox::MultiStart,
     method: StartMethod,
     prefix: &PrefixOptions,
+    load: LoadRamp,
     observer: &mut dyn crate::progress::Observer,
 ) -> Result<(JointEstimate, crate::greybox::MultiStartSummary), EstimateError> {
-    match method {
-        StartMethod::Equilibrium => {
-            let (estimate, summary) =
-                crate::greybox::estimate_multistart(problem, options, multistart, observer)?;
-            Ok((
-                JointEstimate {
-                    estimate,
-                    rounds: vec![],
-                    starts: vec![],
-                    transitions_s: None,
-                },
-                summary,
-            ))
-        }
+    let started = match method {
+        StartMethod::Equilibrium => problem.clone(),
         StartMethod::Prefix => {
             estimation_start(problem.initial, Some(method))?;
-            let started = GreyboxProblem {
+            GreyboxProblem {
                 start_states: prefix_starts(problem.model, &problem.runs, prefix),
                 ..problem.clone()
-            };
-            let (first, summary) =
-                crate::greybox::estimate_multistart(&started, options, multistart, observer)?;
-            Ok((estimate_jointly(first, &started, options, prefix), summary))
+            }
+        }
+    };
+    let (first, summary) =
+        crate::greybox::estimate_multistart(&started, options, multistart, observer)?;
+    let mut notes = Vec::new();
+    let common_s = match load {
+        LoadRamp::Logged => None,
+        LoadRamp::Estimate => common_load_ramp(&first, &started, &mut notes),
+    };
+    let prefix_if = (method == StartMethod::Prefix).then_some(prefix);
+    let mut joint = match (prefix_if, common_s) {
+        (None, None) => JointEstimate {
+            estimate: first,
+            rounds: vec![],
+            starts: vec![],
+            transitions_s: None,
+            load_ramp_s: None,
+            load_notes: vec![],
+        },
+        (Some(prefix), None) => estimate_jointly(first, &started, options, prefix),
+        (prefix, Some(tau)) => estimate_jointly_with_transitions(
+            first,
+            &started,
+            options,
+            prefix,
+            LoadTransitionsFit::common(&started.runs, tau),
+        ),
+    };
+    joint.load_ramp_s = common_s;
+    // Other runs are eased over one time: the one that explains the estimation runs best
+    // under the final parameters (the time fitted under the first fit is biased by what
+    // that fit absorbed).
+    if common_s.is_some() && !joint.rounds.is_empty() {
+        let at_final = GreyboxProblem {
+            model: &*joint.estimate.estimated_model,
+            start_states: if joint.starts.is_empty() {
+                started.start_states.clone()
+            } else {
+                joint.starts.clone()
+            },
+            exclude_after_load_change_s: 0.0,
+            ..started.clone()
+        };
+        if let Ok(fit) = fit_load_ramp(&at_final)
+            && fit.duration_s > 0.0
+        {
+            notes.push(format!(
+                "other runs' load steps are eased over {:.2} s, fitted to these runs under the final parameters",
+                fit.duration_s
+            ));
+            joint.load_ramp_s = Some(fit.duration_s);
+        }
+    }
+    joint.load_notes = notes;
+    Ok((joint, summary))
+}
+
+/// The one transition time that eases the runs' logged load changes best under the first
+/// fit's parameters ([`fit_load_ramp`]): where each change's own time starts in the
+/// alternation. `None` when the runs have no load changes or easing did not help.
+fn common_load_ramp(
+    first: &GreyboxEstimate,
+    problem: &GreyboxProblem<'_>,
+    notes: &mut Vec<String>,
+) -> Option<f64> {
+    if problem
+        .runs
+        .iter()
+        .all(|r| logged_load_changes(r).is_empty())
+    {
+        return None;
+    }
+    // The transition is fitted to the seconds after each change, which the parameters' loss
+    // may leave out.
+    let at_first = GreyboxProblem {
+        model: &*first.estimated_model,
+        exclude_after_load_change_s: 0.0,
+        ..problem.clone()
+    };
+    match fit_load_ramp(&at_first) {
+        Ok(fit) if fit.duration_s > 0.0 => {
+            notes.push(format!(
+                "logged load steps eased over {:.2} s under the first fit's parameters (loss {:.4e} as logged → {:.4e})",
+                fit.duration_s, fit.loss_logged, fit.loss_ramped
+            ));
+            Some(fit.duration_s)
+        }
+        Ok(_) => {
+            notes.push(
+                "easing the logged load steps did not help: the load is used as logged".to_owned(),
+            );
+            None
+        }
+        Err(e) => {
+            notes.push(format!(
+                "the load transition time could not be fitted ({e}): the load is used as logged"
+            ));
+            None
         }
     }
 }

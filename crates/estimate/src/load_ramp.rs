@@ -20,6 +20,50 @@ use crate::error::EstimateError;
 use crate::greybox::{GreyboxOptions, GreyboxProblem, estimate};
 use crate::progress::NoProgress;
 
+/// How an estimate feeds the logged load to the model (`--load-ramp`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LoadRamp {
+    /// The load as logged (steps stay steps).
+    Logged,
+    /// The default. Each logged change of an estimation run eased over its own transition
+    /// time, estimated in turn with the parameters and the runs' starts
+    /// ([`crate::estimate_jointly_with_transitions`], from the one time
+    /// [`fit_load_ramp`] fits under the first fit); validation runs eased
+    /// over one time, fitted to the estimation runs under the final parameters. On the
+    /// built-in study (valve protocol, seed 1) the `truck` structure then reaches its noise
+    /// ceiling on both estimation runs and on the held-out valve run (data-set 4 pressure
+    /// 96.4 % against 97.0 %; 63.7 % with one time for every change), and each change's
+    /// time comes within 0.1 s of the ramp the truck made. Caveat: the virtual truck's
+    /// loads arrive as smoothsteps from the logged change, the estimator's own assumption;
+    /// a load that arrives linearly and 0.5 s late is eased as well (loss cut by more than
+    /// 70 %), and a continuously measured load is left as logged
+    /// (`crates/study/tests/load_ramp.rs`).
+    #[default]
+    Estimate,
+}
+
+impl LoadRamp {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LoadRamp::Logged => "logged",
+            LoadRamp::Estimate => "estimate",
+        }
+    }
+}
+
+impl std::str::FromStr for LoadRamp {
+    type Err = String;
+
+    /// By [`LoadRamp::as_str`]'s names (Python's `load_ramp=`).
+    fn from_str(name: &str) -> Result<Self, String> {
+        match name {
+            "estimate" => Ok(Self::Estimate),
+            "logged" => Ok(Self::Logged),
+            other => Err(format!("`{other}`: expected `estimate` or `logged`")),
+        }
+    }
+}
+
 /// The longest transition [`fit_load_ramp`] considers, s.
 pub const MAX_LOAD_RAMP_S: f64 = 15.0;
 

@@ -96,36 +96,8 @@ pub struct StudyOptions {
 /// and 3 (seed 1): not a default until it helps across the family.
 pub const DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S: f64 = 0.0;
 
-/// How a study feeds the logged load to the models.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum LoadRamp {
-    /// The load as logged (steps stay steps).
-    Logged,
-    /// The default. Each logged change of an estimation run eased over its own transition
-    /// time, estimated per model in turn with the parameters and the runs' starts
-    /// ([`airsus_estimate::estimate_jointly_with_transitions`], from the one time
-    /// [`airsus_estimate::fit_load_ramp`] fits under the first fit); validation runs eased
-    /// over one time, fitted to the estimation runs under the final parameters. On the
-    /// built-in study (valve protocol, seed 1) the `truck` structure then reaches its noise
-    /// ceiling on both estimation runs and on the held-out valve run (data-set 4 pressure
-    /// 96.4 % against 97.0 %; 63.7 % with one time for every change), and each change's
-    /// time comes within 0.1 s of the ramp the truck made. Caveat: the virtual truck's
-    /// loads arrive as smoothsteps from the logged change, the estimator's own assumption;
-    /// a load that arrives linearly and 0.5 s late is eased as well (loss cut by more than
-    /// 70 %), and a continuously measured load is left as logged
-    /// (`crates/study/tests/load_ramp.rs`).
-    #[default]
-    Estimate,
-}
-
-impl LoadRamp {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            LoadRamp::Logged => "logged",
-            LoadRamp::Estimate => "estimate",
-        }
-    }
-}
+/// How a study feeds the logged load to the models (the estimator's choice).
+pub use airsus_estimate::LoadRamp;
 
 impl StudyOptions {
     /// Every registered model, the given protocols, 60 iterations, starts fitted to each

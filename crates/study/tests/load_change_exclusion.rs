@@ -5,7 +5,7 @@
 //! and the valve run it also explains collapses. Left out, the fit stays near the truth.
 
 use airsus_estimate::{
-    GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, PrefixOptions, StartMethod,
+    GreyboxOptions, GreyboxProblem, LoadRamp, MultiStart, NoProgress, PrefixOptions, StartMethod,
     estimate_with_starts,
 };
 use airsus_study::load_study;
@@ -33,6 +33,8 @@ fn leaving_out_the_load_transitions_keeps_a_fit_at_the_truth_near_it() {
             &MultiStart::default(),
             StartMethod::Prefix,
             &PrefixOptions::default(),
+            // The steps as logged: what the exclusion is for.
+            LoadRamp::Logged,
             &mut NoProgress,
         )
         .unwrap();

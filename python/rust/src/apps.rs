@@ -279,15 +279,11 @@ pub fn study<'py>(
         exclude_after_load_change_s.unwrap_or(airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S),
     )
     .map_err(|e| crate::error::to_py(anyhow::anyhow!("exclude_after_load_change_s {e}")))?;
-    let load_ramp = match load_ramp.as_deref().unwrap_or("estimate") {
-        "estimate" => airsus_study::LoadRamp::Estimate,
-        "logged" => airsus_study::LoadRamp::Logged,
-        other => {
-            return Err(crate::error::to_py(anyhow::anyhow!(
-                "load_ramp `{other}`: expected `estimate` or `logged`"
-            )));
-        }
-    };
+    let load_ramp: airsus_study::LoadRamp = load_ramp
+        .as_deref()
+        .unwrap_or("estimate")
+        .parse()
+        .map_err(|e| crate::error::to_py(anyhow::anyhow!("load_ramp {e}")))?;
     if study_file.is_some() && (seed.is_some() || variant.is_some()) {
         return Err(crate::error::to_py(anyhow::anyhow!(
             "seed and variant apply to the built-in study only (study=None)"

@@ -6,7 +6,7 @@ use pyo3::types::PyDict;
 
 use airsus_data::{Outputs, TruckParameters};
 use airsus_estimate::{
-    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
+    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice, LoadRamp,
     MultiStart, Normalisation, OutputWeights, PrefixOptions, StartMethod, estimate_with_starts,
     estimation_start,
 };
@@ -30,6 +30,7 @@ struct Settings {
     keep_unidentifiable: bool,
     normalisation: Normalisation,
     start: StartMethod,
+    load_ramp: LoadRamp,
 }
 
 /// The loss normalisation by the command's name (`--normalisation`).
@@ -48,6 +49,11 @@ struct Estimated {
     text: String,
     /// How the runs started, in words (the joint estimate's rounds for prefix starts).
     start: String,
+    /// What easing the logged load did, in words; each change's transition time per run
+    /// (empty lists: none estimated), and the one time for other runs (None: as logged).
+    load: String,
+    load_transitions_s: Vec<Vec<f64>>,
+    load_ramp_s: Option<f64>,
     stop: String,
     converged: bool,
     truck: TruckParameters,
@@ -109,12 +115,19 @@ fn run_greybox(
         &MultiStart::default(),
         settings.start,
         &PrefixOptions::default(),
+        settings.load_ramp,
         &mut observer,
     )?;
     let start = match settings.start {
         StartMethod::Prefix => joint.describe(PrefixOptions::default().prefix_s),
         StartMethod::Equilibrium => "every run starts in static equilibrium".to_owned(),
     };
+    let load = joint.load_notes.join("\n");
+    let load_transitions_s = match (&joint.transitions_s, joint.rounds.is_empty()) {
+        (Some(d), false) => d.clone(),
+        _ => vec![Vec::new(); runs.len()],
+    };
+    let load_ramp_s = joint.load_ramp_s;
     let result = joint.estimate;
 
     // What `--json` prints (compact here; the values are the same) and what the command
@@ -126,6 +139,9 @@ fn run_greybox(
         json,
         text,
         start,
+        load,
+        load_transitions_s,
+        load_ramp_s,
         stop: result.stop.to_string(),
         converged: result.stop.is_converged(),
         truck,
@@ -136,9 +152,11 @@ fn run_greybox(
 /// `airsus greybox` does. Options left `None` take the command's defaults.
 ///
 /// Returns `{"report": JSON text of `--json`, "text": the command's printout, "stop_reason",
-/// "converged", "truck": the truck with the estimates written back (as `--out`)}`.
+/// "converged", "start", "load" (what easing the logged load did), "load_transitions_s" (per
+/// run, each logged change's transition time), "load_ramp_s", "truck": the truck with the
+/// estimates written back (as `--out`)}`.
 #[pyfunction]
-#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None, normalisation=None, initial_state=None))]
+#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None, normalisation=None, initial_state=None, load_ramp=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn greybox<'py>(
     py: Python<'py>,
@@ -157,6 +175,7 @@ pub fn greybox<'py>(
     progress: Option<Py<PyAny>>,
     normalisation: Option<String>,
     initial_state: Option<String>,
+    load_ramp: Option<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = truck.params.clone();
     drop(truck);
@@ -182,9 +201,15 @@ pub fn greybox<'py>(
     let start = estimation_start(initial, requested)
         .map_err(|e| anyhow::anyhow!("initial=\"pressure\" with initial_state=\"prefix\": {e}"))
         .or_py()?;
+    let load_ramp: LoadRamp = load_ramp
+        .as_deref()
+        .unwrap_or("estimate")
+        .parse()
+        .map_err(|e| crate::error::to_py(anyhow::anyhow!("load_ramp {e}")))?;
     let defaults = GreyboxOptions::default();
     let settings = Settings {
         start,
+        load_ramp,
         free,
         bounds: bounds.unwrap_or_default(),
         max_iterations: max_iterations.unwrap_or(defaults.max_iterations),
@@ -210,6 +235,9 @@ pub fn greybox<'py>(
     out.set_item("stop_reason", estimated.stop)?;
     out.set_item("converged", estimated.converged)?;
     out.set_item("start", estimated.start)?;
+    out.set_item("load", estimated.load)?;
+    out.set_item("load_transitions_s", estimated.load_transitions_s)?;
+    out.set_item("load_ramp_s", estimated.load_ramp_s)?;
     out.set_item("truck", NativeTruck::new(estimated.truck))?;
     Ok(out)
 }

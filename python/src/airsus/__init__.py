@@ -497,6 +497,13 @@ class GreyboxResult:
         converged: whether that is a (local) minimum.
         start: how the runs started, in words (for prefix starts, the joint estimate's
             rounds).
+        load: what easing the logged load did, in words ("" when the runs have no load
+            changes or ``load_ramp="logged"``).
+        load_transitions_s: per run (in the order given), each logged load change's own
+            transition time in s; an empty list where none was estimated.
+        load_ramp_s: the one transition time other runs' logged load is eased over (fitted
+            to these runs under the estimate); None: the load as logged. Pass it to
+            :func:`simulate` as ``load_ramp_s`` to validate on another run.
         nrmse: DataFrame indexed by run: ``samples, height_nominal, height_estimated,
             pressure_nominal, pressure_estimated`` (percent, thesis eq 3.33).
         report: the full result, as ``airsus greybox --json`` prints it (a dict).
@@ -509,6 +516,11 @@ class GreyboxResult:
         self.stop_reason: str = native["stop_reason"]
         self.converged: bool = bool(native["converged"])
         self.start: str = native["start"]
+        self.load: str = native["load"]
+        self.load_transitions_s: List[List[float]] = [
+            [float(t) for t in run] for run in native["load_transitions_s"]
+        ]
+        self.load_ramp_s: Optional[float] = native["load_ramp_s"]
         self.truck: Truck = Truck(native["truck"])
         parameters = self.report.get("parameters", [])
         self.estimates: pd.DataFrame = pd.DataFrame(
@@ -572,6 +584,7 @@ def greybox(
     normalisation: str = "pooled-spread",
     progress: Progress = None,
     initial_state: Optional[str] = None,
+    load_ramp: str = "estimate",
 ) -> GreyboxResult:
     """Estimate named physical parameters of a model from one or more runs at once, as
     ``airsus greybox`` does (thesis 5.2.6; MATLAB ``nlgreyest`` with simulation focus).
@@ -582,7 +595,10 @@ def greybox(
     10 s: the states that carry its history are fitted to them and estimated jointly with
     the parameters (``initial_state="prefix"``, the default); or in static equilibrium at its
     first measured height (``initial_state="equilibrium"``) or pressure
-    (``initial="pressure"``, which implies it).
+    (``initial="pressure"``, which implies it). A log that records a load change as a step
+    while the wheel takes it over seconds is eased: each logged change over its own
+    transition time, estimated in turn with the parameters (``load_ramp="estimate"``, the
+    default; ``"logged"`` keeps the steps).
     Freed parameters the runs cannot determine are kept at their nominal values and reported
     (unless ``keep_unidentifiable``).
 
@@ -609,6 +625,7 @@ def greybox(
         normalisation: ``"pooled-spread"`` or ``"noise-level"`` (see above).
         initial_state: ``"prefix"`` or ``"equilibrium"`` (see above), as
             ``--initial-state``; ``None``: prefix, or equilibrium with ``initial="pressure"``.
+        load_ramp: ``"estimate"`` or ``"logged"`` (see above), as ``--load-ramp``.
         progress: called with a dict per event while the fit runs (the GIL is released):
             ``{"event": "stage", "message": ...}`` or ``{"event": "iteration", "round",
             "iteration", "loss", "simulations", "failed_simulations"}``.
@@ -637,6 +654,7 @@ def greybox(
         progress=progress,
         normalisation=normalisation,
         initial_state=initial_state,
+        load_ramp=load_ramp,
     )
     return GreyboxResult(native)
 

@@ -75,6 +75,9 @@ class GreyboxResult:
     stop_reason: str
     converged: bool
     start: str
+    load: str
+    load_transitions_s: List[List[float]]
+    load_ramp_s: Optional[float]
     nrmse: pd.DataFrame
     report: Dict[str, Any]
     text: str
@@ -97,6 +100,7 @@ def greybox(
     normalisation: str = "pooled-spread",
     progress: Progress = None,
     initial_state: Optional[str] = None,
+    load_ramp: str = "estimate",
 ) -> GreyboxResult: ...
 
 class LinearModel:

@@ -67,6 +67,7 @@ def greybox(
     progress: _Progress = None,
     normalisation: Optional[str] = None,
     initial_state: Optional[str] = None,
+    load_ramp: Optional[str] = None,
 ) -> Dict[str, Any]: ...
 def ident(
     data: _RunSpec,

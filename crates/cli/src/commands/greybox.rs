@@ -20,7 +20,7 @@ use std::path::PathBuf;
 
 use airsus_data::{Outputs, read_truck, write_truck};
 use airsus_estimate::{
-    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
+    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice, LoadRamp,
     MultiStart, NoProgress, Normalisation, Observer, OutputWeights, PrefixOptions, StartMethod,
     TerminalProgress, estimate_with_starts, estimation_start, initial_state::DEFAULT_PREFIX_S,
 };
@@ -28,6 +28,22 @@ use airsus_truck::models::{build_any_model, default_free};
 
 use super::{RunSourceArgs, read_run_file};
 use anyhow::{Context, bail};
+
+/// `--load-ramp` (here and in `study`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LoadRampArg {
+    Logged,
+    Estimate,
+}
+
+impl From<LoadRampArg> for LoadRamp {
+    fn from(arg: LoadRampArg) -> Self {
+        match arg {
+            LoadRampArg::Logged => Self::Logged,
+            LoadRampArg::Estimate => Self::Estimate,
+        }
+    }
+}
 
 /// What fixes each run's initial equilibrium.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -90,6 +106,12 @@ pub struct GreyboxArgs {
     /// to those seconds the parameters absorb the transition.
     #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
     pub exclude_after_load_change_s: f64,
+    /// How the logged load reaches the model: `estimate` (the default: each logged change
+    /// eased over its own transition time, estimated in turn with the parameters; for logs
+    /// that record a load change as a step while the wheel takes it over seconds) or
+    /// `logged` (steps stay steps).
+    #[arg(long, value_enum, default_value_t = LoadRampArg::Estimate)]
+    pub load_ramp: LoadRampArg,
     /// How the loss weighs runs and outputs: `pooled-spread` (each output by its spread over
     /// all runs; long runs count more) or `noise-level` (each run and output by its own
     /// measurement noise, every run equally).
@@ -249,9 +271,13 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
             prefix_s: args.prefix_s,
             ..PrefixOptions::default()
         },
+        args.load_ramp.into(),
         observer,
     )?;
-    if start == StartMethod::Prefix {
+    for note in &joint.load_notes {
+        eprintln!("{note}");
+    }
+    if start == StartMethod::Prefix || joint.transitions_s.is_some() {
         eprintln!("{}", joint.describe(args.prefix_s));
     }
     let result = joint.estimate;

@@ -61,29 +61,13 @@ pub struct StudyArgs {
     /// estimated in turn with the parameters; validation runs eased over one time fitted to
     /// the estimation runs; for logs that record a load change as a step while the wheel
     /// takes it over seconds).
-    #[arg(long, value_enum, default_value_t = LoadRampArg::Estimate)]
-    pub load_ramp: LoadRampArg,
+    #[arg(long, value_enum, default_value_t = crate::commands::greybox::LoadRampArg::Estimate)]
+    pub load_ramp: crate::commands::greybox::LoadRampArg,
     /// Seconds after each logged load change that the estimation's loss leaves out (0:
     /// none): a log records a step where the wheel takes the load over seconds, each time
     /// differently, and fitted to those seconds the parameters absorb the transition.
     #[arg(long, value_name = "SECONDS", default_value_t = airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S)]
     pub exclude_after_load_change_s: f64,
-}
-
-/// `--load-ramp`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum LoadRampArg {
-    Logged,
-    Estimate,
-}
-
-impl From<LoadRampArg> for airsus_study::LoadRamp {
-    fn from(arg: LoadRampArg) -> Self {
-        match arg {
-            LoadRampArg::Logged => Self::Logged,
-            LoadRampArg::Estimate => Self::Estimate,
-        }
-    }
 }
 
 pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
