@@ -5,7 +5,13 @@
 //! valve, a pressure-dependent area, lever flex) and logged as a real truck logs them: the
 //! load as steps the wheel takes over 3-8 s, one load change not logged at all.
 
+use airsus_apps::weigh::{
+    EkfTuning, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty, evaluate_weighing,
+    weigh_ekf,
+};
+use airsus_data::read_run;
 use airsus_study::{LoadRamp, Protocol, StudyOptions, load_study, run_study};
+use airsus_truck::models::build_any_model;
 
 #[test]
 fn the_truck_structure_reaches_the_noise_ceiling_on_the_runs_whose_inputs_are_logged() {
@@ -54,4 +60,53 @@ fn the_truck_structure_reaches_the_noise_ceiling_on_the_runs_whose_inputs_are_lo
     // Each logged change of the loading run was eased over its own time.
     assert_eq!(truck.load_transitions.len(), 1, "{:?}", truck.notes);
     assert_eq!(truck.load_transitions[0].durations_s.len(), 6);
+
+    // Issue #14: weighing with what the study estimated, nothing else. The load filter on the
+    // estimated `truck` file, scored against the true load of the held-out runs. Measured:
+    // data-set 2 standstills within 0.59 % (means within 0.29 %), data-set 4 within 0.6 %
+    // at standstill and 0.55 % while the valve works. The interval is still too wide (it
+    // covers the truth on every sample).
+    let file = dir
+        .path()
+        .join("out")
+        .join(truck.truck_file.as_ref().unwrap());
+    let estimated = airsus_data::read_truck(&file).unwrap().parameters;
+    let weigher = StaticWeigher::new(
+        StaticLaw::from_truck(&estimated),
+        WeighingUncertainty::default(),
+    );
+    for (run, standstill_max, valve_max) in [("ds2", 0.75, 0.0), ("ds4", 0.75, 1.0)] {
+        let logged = read_run(&data.join(format!("{run}.csv"))).unwrap();
+        let truth = read_run(&data.join(format!("truth/{run}.csv"))).unwrap();
+        let model = build_any_model("truck", &estimated).unwrap();
+        let series = weigh_ekf(&logged, model, &weigher, &EkfTuning::default()).unwrap();
+        let score = evaluate_weighing(
+            &logged.time_s,
+            &series.wheel_load_kg,
+            &series.std_kg,
+            &truth.inputs.wheel_load_kg,
+            &logged.inputs.valve,
+            &StandstillRule::default(),
+        )
+        .unwrap();
+        assert!(
+            score.standstill.samples > 1000,
+            "{run}: {:?}",
+            score.standstill
+        );
+        assert!(
+            score.standstill.max_abs_error_percent < standstill_max
+                && score.standstill.mean_error_percent.abs() < 0.3,
+            "{run} standstill: {:?}",
+            score.standstill
+        );
+        if valve_max > 0.0 {
+            assert!(
+                score.valve_activity.samples > 1000
+                    && score.valve_activity.max_abs_error_percent < valve_max,
+                "{run} valve at work: {:?}",
+                score.valve_activity
+            );
+        }
+    }
 }
