@@ -451,5 +451,72 @@ pub fn fit_and_validate(
         }
         result.runs.push(fit);
     }
+    let worse = worse_than_the_start(&result.runs);
+    result.notes.extend(worse);
     ModelOutcome { result, responses }
+}
+
+/// A note for each estimation run and output the estimate explains worse than the start
+/// values did (by more than 0.1 NRMSE point; issue #12 asks for "at least its nominal fit on
+/// every estimation run"). The loss pools the runs and outputs, so a fit can trade one for
+/// another; the result says so rather than leave it to be found in the table.
+fn worse_than_the_start(runs: &[RunFit]) -> Vec<String> {
+    let mut notes = Vec::new();
+    for fit in runs.iter().filter(|f| f.role == "estimation") {
+        let (Some(start), Some(estimate)) = (fit.nominal, fit.estimated) else {
+            continue;
+        };
+        for (output, before, after) in [
+            ("height", start.height_percent, estimate.height_percent),
+            (
+                "pressure",
+                start.pressure_percent,
+                estimate.pressure_percent,
+            ),
+        ] {
+            if after < before - 0.1 {
+                notes.push(format!(
+                    "the estimate explains {}'s {output} worse than the start values did ({before:.1} → {after:.1} %): the loss pools the estimation runs and both outputs, and traded this one for the others",
+                    fit.run
+                ));
+            }
+        }
+    }
+    notes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fit(run: &str, role: &str, nominal: (f64, f64), estimated: (f64, f64)) -> RunFit {
+        let output = |(height_percent, pressure_percent)| OutputFit {
+            height_percent,
+            pressure_percent,
+        };
+        RunFit {
+            run: run.to_owned(),
+            role: role.to_owned(),
+            nominal: Some(output(nominal)),
+            estimated: Some(output(estimated)),
+            residuals: vec![],
+            error: None,
+        }
+    }
+
+    #[test]
+    fn an_estimation_run_explained_worse_than_at_the_start_is_said() {
+        let runs = [
+            fit("data-set 1", "estimation", (92.7, 91.0), (89.2, 95.0)),
+            fit("data-set 3", "estimation", (64.1, 50.0), (64.05, 60.0)),
+            // Validation runs may fall: that is what validation is for.
+            fit("data-set 2", "validation", (90.0, 90.0), (10.0, 10.0)),
+        ];
+        let notes = worse_than_the_start(&runs);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0]
+                .contains("data-set 1's height worse than the start values did (92.7 → 89.2 %)")
+        );
+    }
 }
