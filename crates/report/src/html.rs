@@ -659,6 +659,8 @@ mod tests {
             study: "built-in".to_owned(),
             truck: "truck.toml".to_owned(),
             initial_state: "equilibrium".to_owned(),
+            load_ramp: None,
+            exclude_after_load_change_s: 0.0,
             runs: ["data-set 1", "data-set 2", "data-set 3"]
                 .iter()
                 .enumerate()

@@ -22,6 +22,13 @@ pub struct StudyResults {
     /// from those starts).
     #[serde(default = "equilibrium")]
     pub initial_state: String,
+    /// How the logged load reached the models: `estimate` (each change eased, see
+    /// `ModelResult::load_transitions`) or `logged`; absent in files written before it was.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_ramp: Option<String>,
+    /// Seconds after each logged load change the estimation's loss left out (0: none).
+    #[serde(default)]
+    pub exclude_after_load_change_s: f64,
     pub runs: Vec<RunInfo>,
     pub submodels: SubmodelResults,
     /// One entry per estimation protocol (which runs the grey-box fits used).
@@ -321,6 +328,8 @@ mod tests {
             study: "study.toml".to_owned(),
             truck: "truck.toml".to_owned(),
             initial_state: "equilibrium".to_owned(),
+            load_ramp: Some("estimate".to_owned()),
+            exclude_after_load_change_s: 0.0,
             runs: vec![RunInfo {
                 name: "data-set 1".to_owned(),
                 file: "ds1.csv".to_owned(),
@@ -486,7 +495,9 @@ mod tests {
             "airsus_version",
             "elapsed_s",
             "findings",
+            "exclude_after_load_change_s",
             "initial_state",
+            "load_ramp",
             "findings.uses",
             "findings.uses[].best_other_than_truck",
             "findings.uses[].protocol",

@@ -256,6 +256,8 @@ pub fn run_study(
         study: input.label.clone(),
         truck: input.truck_file.display().to_string(),
         initial_state: options.initial.as_str().to_owned(),
+        load_ramp: Some(options.load_ramp.as_str().to_owned()),
+        exclude_after_load_change_s: options.exclude_after_load_change_s,
         runs: input
             .runs
             .iter()
