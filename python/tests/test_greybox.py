@@ -131,3 +131,19 @@ def test_logged_load_steps_are_eased_each_over_its_own_time(
     assert fits[1]["height_estimated"] > fits[0]["height_estimated"]
     with pytest.raises(airsus.AirsusError, match="load_ramp `bogus`"):
         airsus.greybox("m2", truck, short_run, free="p0", load_ramp="bogus")
+
+
+def test_an_estimation_run_simulates_with_the_transitions_greybox_fitted(
+    reference: Path, short_run: Path
+) -> None:
+    truck = reference / "truck.toml"
+    fit = airsus.greybox("m2", truck, short_run, free="p0,m2", max_iterations=5)
+    [transitions] = fit.load_transitions_s
+    sim = airsus.simulate("m2", fit.truck, short_run, load_transitions_s=transitions)
+    logged = airsus.simulate("m2", fit.truck, short_run)
+    # The eased load explains the run better than the steps as logged, as in the fit.
+    assert sim.attrs["nrmse"]["height_mm"] > logged.attrs["nrmse"]["height_mm"]
+    with pytest.raises(airsus.AirsusError, match="1 logged load change"):
+        airsus.simulate("m2", fit.truck, short_run, load_transitions_s=[3.0, 4.0])
+    with pytest.raises(airsus.AirsusError, match="not both"):
+        airsus.simulate("m2", fit.truck, short_run, load_ramp_s=3.0, load_transitions_s=transitions)

@@ -239,3 +239,39 @@ fn simulate_can_fit_the_start_to_the_first_seconds() {
         "{stderr}"
     );
 }
+
+/// `--load-transitions-s` eases each logged change over its own time; it needs one time per
+/// change and says how many the run has.
+#[test]
+fn simulate_eases_each_load_change_over_the_time_given() {
+    let dir = generated();
+    let (truck, run, out) = (
+        path(&dir, "truth/truck_structure.toml"),
+        path(&dir, "ds1.csv"),
+        path(&dir, "s.csv"),
+    );
+    let simulate = |extra: &[&str]| {
+        let mut args = vec![
+            "simulate", "--model", "truck", "--truck", &truck, "--run", &run, "--out", &out,
+        ];
+        args.extend_from_slice(extra);
+        airsus(&args)
+    };
+    // The virtual truck's true ramps of seed 1, and its true parameters.
+    let eased = simulate(&["--load-transitions-s", "4.9,4.4,6.5,3.3,5.9,6.9"]);
+    let stderr = String::from_utf8_lossy(&eased.stderr).into_owned();
+    assert!(eased.status.success(), "{stderr}");
+    let logged = simulate(&[]);
+    let logged_stderr = String::from_utf8_lossy(&logged.stderr).into_owned();
+    assert!(
+        printed_nrmse(&stderr, "pressure") > printed_nrmse(&logged_stderr, "pressure") + 1.0,
+        "{stderr}\n{logged_stderr}"
+    );
+    let wrong = simulate(&["--load-transitions-s", "4.9,4.4"]);
+    assert!(!wrong.status.success());
+    let said = String::from_utf8_lossy(&wrong.stderr);
+    assert!(
+        said.contains("2 time(s) for the 6 logged load change(s)"),
+        "{said}"
+    );
+}

@@ -78,6 +78,25 @@ pub fn check_load_ramp_s(duration_s: f64) -> Result<f64, String> {
     }
 }
 
+/// Checks per-change transition times given by a user (`simulate --load-transitions-s`,
+/// Python's `load_transitions_s`) against `run`: each a valid time, one per logged load
+/// change.
+pub fn check_load_transitions(run: &Run, durations_s: &[f64]) -> Result<(), String> {
+    for &tau in durations_s {
+        check_load_ramp_s(tau)?;
+    }
+    let changes = logged_load_changes(run).len();
+    if durations_s.len() == changes {
+        Ok(())
+    } else {
+        Err(format!(
+            "{} time(s) for the {changes} logged load change(s) of run {}: give one per change, in time order (as greybox reports them)",
+            durations_s.len(),
+            run.name
+        ))
+    }
+}
+
 /// Smoothstep: 0 before the start, 1 after the end, zero slope at both.
 fn smoothstep(progress: f64) -> f64 {
     let p = progress.clamp(0.0, 1.0);

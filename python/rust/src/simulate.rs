@@ -56,6 +56,7 @@ fn run_simulation(
     method: Method,
     record_states: bool,
     load_ramp_s: Option<f64>,
+    load_transitions_s: Option<Vec<f64>>,
 ) -> anyhow::Result<Simulated> {
     if !(rtol.is_finite() && rtol > 0.0 && rtol < 1.0) {
         bail!("rtol {rtol} must be between 0 and 1");
@@ -64,6 +65,16 @@ fn run_simulation(
     if let Some(tau) = load_ramp_s {
         let tau = airsus_estimate::check_load_ramp_s(tau).map_err(anyhow::Error::msg)?;
         run = airsus_estimate::ramp_logged_load(&run, tau);
+    }
+    let mut longest_transition_s = load_ramp_s.unwrap_or(0.0);
+    if let Some(durations) = &load_transitions_s {
+        if load_ramp_s.is_some() {
+            bail!("give load_ramp_s (one time for every change) or load_transitions_s, not both");
+        }
+        airsus_estimate::check_load_transitions(&run, durations)
+            .map_err(|e| anyhow::anyhow!("load_transitions_s: {e}"))?;
+        run = airsus_estimate::ease_logged_load(&run, durations);
+        longest_transition_s = durations.iter().copied().fold(0.0, f64::max);
     }
     let model = build_any_model(model_name, truck)?;
 
@@ -76,7 +87,7 @@ fn run_simulation(
             .with_method(method)
             .with_rtol(rtol)
             .with_states(record_states),
-        load_ramp_s.unwrap_or(0.0),
+        longest_transition_s,
     );
     let problem = SimulationProblem::new(&*model, inputs, initial).with_options(options);
     let response = airsus_sim::simulate(&problem).with_context(|| {
@@ -134,7 +145,7 @@ fn run_simulation(
 /// Returns `{"model", "initial", "time_s", "height_mm", "pressure_kpa", "states",
 /// "statistics", "nrmse_height", "nrmse_pressure"}`.
 #[pyfunction]
-#[pyo3(signature = (model, truck, run, initial_kind=None, initial_value=None, initial_state=None, rtol=None, method=None, states=false, load_ramp_s=None))]
+#[pyo3(signature = (model, truck, run, initial_kind=None, initial_value=None, initial_state=None, rtol=None, method=None, states=false, load_ramp_s=None, load_transitions_s=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -148,6 +159,7 @@ pub fn simulate<'py>(
     method: Option<String>,
     states: bool,
     load_ramp_s: Option<f64>,
+    load_transitions_s: Option<Vec<f64>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = truck.params.clone();
     drop(truck);
@@ -200,6 +212,7 @@ pub fn simulate<'py>(
                 method,
                 states,
                 load_ramp_s,
+                load_transitions_s,
             )
         })
         .or_py()?;

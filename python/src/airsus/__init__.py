@@ -396,6 +396,7 @@ def simulate(
     rtol: float = 1e-6,
     method: str = "bdf",
     load_ramp_s: Optional[float] = None,
+    load_transitions_s: Optional[Sequence[float]] = None,
 ) -> pd.DataFrame:
     """Simulate a model over a run's inputs, as ``airsus simulate`` does.
 
@@ -420,6 +421,9 @@ def simulate(
         load_ramp_s: ease every change of the logged load over this many seconds, as the
             wheel takes a load over seconds while a log steps (``--load-ramp-s``; a study's
             ``load_ramp_s`` per model is the fitted value).
+        load_transitions_s: ease each change of the logged load over its own time, one per
+            change in time order (``--load-transitions-s``; what :func:`greybox` reports in
+            ``load_transitions_s`` for an estimation run).
 
     Returns:
         A DataFrame with ``time_s``, ``height_mm``, ``pressure_kpa`` (the same numbers, to the
@@ -461,6 +465,9 @@ def simulate(
         method=method,
         states=bool(states),
         load_ramp_s=None if load_ramp_s is None else float(load_ramp_s),
+        load_transitions_s=(
+            None if load_transitions_s is None else [float(t) for t in load_transitions_s]
+        ),
     )
     frame = pd.DataFrame(
         {

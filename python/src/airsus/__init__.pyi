@@ -67,6 +67,8 @@ def simulate(
     *,
     rtol: float = 1e-6,
     method: str = "bdf",
+    load_ramp_s: Optional[float] = None,
+    load_transitions_s: Optional[Sequence[float]] = None,
 ) -> pd.DataFrame: ...
 
 class GreyboxResult:

@@ -50,6 +50,8 @@ def simulate(
     rtol: Optional[float] = None,
     method: Optional[str] = None,
     states: bool = False,
+    load_ramp_s: Optional[float] = None,
+    load_transitions_s: Optional[Sequence[float]] = None,
 ) -> Dict[str, Any]: ...
 def greybox(
     model: str,

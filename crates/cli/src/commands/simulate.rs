@@ -96,6 +96,15 @@ pub struct SimulateArgs {
     /// estimate` fits it. The output file keeps the eased load.
     #[arg(long, value_name = "SECONDS")]
     pub load_ramp_s: Option<f64>,
+    /// Ease each change of the logged load over its own time, s, one per change in time
+    /// order (what `greybox` estimated for an estimation run), e.g. `4.9,4.4,6.6`.
+    #[arg(
+        long,
+        value_name = "S,S,...",
+        value_delimiter = ',',
+        conflicts_with = "load_ramp_s"
+    )]
+    pub load_transitions_s: Vec<f64>,
 }
 
 /// `--initial-state`.
@@ -129,6 +138,16 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             .map_err(|e| anyhow::anyhow!("--load-ramp-s: {e}"))?;
         run = airsus_estimate::ramp_logged_load(&run, tau);
     }
+    if !args.load_transitions_s.is_empty() {
+        airsus_estimate::check_load_transitions(&run, &args.load_transitions_s)
+            .map_err(|e| anyhow::anyhow!("--load-transitions-s: {e}"))?;
+        run = airsus_estimate::ease_logged_load(&run, &args.load_transitions_s);
+    }
+    let longest_transition_s = args
+        .load_transitions_s
+        .iter()
+        .copied()
+        .fold(args.load_ramp_s.unwrap_or(0.0), f64::max);
     let model = build_any_model(&args.model, &loaded.parameters)?;
 
     let choice = match (args.initial_pressure_kpa, args.initial_height_mm) {
@@ -150,7 +169,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         &SolverOptions::default()
             .with_method(args.method.into())
             .with_rtol(args.rtol),
-        args.load_ramp_s.unwrap_or(0.0),
+        longest_transition_s,
     );
     let problem = SimulationProblem::new(&*model, inputs, initial).with_options(options);
     let started = Instant::now();
