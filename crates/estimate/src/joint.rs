@@ -25,7 +25,10 @@ use airsus_sim::InitialState;
 use crate::error::EstimateError;
 use crate::greybox::{GreyboxEstimate, GreyboxOptions, GreyboxProblem, InitialChoice, estimate};
 use crate::initial_state::{PrefixOptions, StartMethod, estimate_initial_state};
-use crate::load_ramp::{LoadRamp, LoadTransitionsFit, fit_load_ramp, logged_load_changes};
+use crate::load_ramp::{
+    LoadRamp, LoadTransitionsFit, ease_runs, fit_load_ramp, logged_load_changes,
+    longest_transition_s,
+};
 use crate::progress::NoProgress;
 
 /// Rounds of the alternation at most.
@@ -99,21 +102,38 @@ impl JointEstimate {
                 "refitting the parameters from starts fitted to the first {prefix_s:.0} s of each estimation run did not improve the fit"
             );
         }
+        format!(
+            "starts and parameters estimated jointly: {} of fitting each estimation run's start to its first {prefix_s:.0} s and refitting the parameters from them (loss from the new starts → refitted: {})",
+            self.rounds_counted(),
+            self.round_losses()
+        )
+    }
+
+    /// "1 round", "3 rounds".
+    fn rounds_counted(&self) -> String {
+        let n = self.rounds.len();
+        format!("{n} round{}", if n == 1 { "" } else { "s" })
+    }
+
+    /// Each kept round's loss before and after its refit.
+    fn round_losses(&self) -> String {
         let rounds: Vec<String> = self
             .rounds
             .iter()
             .map(|r| format!("{:.4e} → {:.4e}", r.loss_before, r.loss_after))
             .collect();
-        format!(
-            "starts and parameters estimated jointly: {} round{} of fitting each estimation run's start to its first {prefix_s:.0} s and refitting the parameters from them (loss from the new starts → refitted: {})",
-            self.rounds.len(),
-            if self.rounds.len() == 1 { "" } else { "s" },
-            rounds.join("; ")
-        )
+        rounds.join("; ")
     }
-}
 
-impl JointEstimate {
+    /// Each logged load change's transition time the estimate was fitted with, per run:
+    /// `None` when it was fitted to the load as logged (no transitions, or no round with
+    /// them improved the fit and the first fit, on the logged steps, was kept).
+    pub fn fitted_transitions_s(&self) -> Option<&[Vec<f64>]> {
+        self.transitions_s
+            .as_deref()
+            .filter(|_| !self.rounds.is_empty())
+    }
+
     fn describe_transitions(&self, prefix_s: f64, transitions: &[Vec<f64>]) -> String {
         let starts = if self.starts.iter().any(Option::is_some) {
             format!("each estimation run's start (fitted to its first {prefix_s:.0} s), ")
@@ -125,11 +145,6 @@ impl JointEstimate {
                 "refitting the parameters with {starts}each logged load change's own transition time did not improve the fit: every change eased over the common time"
             );
         }
-        let rounds: Vec<String> = self
-            .rounds
-            .iter()
-            .map(|r| format!("{:.4e} → {:.4e}", r.loss_before, r.loss_after))
-            .collect();
         let times: Vec<String> = transitions
             .iter()
             .filter(|d| !d.is_empty())
@@ -139,15 +154,14 @@ impl JointEstimate {
             })
             .collect();
         format!(
-            "{starts}each logged load change's transition time and the parameters estimated in turn: {} round{} (loss under the new {} → refitted: {}); transitions {} s",
-            self.rounds.len(),
-            if self.rounds.len() == 1 { "" } else { "s" },
+            "{starts}each logged load change's transition time and the parameters estimated in turn: {} (loss under the new {} → refitted: {}); transitions {} s",
+            self.rounds_counted(),
             if starts.is_empty() {
                 "times"
             } else {
                 "starts and times"
             },
-            rounds.join("; "),
+            self.round_losses(),
             times.join(" | ")
         )
     }
@@ -217,24 +231,7 @@ fn alternate(
     // Every simulation of the alternation is counted in the result, not only the last fit's.
     let (mut simulations, mut failed) = (current.simulations, current.failed_simulations);
     let ease = |durations: &Option<Vec<Vec<f64>>>| -> Option<Vec<Run>> {
-        durations.as_ref().map(|d| {
-            problem
-                .runs
-                .iter()
-                .enumerate()
-                .map(|(i, run)| {
-                    crate::load_ramp::ease_logged_load(run, d.get(i).map_or(&[], |d| d))
-                })
-                .collect()
-        })
-    };
-    let longest = |durations: &Option<Vec<Vec<f64>>>| {
-        durations
-            .iter()
-            .flatten()
-            .flatten()
-            .copied()
-            .fold(0.0, f64::max)
+        durations.as_deref().map(|d| ease_runs(&problem.runs, d))
     };
     let max_rounds = if current_durations.is_some() {
         JOINT_ROUNDS_WITH_TRANSITIONS
@@ -279,7 +276,10 @@ fn alternate(
             model: &*current.estimated_model,
             runs,
             start_states: starts.clone(),
-            solver: crate::load_ramp::solver_for_ramp(&problem.solver, longest(&durations)),
+            solver: crate::load_ramp::solver_for_ramp(
+                &problem.solver,
+                durations.as_deref().map_or(0.0, longest_transition_s),
+            ),
             ..problem.clone()
         };
         // The current point from the new starts: what the refit must beat.
@@ -430,7 +430,7 @@ pub fn estimate_with_starts(
     // Other runs are eased over one time: the one that explains the estimation runs best
     // under the final parameters (the time fitted under the first fit is biased by what
     // that fit absorbed).
-    if common_s.is_some() && !joint.rounds.is_empty() {
+    if common_s.is_some() && joint.fitted_transitions_s().is_some() {
         let at_final = GreyboxProblem {
             model: &*joint.estimate.estimated_model,
             start_states: if joint.starts.is_empty() {

@@ -51,7 +51,7 @@ pub use joint::{
 };
 pub use load_ramp::{
     LoadRamp, LoadRampFit, LoadTransitionsFit, MAX_LOAD_RAMP_S, check_load_ramp_s,
-    check_load_transitions, ease_logged_load, fit_load_ramp, fit_load_transitions,
-    logged_load_changes, ramp_logged_load, solver_for_ramp,
+    check_load_transitions, ease_logged_load, ease_runs, fit_load_ramp, fit_load_transitions,
+    logged_load_changes, longest_transition_s, ramp_logged_load, solver_for_ramp,
 };
 pub use progress::{IterationInfo, NoProgress, Observer, TerminalProgress};

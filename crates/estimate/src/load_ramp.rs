@@ -270,23 +270,21 @@ impl LoadTransitionsFit {
             .map(|r| vec![duration_s; logged_load_changes(r).len()])
             .collect()
     }
+}
 
-    /// The longest transition, s (what [`solver_for_ramp`] needs to know).
-    pub fn longest_s(&self) -> f64 {
-        self.durations_s
-            .iter()
-            .flatten()
-            .copied()
-            .fold(0.0, f64::max)
-    }
+/// `runs` with each logged change of run `i` eased over `durations_s[i]` (per change,
+/// [`ease_logged_load`]; a run beyond `durations_s` stays as logged).
+pub fn ease_runs(runs: &[&Run], durations_s: &[Vec<f64>]) -> Vec<Run> {
+    runs.iter()
+        .enumerate()
+        .map(|(i, run)| ease_logged_load(run, durations_s.get(i).map_or(&[], |d| d)))
+        .collect()
+}
 
-    /// `runs` with each change eased over its own time.
-    pub fn ease(&self, runs: &[&Run]) -> Vec<Run> {
-        runs.iter()
-            .enumerate()
-            .map(|(i, run)| ease_logged_load(run, self.durations_s.get(i).map_or(&[], |d| d)))
-            .collect()
-    }
+/// The longest of per-run, per-change transition times, s (0 for none): what
+/// [`solver_for_ramp`] needs to know.
+pub fn longest_transition_s(durations_s: &[Vec<f64>]) -> f64 {
+    durations_s.iter().flatten().copied().fold(0.0, f64::max)
 }
 
 /// Golden-section steps of each change's search: 15 s × 0.618¹² ≈ 0.05 s.
@@ -358,8 +356,8 @@ pub fn fit_load_transitions(
             start_s.iter().map(Vec::len).collect::<Vec<_>>()
         )));
     }
-    let common = start_s.to_vec();
-    let loss_common = loss(&common, None)?;
+    let start = start_s.to_vec();
+    let loss_at_start = loss(&start, None)?;
     let step_s = problem
         .runs
         .iter()
@@ -371,38 +369,38 @@ pub fn fit_load_transitions(
         .enumerate()
         .flat_map(|(i, &n)| (0..n).map(move |j| (i, j)))
         .collect();
-    // Each change's best time, or the common one.
+    // Each change's best time, or its start.
     let best: Vec<f64> = slots
         .par_iter()
         .map(|&(i, j)| {
             let mut trial = |tau: f64| {
-                let mut durations = common.clone();
+                let mut durations = start.clone();
                 durations[i][j] = tau;
                 loss(&durations, Some(i)).unwrap_or(f64::INFINITY)
             };
-            let at_common = trial(common[i][j]);
+            let at_start = trial(start[i][j]);
             let (tau, found) =
                 golden_section_min(&mut trial, step_s, MAX_LOAD_RAMP_S, TRANSITION_SEARCH_STEPS);
-            if found < at_common { tau } else { common[i][j] }
+            if found < at_start { tau } else { start[i][j] }
         })
         .collect();
-    let mut each = common.clone();
+    let mut each = start.clone();
     for (&(i, j), tau) in slots.iter().zip(best) {
         each[i][j] = tau;
     }
-    let loss_each = if each == common {
-        loss_common
+    let loss_each = if each == start {
+        loss_at_start
     } else {
         loss(&each, None)?
     };
-    let (durations_s, loss_each) = if loss_each < loss_common {
+    let (durations_s, loss_each) = if loss_each < loss_at_start {
         (each, loss_each)
     } else {
-        (common, loss_common)
+        (start, loss_at_start)
     };
     Ok(LoadTransitionsFit {
         durations_s,
-        loss_start: loss_common,
+        loss_start: loss_at_start,
         loss_each,
         evaluations: evaluations.into_inner(),
     })

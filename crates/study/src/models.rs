@@ -313,7 +313,7 @@ pub fn fit_and_validate(
                 result.notes.push(joint.describe(prefix.prefix_s));
             }
             felt.common_s = joint.load_ramp_s;
-            if let (false, Some(transitions)) = (joint.rounds.is_empty(), &joint.transitions_s) {
+            if let Some(transitions) = joint.fitted_transitions_s() {
                 felt.per_run = estimation
                     .iter()
                     .zip(transitions)
@@ -399,7 +399,7 @@ pub fn fit_and_validate(
         .collect();
     // Every run is validated with the load the models were fitted to; an estimation run
     // with each change eased over its own time.
-    let load_ramp_s = (felt.longest_s() > 0.0).then(|| felt.longest_s());
+    let load_ramp_s = Some(felt.longest_s()).filter(|&longest| longest > 0.0);
 
     let mut truck = start.clone();
     estimated.write_parameters(&mut truck);

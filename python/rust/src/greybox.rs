@@ -123,10 +123,9 @@ fn run_greybox(
         StartMethod::Equilibrium => "every run starts in static equilibrium".to_owned(),
     };
     let load = joint.load_notes.join("\n");
-    let load_transitions_s = match (&joint.transitions_s, joint.rounds.is_empty()) {
-        (Some(d), false) => d.clone(),
-        _ => vec![Vec::new(); runs.len()],
-    };
+    let load_transitions_s = joint
+        .fitted_transitions_s()
+        .map_or_else(|| vec![Vec::new(); runs.len()], <[_]>::to_vec);
     let load_ramp_s = joint.load_ramp_s;
     let result = joint.estimate;
 
