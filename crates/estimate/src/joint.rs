@@ -23,7 +23,9 @@ use airsus_model::SuspensionModel;
 use airsus_sim::InitialState;
 
 use crate::error::EstimateError;
-use crate::greybox::{GreyboxEstimate, GreyboxOptions, GreyboxProblem, InitialChoice, estimate};
+use crate::greybox::{
+    GreyboxEstimate, GreyboxOptions, GreyboxProblem, InitialChoice, estimate, loss_at,
+};
 use crate::initial_state::{PrefixOptions, StartMethod, estimate_initial_state};
 use crate::load_ramp::{
     LoadRamp, LoadTransitionsFit, ease_runs, fit_load_ramp, logged_load_changes,
@@ -283,15 +285,9 @@ fn alternate(
             ..problem.clone()
         };
         // The current point from the new starts: what the refit must beat.
-        let baseline = GreyboxProblem {
-            free: vec![],
-            ..refit.clone()
-        };
-        let Ok(loss_before) = estimate(&baseline, options, &mut NoProgress).map(|e| {
-            simulations += e.simulations;
-            failed += e.failed_simulations;
-            e.loss_estimated
-        }) else {
+        simulations += refit.runs.len();
+        let Ok(loss_before) = loss_at(&refit, options.parallel) else {
+            failed += 1;
             break;
         };
         let next = estimate(&refit, &refit_options, &mut NoProgress);

@@ -17,8 +17,7 @@ use airsus_data::Run;
 use airsus_sim::{LoadInput, SolverOptions};
 
 use crate::error::EstimateError;
-use crate::greybox::{GreyboxOptions, GreyboxProblem, estimate};
-use crate::progress::NoProgress;
+use crate::greybox::{GreyboxProblem, loss_at};
 
 /// How an estimate feeds the logged load to the model (`--load-ramp`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -203,7 +202,6 @@ pub struct LoadRampFit {
 /// [`MIN_RELATIVE_GAIN`]. Runs without load changes do not depend on `τ`. Only a failure to
 /// simulate the logged load itself is an error.
 pub fn fit_load_ramp(problem: &GreyboxProblem<'_>) -> Result<LoadRampFit, EstimateError> {
-    let options = GreyboxOptions::default();
     let mut evaluations = 0;
     let mut loss = |tau: f64| -> Result<f64, EstimateError> {
         evaluations += 1;
@@ -214,11 +212,10 @@ pub fn fit_load_ramp(problem: &GreyboxProblem<'_>) -> Result<LoadRampFit, Estima
             .collect();
         let fixed = GreyboxProblem {
             runs: ramped.iter().collect(),
-            free: vec![],
             solver: solver_for_ramp(&problem.solver, tau),
             ..problem.clone()
         };
-        Ok(estimate(&fixed, &options, &mut NoProgress)?.loss_estimated)
+        loss_at(&fixed, true)
     };
     let loss_logged = loss(0.0)?;
     // A trial that does not simulate is a bad trial, not the end of the search.
@@ -314,7 +311,6 @@ pub fn fit_load_transitions(
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicUsize, Ordering};
 
-    let options = GreyboxOptions::default();
     let evaluations = AtomicUsize::new(0);
     let changes: Vec<usize> = problem
         .runs
@@ -338,7 +334,6 @@ pub fn fit_load_transitions(
             .fold(0.0, f64::max);
         let fixed = GreyboxProblem {
             runs: eased.iter().collect(),
-            free: vec![],
             start_states: picked
                 .iter()
                 .map(|&i| problem.start_states.get(i).cloned().flatten())
@@ -346,9 +341,7 @@ pub fn fit_load_transitions(
             solver: solver_for_ramp(&problem.solver, longest),
             ..problem.clone()
         };
-        let mut options = options.clone();
-        options.parallel = only.is_none();
-        Ok(estimate(&fixed, &options, &mut NoProgress)?.loss_estimated)
+        loss_at(&fixed, only.is_none())
     };
     if start_s.len() != changes.len() || start_s.iter().zip(&changes).any(|(d, &n)| d.len() != n) {
         return Err(EstimateError::InvalidOption(format!(

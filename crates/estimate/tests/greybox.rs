@@ -7,7 +7,7 @@ use airsus_data::{Run, TruckParameters};
 use airsus_estimate::greybox::{ParameterStatus, Stage, Unidentifiable};
 use airsus_estimate::{
     EstimateError, GreyboxEstimate, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
-    NoProgress, StopReason, estimate,
+    NoProgress, StopReason, estimate, loss_at,
 };
 use airsus_model::{SuspensionModel, build_model};
 use common::{load_step_run, measure, perturbed, valve_pulse_run};
@@ -387,4 +387,31 @@ fn nothing_freed_reports_the_nominal_fit() {
     let fit = &result.fits[0];
     assert_eq!(fit.height_nominal_percent, fit.height_estimated_percent);
     assert!(fit.height_nominal_percent.unwrap() > 90.0);
+}
+
+#[test]
+fn the_loss_of_a_model_as_it_stands_is_that_of_an_estimate_that_frees_nothing() {
+    let truck = TruckParameters::reference();
+    let truth = build_model("m2", &truck).unwrap();
+    let (steps, pulses) = runs(&*truth, 101);
+    // Off the truth, so that the loss is more than the noise's.
+    let model = perturbed(&truck, "m2", &[("m2", 1.25), ("p0", 1.2)]);
+    let problem = GreyboxProblem::new(&*model, &[&steps, &pulses], &[]);
+    let estimated = estimate(&problem, &GreyboxOptions::default(), &mut NoProgress).unwrap();
+    for parallel in [true, false] {
+        let loss = loss_at(&problem, parallel).unwrap();
+        assert!(
+            (loss - estimated.loss_estimated).abs() <= 1e-12 * estimated.loss_estimated,
+            "{loss} against {}",
+            estimated.loss_estimated
+        );
+    }
+    // The free list is ignored: the model's own values are evaluated.
+    let freed = GreyboxProblem::new(&*model, &[&steps, &pulses], &["m2"]);
+    assert_eq!(
+        loss_at(&freed, true).unwrap(),
+        loss_at(&problem, true).unwrap()
+    );
+    let at_truth = GreyboxProblem::new(&*truth, &[&steps, &pulses], &[]);
+    assert!(loss_at(&at_truth, true).unwrap() < 0.5 * estimated.loss_estimated);
 }

@@ -147,6 +147,35 @@ fn jacobian_full(
     (j, failed)
 }
 
+/// The loss of `problem`'s model as it stands (its free list is ignored): the mean squared
+/// normalised residual over every run, [`GreyboxEstimate::loss_estimated`] of an estimate
+/// that frees nothing, from one simulation of each run. What the load-transition searches
+/// and the alternation's baselines evaluate: an [`estimate`] with nothing free simulates
+/// each run three times (the nominal point, the final-point check, the report's fits).
+/// `parallel`: the runs simulated in parallel. Fails where [`estimate`] would: a malformed
+/// problem, or a run that does not simulate.
+pub fn loss_at(problem: &GreyboxProblem<'_>, parallel: bool) -> Result<f64, EstimateError> {
+    let unfreed = GreyboxProblem {
+        free: Vec::new(),
+        ..problem.clone()
+    };
+    let mut ev = Evaluator::new(&unfreed)?;
+    ev.parallel = parallel;
+    let responses = ev.simulate(&[])?;
+    for (run, response) in ev.runs.iter().zip(&responses) {
+        if let Err(e) = response {
+            return Err(EstimateError::StartDoesNotSimulate {
+                run: run.name.clone(),
+                source: Box::new(e.clone()),
+            });
+        }
+    }
+    let n_data = ev.n_data();
+    let mut residuals = vec![0.0; n_data];
+    ev.residuals_into(&responses, 0.0, &mut residuals);
+    Ok(residuals.iter().map(|r| r * r).sum::<f64>() / n_data as f64)
+}
+
 /// Estimates the freed parameters of `problem` (module docs). Fails only on malformed
 /// problems and on a start that does not simulate; a fit that does not converge returns its
 /// best point with a [`StopReason`] saying so.
