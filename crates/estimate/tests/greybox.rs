@@ -384,6 +384,8 @@ fn nothing_freed_reports_the_nominal_fit() {
     let problem = GreyboxProblem::new(&*model, &[&steps], &[]);
     let result = estimate(&problem, &GreyboxOptions::default(), &mut NoProgress).unwrap();
     assert_eq!(result.stop, StopReason::NothingToEstimate);
+    // The nominal simulation is the final point's: the run is simulated once.
+    assert_eq!(result.simulations, 1);
     let fit = &result.fits[0];
     assert_eq!(fit.height_nominal_percent, fit.height_estimated_percent);
     assert!(fit.height_nominal_percent.unwrap() > 90.0);

@@ -51,7 +51,7 @@ use crate::progress::Observer;
 pub(crate) use evaluate::measurement_noise;
 use evaluate::{Evaluator, Responses, noise_variance_from_data};
 use identifiability::{Screen, analyse, correlation, linearise, select_identifiable};
-use solver::{FitSettings, fit};
+use solver::{ColumnsAt, FitSettings, fit};
 
 /// After a fit, parameters found undetermined are fixed and the rest refitted, at most this
 /// many rounds in all.
@@ -140,11 +140,17 @@ fn jacobian_full(
     fd_step: f64,
 ) -> (nalgebra::DMatrix<f64>, Vec<usize>) {
     let (part, failed) = ev.jacobian(z, cols, r, fd_step);
-    let mut j = nalgebra::DMatrix::zeros(r.len(), z.len());
+    (full_columns(&part, cols, z.len()), failed)
+}
+
+/// `part`'s columns (those of `cols`) placed at their parameter indices among `n`, the
+/// others zero.
+fn full_columns(part: &nalgebra::DMatrix<f64>, cols: &[usize], n: usize) -> nalgebra::DMatrix<f64> {
+    let mut j = nalgebra::DMatrix::zeros(part.nrows(), n);
     for (k, &c) in cols.iter().enumerate() {
         j.set_column(c, &part.column(k));
     }
-    (j, failed)
+    j
 }
 
 /// The loss of `problem`'s model as it stands (its free list is ignored): the mean squared
@@ -280,14 +286,36 @@ pub fn estimate(
             kappa,
             round: rounds,
         };
-        let outcome = fit(&ev, &active, z, residuals, &settings, observer);
+        // The screen's Jacobian at the nominal point is the solver's first where it starts
+        // there (the columns depend only on the point).
+        let start_jacobian = (z == z0).then(|| ColumnsAt {
+            z: z0.clone(),
+            columns: j0.select_columns(&active),
+            failed: failed0
+                .iter()
+                .copied()
+                .filter(|c| active.contains(c))
+                .collect(),
+        });
+        let outcome = fit(
+            &ev,
+            &active,
+            z,
+            residuals,
+            &settings,
+            start_jacobian,
+            observer,
+        );
         z = outcome.z;
         residuals = outcome.residuals;
         stop = outcome.stop;
         iterations += outcome.iterations;
 
         observer.stage("Jacobian at the estimate");
-        let (j, failed) = jacobian_full(&ev, &z, &active, &residuals, options.fd_step);
+        let (j, failed) = match outcome.jacobian {
+            Some(known) => (full_columns(&known.columns, &active, n), known.failed),
+            None => jacobian_full(&ev, &z, &active, &residuals, options.fd_step),
+        };
         lambda_post = noise_variance_from_residuals(&residuals, &blocks, active.len());
         final_j = Some(j);
         if !screening {
@@ -337,7 +365,14 @@ pub fn estimate(
             freed: n,
         };
     }
-    if ev.residuals_at(&z).is_none() {
+    // The final point's simulations: the report's fits and loss (the nominal point's where
+    // nothing moved).
+    let mut estimated = if z == z0 {
+        nominal.clone()
+    } else {
+        ev.simulate(&ev.theta(&z))?
+    };
+    if estimated.iter().any(Result::is_err) {
         // The optimiser's best point always simulated; this guards the contract anyway.
         stop = StopReason::NotConverging {
             reason: "the final point does not simulate every run; the nominal values are returned"
@@ -345,6 +380,7 @@ pub fn estimate(
         };
         z = z0.clone();
         final_j = None;
+        estimated = nominal.clone();
     }
 
     // How flat the loss is where the fit stopped: the norm of the gradient of the mean
@@ -447,7 +483,6 @@ pub fn estimate(
             n.determined_by = info.needs.to_owned();
         }
     }
-    let estimated = ev.simulate(&theta)?;
     let mut r_final = vec![0.0; n_data];
     ev.residuals_into(&estimated, fail_value, &mut r_final);
     let fits = run_fits(&ev, &nominal, &estimated);

@@ -33,6 +33,18 @@ pub(crate) struct FitOutcome {
     pub residuals: Vec<f64>,
     pub stop: StopReason,
     pub iterations: usize,
+    /// The data Jacobian at the best point (active columns) and its failed columns, when
+    /// the solver computed it there (a fit that converged at an accepted point): the caller
+    /// need not simulate it again.
+    pub jacobian: Option<ColumnsAt>,
+}
+
+/// Forward-difference data Jacobian columns (the active parameters') at a point, with the
+/// columns whose simulations failed ([`Evaluator::jacobian`]).
+pub(crate) struct ColumnsAt {
+    pub z: Vec<f64>,
+    pub columns: DMatrix<f64>,
+    pub failed: Vec<usize>,
 }
 
 struct Cached {
@@ -58,6 +70,10 @@ struct LmFit<'e, 'a, 'o> {
     budget_hit: Cell<bool>,
     failing_trials: Cell<usize>,
     observer: RefCell<&'o mut dyn Observer>,
+    /// The last Jacobian computed (or the caller's, at the start): each costs a simulation
+    /// per active parameter, and the caller's screen has one at the start and needs one at
+    /// the end.
+    last_jacobian: RefCell<Option<ColumnsAt>>,
 }
 
 impl LmFit<'_, '_, '_> {
@@ -152,12 +168,29 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for LmFit<'_, '_, '_> {
             simulations: self.ev.simulations(),
             failed_simulations: self.ev.failures(),
         });
-        let (jd, _) = self.ev.jacobian(
-            &self.z,
-            &self.active,
-            &r.as_slice()[..n_data],
-            self.settings.fd_step,
-        );
+        let known = self
+            .last_jacobian
+            .borrow()
+            .as_ref()
+            .filter(|known| known.z == self.z)
+            .map(|known| known.columns.clone());
+        let jd = match known {
+            Some(columns) => columns,
+            None => {
+                let (columns, failed) = self.ev.jacobian(
+                    &self.z,
+                    &self.active,
+                    &r.as_slice()[..n_data],
+                    self.settings.fd_step,
+                );
+                *self.last_jacobian.borrow_mut() = Some(ColumnsAt {
+                    z: self.z.clone(),
+                    columns: columns.clone(),
+                    failed,
+                });
+                columns
+            }
+        };
         let p = self.active.len();
         let mut j = DMatrix::zeros(n_data + p, p);
         j.rows_mut(0, n_data).copy_from(&jd);
@@ -178,6 +211,7 @@ pub(crate) fn fit(
     z0: Vec<f64>,
     start_residuals: Vec<f64>,
     settings: &FitSettings,
+    start_jacobian: Option<ColumnsAt>,
     observer: &mut dyn Observer,
 ) -> FitOutcome {
     let start_loss: f64 = start_residuals.iter().map(|r| r * r).sum();
@@ -208,6 +242,7 @@ pub(crate) fn fit(
         budget_hit: Cell::new(false),
         failing_trials: Cell::new(0),
         observer: RefCell::new(observer),
+        last_jacobian: RefCell::new(start_jacobian),
     };
     // The evaluation budget (MINPACK maxfev = patience·(n+1)) is generous: the iteration
     // budget is the limit users set; this only catches a trust region that never accepts.
@@ -249,10 +284,15 @@ pub(crate) fn fit(
         },
     };
     let best = problem.best.into_inner();
+    let jacobian = problem
+        .last_jacobian
+        .into_inner()
+        .filter(|known| known.z == best.z);
     FitOutcome {
         z: best.z,
         residuals: best.residuals,
         stop,
         iterations,
+        jacobian,
     }
 }
