@@ -183,29 +183,46 @@ pub fn run_study(
 
     let total = options.protocols.len() * options.models.len();
     let done = std::sync::atomic::AtomicUsize::new(0);
+    let names: Vec<&str> = options.protocols.iter().map(|p| p.name.as_str()).collect();
+    progress(Event::Stage(&format!(
+        "grey-box estimation, protocol{} {}",
+        if names.len() == 1 { "" } else { "s" },
+        names.join(", ")
+    )));
+    // Every protocol's models in one parallel pass: a protocol whose models finish early
+    // leaves no core idle while the slowest model of another one (the `truck` structure on
+    // the valve runs) still runs.
+    let pairs: Vec<(usize, &String)> = (0..options.protocols.len())
+        .flat_map(|k| options.models.iter().map(move |m| (k, m)))
+        .collect();
+    let mut outcomes_by_protocol: Vec<Vec<models::ModelOutcome>> =
+        options.protocols.iter().map(|_| Vec::new()).collect();
+    let all_outcomes: Vec<(usize, models::ModelOutcome)> = pairs
+        .par_iter()
+        .map(|&(k, m)| {
+            let protocol = &options.protocols[k];
+            let t = Instant::now();
+            let outcome = models::fit_and_validate(input, &start, protocol, m, out_dir, options);
+            progress(Event::ModelDone {
+                protocol: &protocol.name,
+                model: m,
+                seconds: t.elapsed().as_secs_f64(),
+                done: done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1,
+                total,
+            });
+            (k, outcome)
+        })
+        .collect();
+    for (k, outcome) in all_outcomes {
+        outcomes_by_protocol[k].push(outcome);
+    }
     let mut protocols = Vec::new();
-    for (k, protocol) in options.protocols.iter().enumerate() {
-        progress(Event::Stage(&format!(
-            "grey-box estimation, protocol {}",
-            protocol.name
-        )));
-        let outcomes: Vec<models::ModelOutcome> = options
-            .models
-            .par_iter()
-            .map(|m| {
-                let t = Instant::now();
-                let outcome =
-                    models::fit_and_validate(input, &start, protocol, m, out_dir, options);
-                progress(Event::ModelDone {
-                    protocol: &protocol.name,
-                    model: m,
-                    seconds: t.elapsed().as_secs_f64(),
-                    done: done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1,
-                    total,
-                });
-                outcome
-            })
-            .collect();
+    for (k, (protocol, outcomes)) in options
+        .protocols
+        .iter()
+        .zip(outcomes_by_protocol)
+        .enumerate()
+    {
         // Figures for the last protocol only: the report's other protocols are in the tables,
         // and rendering every combination would double the report for little insight.
         if k + 1 == options.protocols.len() {
