@@ -58,6 +58,11 @@ pub struct StudyRun {
     /// run's truth file). The study reports the noise ceiling from it: the NRMSE of the
     /// truth against the measurements, the best any model can score.
     pub truth: Option<PathBuf>,
+    /// The noise-free outputs of the run as its log tells it (optional key
+    /// `truth_logged_input`; ours: a generated run whose truck felt load changes the log does
+    /// not show). The study reports a second ceiling from it: the best a model driven by the
+    /// logged load can score.
+    pub truth_logged_input: Option<PathBuf>,
     /// How the file's channels map onto the run columns (`[run.columns]`, `resample`,
     /// `sample_s`, `dbc`); the contract's own names when absent.
     pub source: RunSource,
@@ -87,6 +92,11 @@ impl Study {
         std::iter::once(self.truck.as_path())
             .chain(self.runs.iter().map(|r| r.file.as_path()))
             .chain(self.runs.iter().filter_map(|r| r.truth.as_deref()))
+            .chain(
+                self.runs
+                    .iter()
+                    .filter_map(|r| r.truth_logged_input.as_deref()),
+            )
             .chain(self.runs.iter().filter_map(|r| r.source.dbc.as_deref()))
             .chain(self.force_map.as_deref())
             .chain(self.discharges.iter().map(|d| d.file.as_path()))
@@ -102,7 +112,15 @@ const SCHEMA: &[TableSchema] = &[
     TableSchema {
         name: "run",
         keys: &[
-            "name", "file", "role", "truth", "columns", "resample", "sample_s", "dbc",
+            "name",
+            "file",
+            "role",
+            "truth",
+            "truth_logged_input",
+            "columns",
+            "resample",
+            "sample_s",
+            "dbc",
         ],
     },
     TableSchema {
@@ -129,6 +147,7 @@ struct FileRun {
     file: String,
     role: Role,
     truth: Option<String>,
+    truth_logged_input: Option<String>,
     #[serde(default)]
     columns: std::collections::BTreeMap<String, FileChannel>,
     resample: Option<ResampleMethod>,
@@ -274,6 +293,7 @@ pub fn parse_study(text: &str, path: &Path) -> Result<Study, DataError> {
             name: r.name,
             role: r.role,
             truth: r.truth.as_deref().map(resolve),
+            truth_logged_input: r.truth_logged_input.as_deref().map(resolve),
             source: RunSource {
                 columns,
                 resample,
@@ -319,6 +339,13 @@ pub fn study_to_toml(study: &Study, base: &Path) -> String {
         let _ = writeln!(s, "role = \"{}\"", run.role.as_str());
         if let Some(truth) = &run.truth {
             let _ = writeln!(s, "truth = {}  # noise-free outputs", quote(&rel(truth)));
+        }
+        if let Some(truth) = &run.truth_logged_input {
+            let _ = writeln!(
+                s,
+                "truth_logged_input = {}  # noise-free outputs, the load as logged",
+                quote(&rel(truth))
+            );
         }
         if let Some(dbc) = &run.source.dbc {
             let _ = writeln!(s, "dbc = {}", quote(&rel(dbc)));
@@ -410,6 +437,26 @@ role = "estimation"                      # or "validation"
     #[test]
     fn round_trips_through_toml() {
         let study = parse_study(EXAMPLE, Path::new("/data/study.toml")).unwrap();
+        let text = study_to_toml(&study, Path::new("/data"));
+        assert_eq!(
+            parse_study(&text, Path::new("/data/study.toml")).unwrap(),
+            study
+        );
+        // With both truth files (a generated data-set 2).
+        let with_truths = EXAMPLE.replace(
+            "role = \"estimation\"                      # or \"validation\"\n[force_map]",
+            "role = \"estimation\"\ntruth = \"truth/ds1.csv\"\ntruth_logged_input = \"truth/ds1_logged_input.csv\"\n[force_map]",
+        );
+        let study = parse_study(&with_truths, Path::new("/data/study.toml")).unwrap();
+        assert_eq!(
+            study.runs[0].truth_logged_input.as_deref(),
+            Some(Path::new("/data/truth/ds1_logged_input.csv"))
+        );
+        assert!(
+            study
+                .files()
+                .contains(&Path::new("/data/truth/ds1_logged_input.csv"))
+        );
         let text = study_to_toml(&study, Path::new("/data"));
         assert_eq!(
             parse_study(&text, Path::new("/data/study.toml")).unwrap(),

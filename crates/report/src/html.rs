@@ -217,7 +217,38 @@ fn summary(h: &mut String, results: &StudyResults) {
                 None => h.push_str("<td>–</td><td>–</td>"),
             }
         }
-        h.push_str("</tr></table>");
+        h.push_str("</tr>");
+        let logged_input =
+            |r: &crate::results::RunInfo| r.ceiling.as_ref().and_then(|c| c.logged_input);
+        if results.runs.iter().any(|r| logged_input(r).is_some()) {
+            h.push_str("<tr class=\"ceiling\"><td><i>ceiling, load as logged</i></td>");
+            for r in &results.runs {
+                // Where the log shows every change, the ceiling above is this one too.
+                match (logged_input(r), &r.ceiling) {
+                    (Some(c), _) => {
+                        for v in [c.height_percent, c.pressure_percent] {
+                            let _ = write!(h, "<td><i>{v:.1}</i></td>");
+                        }
+                    }
+                    (None, Some(c)) => {
+                        let mark = c.mark();
+                        for v in [c.height_percent, c.pressure_percent] {
+                            let _ = write!(h, "<td><i>{v:.1}{mark}</i></td>");
+                        }
+                    }
+                    (None, None) => h.push_str("<td>–</td><td>–</td>"),
+                }
+            }
+            h.push_str("</tr>");
+        }
+        h.push_str("</table>");
+    }
+    if results
+        .runs
+        .iter()
+        .any(|r| r.ceiling.as_ref().is_some_and(|c| c.logged_input.is_some()))
+    {
+        h.push_str("<p class=\"note\">Ceiling, load as logged: where the truck felt load changes its log does not show (a loading mishap), the NRMSE of the noise-free outputs of the run as its log tells it (every logged change as the truck felt it, the unlogged ones left out) against the measurements: the best a model driven by the logged load can score.</p>");
     }
     if results.runs.iter().any(|r| r.ceiling.is_some()) {
         h.push_str("<p class=\"note\">Noise ceiling: the NRMSE of the noise-free outputs against the measurements, the best any model can score; ~ marks a ceiling estimated from the measurements' own noise (no truth file). Noise std per run: ");
@@ -678,6 +709,10 @@ mod tests {
                         pressure_percent: 99.4,
                         height_noise_std_mm: 0.15,
                         pressure_noise_std_kpa: 0.2,
+                        logged_input: (i == 1).then_some(LoggedInputCeiling {
+                            height_percent: 92.8,
+                            pressure_percent: 90.8,
+                        }),
                     }),
                     format: "CSV".to_owned(),
                     notes: Vec::new(),
@@ -785,6 +820,10 @@ mod tests {
         assert!(
             html.contains("<td><i>noise ceiling</i></td><td><i>98.9</i></td><td><i>99.4</i></td><td><i>98.9~</i></td>"),
             "ceiling row"
+        );
+        assert!(
+            html.contains("<td><i>ceiling, load as logged</i></td><td><i>98.9</i></td><td><i>99.4</i></td><td><i>92.8</i></td><td><i>90.8</i></td>"),
+            "logged-input ceiling row"
         );
         assert!(
             html.contains("<b>Level-controller design:</b> <code>m2</code> (67.5 %)"),

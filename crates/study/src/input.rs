@@ -19,6 +19,9 @@ pub struct StudyRunData {
     pub run: Run,
     /// The noise-free outputs on the run's time axis, when the study names a truth file.
     pub truth: Option<RunOutputs>,
+    /// The noise-free outputs of the run as its log tells it (load changes the log does not
+    /// show left out), when the study names such a file (`truth_logged_input`).
+    pub truth_logged_input: Option<RunOutputs>,
     /// The file's format (`CSV`, `MDF4`, `Parquet`, `CAN log`).
     pub format: &'static str,
     /// What reading it assumed or did (units, resampling, timestamps), for the report.
@@ -123,12 +126,18 @@ pub fn load_parts(label: String, study: &Study) -> Result<StudyInput, StudyError
                 .as_deref()
                 .map(|path| read_truth(path, &run))
                 .transpose()?;
+            let truth_logged_input = r
+                .truth_logged_input
+                .as_deref()
+                .map(|path| read_truth(path, &run))
+                .transpose()?;
             Ok(StudyRunData {
                 name: r.name.clone(),
                 file: r.file.clone(),
                 role: r.role,
                 run,
                 truth,
+                truth_logged_input,
                 format: loaded.format,
                 notes: loaded.notes,
             })

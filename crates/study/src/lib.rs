@@ -362,6 +362,10 @@ pub fn run_builtin(
 pub fn summary_table(results: &StudyResults) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
+    let any_logged_input = results
+        .runs
+        .iter()
+        .any(|r| r.ceiling.as_ref().is_some_and(|c| c.logged_input.is_some()));
     for p in &results.protocols {
         let _ = writeln!(
             s,
@@ -416,10 +420,36 @@ pub fn summary_table(results: &StudyResults) -> String {
             );
         }
         let _ = writeln!(s);
+        if any_logged_input {
+            let _ = write!(s, "{:<7}", "logged");
+            for r in &results.runs {
+                let (height, pressure, mark) = match &r.ceiling {
+                    Some(c) => match c.logged_input {
+                        Some(l) => (l.height_percent, l.pressure_percent, ""),
+                        None => (c.height_percent, c.pressure_percent, c.mark()),
+                    },
+                    None => (f64::NAN, f64::NAN, ""),
+                };
+                let cell = |v: f64| {
+                    if v.is_nan() {
+                        "–".to_owned()
+                    } else {
+                        format!("{v:.1}{mark}")
+                    }
+                };
+                let _ = write!(s, " {:>9} {:>9}", cell(height), cell(pressure));
+            }
+            let _ = writeln!(s);
+        }
     }
     let _ = writeln!(
         s,
-        "(* estimation run; ceiling: the noise-free truth against the measurements, ~ estimated from the measurements' noise)"
+        "(* estimation run; ceiling: the noise-free truth against the measurements, ~ estimated from the measurements' noise{})",
+        if any_logged_input {
+            "; logged: the ceiling of a model driven by the logged load, where the truck felt load changes its log does not show"
+        } else {
+            ""
+        }
     );
     s
 }

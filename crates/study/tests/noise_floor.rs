@@ -14,7 +14,7 @@ use airsus_study::{LoadRamp, Protocol, StudyOptions, load_study, run_study};
 use airsus_truck::models::build_any_model;
 
 #[test]
-fn the_truck_structure_reaches_the_noise_ceiling_on_the_runs_whose_inputs_are_logged() {
+fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_run() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
     let generated = airsus_truck::experiments::generate(&data, 1, &mut |_| {}).unwrap();
@@ -30,28 +30,35 @@ fn the_truck_structure_reaches_the_noise_ceiling_on_the_runs_whose_inputs_are_lo
     let r = &outcome.results;
     let truck = &r.protocols[0].models[0];
     assert!(truck.error.is_none(), "{:?}", truck.error);
-    // (run, points allowed below the ceiling). Data-set 2, held out, has a load change its
-    // log does not show (a mishap at 960 s) and is eased over one common time: measured
-    // 92.5/90.3 % against 98.5/99.1 %.
-    for (run, allowed) in [
-        ("data-set 1", 2.0),
-        ("data-set 3", 2.0),
-        ("data-set 4", 2.0),
-        ("data-set 2", 10.0),
-    ] {
+    // Within 2 points of the ceiling on every run and output. Data-set 2, held out, has a
+    // load change its log does not show (a mishap at 960 s): no model driven by the logged
+    // load can follow it, so its ceiling is that of the run as the log tells it (measured
+    // 92.4/90.3 % against 92.8/90.7 %; the truth with the mishap scores 98.5/99.1 %), and
+    // that one is well below the full ceiling (the mishap costs more than 5 points).
+    for run in ["data-set 1", "data-set 2", "data-set 3", "data-set 4"] {
         let ceiling = r
             .runs
             .iter()
             .find(|info| info.name == run)
             .and_then(|info| info.ceiling.clone())
             .expect("a generated run has its truth");
+        let (height, pressure) = match ceiling.logged_input {
+            Some(logged) => {
+                assert_eq!(run, "data-set 2", "only data-set 2 hides a load change");
+                assert!(logged.height_percent < ceiling.height_percent - 5.0);
+                assert!(logged.pressure_percent < ceiling.pressure_percent - 5.0);
+                (logged.height_percent, logged.pressure_percent)
+            }
+            None => (ceiling.height_percent, ceiling.pressure_percent),
+        };
+        assert!(run != "data-set 2" || ceiling.logged_input.is_some());
         let fit = truck.run(run).and_then(|f| f.estimated).expect(run);
         for (output, got, best) in [
-            ("height", fit.height_percent, ceiling.height_percent),
-            ("pressure", fit.pressure_percent, ceiling.pressure_percent),
+            ("height", fit.height_percent, height),
+            ("pressure", fit.pressure_percent, pressure),
         ] {
             assert!(
-                got > best - allowed,
+                got > best - 2.0,
                 "{run} {output}: {got:.1} % against the ceiling {best:.1} %; notes {:?}",
                 truck.notes
             );

@@ -43,6 +43,11 @@ pub const START_SUPPLY_GAUGE_PA: f64 = 850e3;
 pub struct GeneratedRun {
     pub logged: Run,
     pub truth: Run,
+    /// Where the truck felt load changes its log does not show (data-set 2's mishap): the
+    /// noise-free run as the log tells it (every logged change ramped as the truck felt it,
+    /// the unlogged ones left out; [`Scenario::as_logged`]). Its outputs against the
+    /// measurements are the ceiling of a model driven by the logged load.
+    pub truth_logged_input: Option<Run>,
     pub description: String,
 }
 
@@ -71,6 +76,46 @@ pub fn run_experiment_with(
     options: &SolverOptions,
 ) -> Result<GeneratedRun, TruckError> {
     let model = TruckModel::new(truck.clone(), SupplyMode::Tank);
+    let (truth, measured) = noise_free(&model, scenario, wall_friction_n, options)?;
+    let truth_logged_input = match scenario.as_logged() {
+        Some(as_logged) => Some(noise_free(&model, &as_logged, wall_friction_n, options)?.0),
+        None => None,
+    };
+    let tank_truth = &truth.inputs.supply_gauge_pa;
+    let mut noise = NoiseSource::new(seed ^ 0x5e75_0001);
+    let logged_outputs = RunOutputs {
+        sensor_height_m: noise.measure(&measured.sensor_height_m, SensorSpec::HEIGHT_M),
+        bellow_gauge_pa: noise.measure(&measured.bellow_gauge_pa, SensorSpec::BELLOW_PRESSURE_PA),
+    };
+    let logged_supply = noise.measure(tank_truth, SensorSpec::SUPPLY_PRESSURE_PA);
+    let logged = Run {
+        name: scenario.name.clone(),
+        time_s: scenario.time_s.clone(),
+        sample_time_s: crate::scenario::SAMPLE_TIME_S,
+        inputs: RunInputs {
+            wheel_load_kg: scenario.logged_load_kg.clone(),
+            valve: scenario.valve.clone(),
+            supply_gauge_pa: logged_supply,
+            road_height_m: scenario.road_height_m.clone(),
+        },
+        outputs: Some(logged_outputs),
+    };
+    Ok(GeneratedRun {
+        logged,
+        truth,
+        truth_logged_input,
+        description: scenario.description.clone(),
+    })
+}
+
+/// The virtual truck through `scenario` without sensors: the truth run (true load, the
+/// tank's gauge pressure as supply, noise-free outputs) and its outputs.
+fn noise_free(
+    model: &TruckModel,
+    scenario: &Scenario,
+    wall_friction_n: f64,
+    options: &SolverOptions,
+) -> Result<(Run, RunOutputs), TruckError> {
     let n = scenario.len();
     let supply = vec![START_SUPPLY_GAUGE_PA; n];
     let inputs = InputSeries::new(
@@ -88,7 +133,7 @@ pub fn run_experiment_with(
         wall_friction_n,
     )?;
     let problem = SimulationProblem::new(
-        &model as &dyn SuspensionModel,
+        model as &dyn SuspensionModel,
         inputs,
         InitialState::State(x0),
     )
@@ -106,24 +151,9 @@ pub fn run_experiment_with(
                 .map_or(f64::NAN, |x| model.tank_gauge_pa(x, &input_at(scenario, k)))
         })
         .collect();
-
-    let mut noise = NoiseSource::new(seed ^ 0x5e75_0001);
-    let logged_outputs = RunOutputs {
-        sensor_height_m: noise.measure(&response.sensor_height_m, SensorSpec::HEIGHT_M),
-        bellow_gauge_pa: noise.measure(&response.bellow_gauge_pa, SensorSpec::BELLOW_PRESSURE_PA),
-    };
-    let logged_supply = noise.measure(&tank_truth, SensorSpec::SUPPLY_PRESSURE_PA);
-    let logged = Run {
-        name: scenario.name.clone(),
-        time_s: scenario.time_s.clone(),
-        sample_time_s: crate::scenario::SAMPLE_TIME_S,
-        inputs: RunInputs {
-            wheel_load_kg: scenario.logged_load_kg.clone(),
-            valve: scenario.valve.clone(),
-            supply_gauge_pa: logged_supply,
-            road_height_m: scenario.road_height_m.clone(),
-        },
-        outputs: Some(logged_outputs),
+    let outputs = RunOutputs {
+        sensor_height_m: response.sensor_height_m,
+        bellow_gauge_pa: response.bellow_gauge_pa,
     };
     let truth = Run {
         name: scenario.name.clone(),
@@ -135,16 +165,9 @@ pub fn run_experiment_with(
             supply_gauge_pa: tank_truth,
             road_height_m: scenario.road_height_m.clone(),
         },
-        outputs: Some(RunOutputs {
-            sensor_height_m: response.sensor_height_m.clone(),
-            bellow_gauge_pa: response.bellow_gauge_pa.clone(),
-        }),
+        outputs: Some(outputs.clone()),
     };
-    Ok(GeneratedRun {
-        logged,
-        truth,
-        description: scenario.description.clone(),
-    })
+    Ok((truth, outputs))
 }
 
 /// The decimals of a logged run: each sensor at its resolution (0.1 mm, 0.1 kPa, 1 kPa
@@ -321,7 +344,16 @@ pub fn generate_variant(
         write_run(&truth_file, &run.truth)?;
         files.push(file.clone());
         files.push(truth_file.clone());
-        runs.push((i, file, truth_file));
+        let as_logged = match &run.truth_logged_input {
+            Some(truth) => {
+                let path = truth_dir.join(format!("{}_logged_input.csv", truth.name));
+                write_run(&path, truth)?;
+                files.push(path.clone());
+                Some(path)
+            }
+            None => None,
+        };
+        runs.push((i, file, truth_file, as_logged));
     }
 
     progress("bellow force map");
@@ -352,7 +384,7 @@ pub fn generate_variant(
         truck: truck_path.clone(),
         runs: runs
             .iter()
-            .map(|(i, file, truth)| StudyRun {
+            .map(|(i, file, truth, as_logged)| StudyRun {
                 name: names[*i].to_owned(),
                 file: file.clone(),
                 role: if estimation.contains(i) {
@@ -361,6 +393,7 @@ pub fn generate_variant(
                     Role::Validation
                 },
                 truth: Some(truth.clone()),
+                truth_logged_input: as_logged.clone(),
                 source: Default::default(),
             })
             .collect(),

@@ -27,6 +27,9 @@ pub struct Scenario {
     pub true_load_kg: Vec<f64>,
     /// The load as logged: a clean step at the start of each ramp, kg.
     pub logged_load_kg: Vec<f64>,
+    /// The part of the true load the log does not show at all (a mishap), kg; zeros when
+    /// every change is logged.
+    pub unlogged_load_kg: Vec<f64>,
     pub valve: Vec<ValveState>,
     /// Road height under the wheel, m.
     pub road_height_m: Vec<f64>,
@@ -42,6 +45,7 @@ impl Scenario {
             time_s: (0..n).map(|i| i as f64 * SAMPLE_TIME_S).collect(),
             true_load_kg: vec![wheel_load_kg; n],
             logged_load_kg: vec![wheel_load_kg; n],
+            unlogged_load_kg: vec![0.0; n],
             valve: vec![ValveState::Closed; n],
             road_height_m: vec![0.0; n],
         }
@@ -75,8 +79,29 @@ impl Scenario {
         let start = self.index_at(start_s);
         for i in start..self.len() {
             let progress = (self.time_s[i] - start_s) / ramp_s;
-            self.true_load_kg[i] += delta_kg * smoothstep(progress);
+            let felt = delta_kg * smoothstep(progress);
+            self.true_load_kg[i] += felt;
+            self.unlogged_load_kg[i] += felt;
         }
+    }
+
+    /// The scenario as its log tells it: every logged change as the truck felt it (its
+    /// ramp), without the changes the log does not show; `None` when it shows them all.
+    /// What a model driven by the logged load can at best follow.
+    pub fn as_logged(&self) -> Option<Scenario> {
+        if self.unlogged_load_kg.iter().all(|&m| m == 0.0) {
+            return None;
+        }
+        let mut logged = self.clone();
+        for (load, unlogged) in logged
+            .true_load_kg
+            .iter_mut()
+            .zip(&mut logged.unlogged_load_kg)
+        {
+            *load -= *unlogged;
+            *unlogged = 0.0;
+        }
+        Some(logged)
     }
 
     fn valve_pulse(&mut self, start_s: f64, duration_s: f64, state: ValveState) {
@@ -256,6 +281,16 @@ mod tests {
             s.logged_load_kg[i] - s.true_load_kg[i] > 100.0,
             "mishap invisible in the log"
         );
+        // As the log tells it: the mishap gone, every logged change still ramped.
+        let logged = s.as_logged().expect("data-set 2 has an unlogged change");
+        assert!((logged.true_load_kg[i] - s.logged_load_kg[i]).abs() < 1e-9);
+        let (at, _) = steps(&s.logged_load_kg)[0];
+        assert_eq!(logged.true_load_kg[at + 10], s.true_load_kg[at + 10]);
+        assert!(s.logged_load_kg[at + 10] - logged.true_load_kg[at + 10] > 10.0);
+        for k in (0..s.len()).filter(|&k| s.time_s[k] < 955.0 || s.time_s[k] > 995.0) {
+            assert_eq!(logged.true_load_kg[k], s.true_load_kg[k], "sample {k}");
+        }
+        assert!(data_set_1(520.0, 1).as_logged().is_none());
     }
 
     #[test]
