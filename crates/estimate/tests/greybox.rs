@@ -7,7 +7,7 @@ use airsus_data::{Run, TruckParameters};
 use airsus_estimate::greybox::{ParameterStatus, Stage, Unidentifiable};
 use airsus_estimate::{
     EstimateError, GreyboxEstimate, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
-    NoProgress, StopReason, estimate, loss_at,
+    NoProgress, StopReason, ease_logged_load, estimate, fit_load_transitions, loss_at,
 };
 use airsus_model::{SuspensionModel, build_model};
 use common::{load_step_run, measure, perturbed, valve_pulse_run};
@@ -416,4 +416,25 @@ fn the_loss_of_a_model_as_it_stands_is_that_of_an_estimate_that_frees_nothing() 
     );
     let at_truth = GreyboxProblem::new(&*truth, &[&steps, &pulses], &[]);
     assert!(loss_at(&at_truth, true).unwrap() < 0.5 * estimated.loss_estimated);
+}
+
+#[test]
+fn each_load_change_gets_the_time_the_wheel_took() {
+    let truck = TruckParameters::reference();
+    let truth = build_model("m2", &truck).unwrap();
+    // Changes at 100, 200, 300, 400 and 500 s, each felt over its own time.
+    let logged = load_step_run("steps", 590.0, 3350.0, 300.0, 100.0);
+    let felt_s = [3.0, 6.0, 4.5, 8.0, 5.0];
+    let mut measured = measure(&*truth, ease_logged_load(&logged, &felt_s), 0.24, 41);
+    measured.inputs.wheel_load_kg = logged.inputs.wheel_load_kg.clone();
+    let problem = GreyboxProblem::new(&*truth, &[&measured], &[]);
+    let fit = fit_load_transitions(&problem, &[vec![5.0; 5]]).unwrap();
+    assert!(fit.loss_each < 0.5 * fit.loss_start, "{fit:?}");
+    for (got, want) in fit.durations_s[0].iter().zip(felt_s) {
+        assert!(
+            (got - want).abs() < 0.3,
+            "{:?} against {felt_s:?}",
+            fit.durations_s[0]
+        );
+    }
 }

@@ -182,6 +182,31 @@ pub fn loss_at(problem: &GreyboxProblem<'_>, parallel: bool) -> Result<f64, Esti
     Ok(residuals.iter().map(|r| r * r).sum::<f64>() / n_data as f64)
 }
 
+/// The states of `problem`'s first run at each sample, simulated with its model as it stands
+/// (its solver options must record states). Fails where [`loss_at`] would, or when no states
+/// were recorded.
+pub(crate) fn simulate_states(
+    problem: &GreyboxProblem<'_>,
+) -> Result<airsus_sim::StateHistory, EstimateError> {
+    let unfreed = GreyboxProblem {
+        free: Vec::new(),
+        ..problem.clone()
+    };
+    let mut ev = Evaluator::new(&unfreed)?;
+    ev.parallel = false;
+    let mut responses = ev.simulate(&[])?;
+    let name = ev.runs[0].name.clone();
+    let response = responses
+        .swap_remove(0)
+        .map_err(|e| EstimateError::StartDoesNotSimulate {
+            run: name,
+            source: Box::new(e),
+        })?;
+    response
+        .states
+        .ok_or_else(|| EstimateError::InvalidOption("the simulation recorded no states".to_owned()))
+}
+
 /// Estimates the freed parameters of `problem` (module docs). Fails only on malformed
 /// problems and on a start that does not simulate; a fit that does not converge returns its
 /// best point with a [`StopReason`] saying so.
