@@ -17,7 +17,7 @@ use airsus_data::Run;
 use airsus_sim::{InitialState, LoadInput, SolverOptions};
 
 use crate::error::EstimateError;
-use crate::greybox::{GreyboxProblem, loss_at};
+use crate::greybox::{GreyboxProblem, OutputWeights, loss_at, output_factors};
 
 /// How an estimate feeds the logged load to the model (`--load-ramp`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -352,10 +352,11 @@ pub fn fit_load_transitions(
     let start = start_s.to_vec();
     let loss_at_start = loss(&start, None)?;
     // Each change's search simulates its run from the change on, from the state there under
-    // the start times: the samples before a change do not depend on its time (the felt load
-    // leaves the logged value at the change), so the run's loss is a constant plus a positive
-    // multiple of the loss from the change on, and both have the same minimiser. About half
-    // the simulated time of searching whole runs (the built-in study 65 -> 58 s).
+    // the start times, weighted as the whole run: the samples before a change do not depend
+    // on its time (the felt load leaves the logged value at the change), so the run's loss is
+    // a constant plus a positive multiple of the loss from the change on, and both have the
+    // same minimiser (to the solver's tolerance: the cut run restarts the solver at the
+    // change). About half the simulated time of searching whole runs.
     let tails: Vec<Vec<Option<ChangeStart>>> = (0..problem.runs.len())
         .map(|i| {
             if changes[i] > 0 {
@@ -380,11 +381,36 @@ pub fn fit_load_transitions(
         .par_iter()
         .map(|&(i, j)| {
             let tail = tails[i].get(j).cloned().flatten();
+            // The run cut at the change is weighted as the whole run is: its own spreads (or
+            // noise levels) would weigh height and pressure differently, and move the
+            // minimiser wherever the two outputs disagree on the time (any model error).
+            let weights = tail.as_ref().and_then(|from| {
+                let whole = GreyboxProblem {
+                    runs: vec![problem.runs[i]],
+                    start_states: vec![None],
+                    ..problem.clone()
+                };
+                let cut = from.run_eased(problem.runs[i], &start[i]);
+                let cut = GreyboxProblem {
+                    runs: vec![&cut],
+                    start_states: vec![None],
+                    ..problem.clone()
+                };
+                let (h_whole, p_whole) = *output_factors(&whole).ok()?.first()?;
+                let (h_cut, p_cut) = *output_factors(&cut).ok()?.first()?;
+                let rescale =
+                    |w: f64, whole: f64, cut: f64| if cut > 0.0 { w * whole / cut } else { w };
+                Some(OutputWeights {
+                    height: rescale(problem.weights.height, h_whole, h_cut),
+                    pressure: rescale(problem.weights.pressure, p_whole, p_cut),
+                })
+            });
+            let tail = tail.zip(weights);
             let mut trial = |tau: f64| {
                 let mut durations = start.clone();
                 durations[i][j] = tau;
                 match &tail {
-                    Some(from) => {
+                    Some((from, weights)) => {
                         evaluations.fetch_add(1, Ordering::Relaxed);
                         let eased = from.run_eased(problem.runs[i], &durations[i]);
                         let longest = durations[i].iter().copied().fold(0.0, f64::max);
@@ -392,6 +418,7 @@ pub fn fit_load_transitions(
                             runs: vec![&eased],
                             start_states: vec![Some(InitialState::State(from.state.clone()))],
                             solver: solver_for_ramp(&problem.solver, longest),
+                            weights: *weights,
                             ..problem.clone()
                         };
                         loss_at(&fixed, false).unwrap_or(f64::INFINITY)
@@ -457,11 +484,16 @@ fn change_states(
         .filter(|&k| run.inputs.wheel_load_kg[k] != run.inputs.wheel_load_kg[k - 1])
         .collect();
     let eased = ease_logged_load(run, durations_s);
-    let longest = durations_s.iter().copied().fold(0.0, f64::max);
+    // Followed linearly, as every trial follows it (each trial eases its change over at least
+    // a sample step), even where the start times are all 0.
     let whole = GreyboxProblem {
         runs: vec![&eased],
         start_states: vec![problem.start_states.get(i).cloned().flatten()],
-        solver: solver_for_ramp(&problem.solver, longest).with_states(true),
+        solver: problem
+            .solver
+            .clone()
+            .with_load(LoadInput::Linear)
+            .with_states(true),
         ..problem.clone()
     };
     let Ok(states) = crate::greybox::simulate_states(&whole) else {

@@ -438,3 +438,42 @@ fn each_load_change_gets_the_time_the_wheel_took() {
         );
     }
 }
+
+#[test]
+fn each_change_s_time_minimises_its_whole_run_also_for_a_model_that_is_off() {
+    let truck = TruckParameters::reference();
+    let truth = build_model("m2", &truck).unwrap();
+    let logged = load_step_run("steps", 590.0, 3350.0, 300.0, 100.0);
+    let felt_s = [3.0, 6.0, 4.5, 8.0, 5.0];
+    let mut measured = measure(&*truth, ease_logged_load(&logged, &felt_s), 0.24, 43);
+    measured.inputs.wheel_load_kg = logged.inputs.wheel_load_kg.clone();
+    // Off the truth: height and pressure disagree on each change's best time.
+    let model = perturbed(&truck, "m2", &[("p0", 1.1), ("m2", 0.8)]);
+    let problem = GreyboxProblem::new(&*model, &[&measured], &[]);
+    let start = vec![5.0; 5];
+    let fit = fit_load_transitions(&problem, std::slice::from_ref(&start)).unwrap();
+    // The whole run's loss with change j eased over `tau`, the others at their start.
+    let whole = |j: usize, tau: f64| {
+        let mut durations = start.clone();
+        durations[j] = tau;
+        let eased = ease_logged_load(&measured, &durations);
+        let at = GreyboxProblem::new(&*model, &[&eased], &[]);
+        let at = GreyboxProblem {
+            solver: airsus_estimate::solver_for_ramp(&at.solver, 15.0),
+            ..at
+        };
+        loss_at(&at, false).unwrap()
+    };
+    for (j, &tau) in fit.durations_s[0].iter().enumerate() {
+        let best = whole(j, tau);
+        for step in [-0.3, 0.3]
+            .into_iter()
+            .filter(|s| (0.1..=15.0).contains(&(tau + s)))
+        {
+            assert!(
+                best <= whole(j, tau + step),
+                "change {j}: {tau:.2} s is not the whole run's best ({step:+} s is better)"
+            );
+        }
+    }
+}

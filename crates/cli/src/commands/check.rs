@@ -117,7 +117,7 @@ fn check_study(path: &Path) -> anyhow::Result<String> {
     read_truck(&study.truck)?;
     for run in &study.runs {
         let data = airsus_logs::read_run(&run.file, Outputs::Required, &run.source)?.run;
-        if let Some(truth) = &run.truth {
+        for truth in run.truth.iter().chain(&run.truth_logged_input) {
             airsus_study::input::read_truth(truth, &data)?;
         }
     }

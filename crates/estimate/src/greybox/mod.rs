@@ -182,6 +182,23 @@ pub fn loss_at(problem: &GreyboxProblem<'_>, parallel: bool) -> Result<f64, Esti
     Ok(residuals.iter().map(|r| r * r).sum::<f64>() / n_data as f64)
 }
 
+/// Per run of `problem`, the factors its height and pressure residuals are multiplied by
+/// (the output weights over the normalisation's scale, [`Normalisation`]).
+pub(crate) fn output_factors(
+    problem: &GreyboxProblem<'_>,
+) -> Result<Vec<(f64, f64)>, EstimateError> {
+    let unfreed = GreyboxProblem {
+        free: Vec::new(),
+        ..problem.clone()
+    };
+    let ev = Evaluator::new(&unfreed)?;
+    Ok(ev
+        .runs
+        .iter()
+        .map(|r| (r.height_factor, r.pressure_factor))
+        .collect())
+}
+
 /// The states of `problem`'s first run at each sample, simulated with its model as it stands
 /// (its solver options must record states). Fails where [`loss_at`] would, or when no states
 /// were recorded.
@@ -395,9 +412,9 @@ pub fn estimate(
     let mut estimated = if z == z0 {
         nominal.clone()
     } else {
-        ev.simulate(&ev.theta(&z))?
+        ev.simulate(&ev.theta(&z)).unwrap_or_default()
     };
-    if estimated.iter().any(Result::is_err) {
+    if estimated.len() != nominal.len() || estimated.iter().any(Result::is_err) {
         // The optimiser's best point always simulated; this guards the contract anyway.
         stop = StopReason::NotConverging {
             reason: "the final point does not simulate every run; the nominal values are returned"
