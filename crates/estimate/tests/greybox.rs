@@ -418,15 +418,24 @@ fn the_loss_of_a_model_as_it_stands_is_that_of_an_estimate_that_frees_nothing() 
     assert!(loss_at(&at_truth, true).unwrap() < 0.5 * estimated.loss_estimated);
 }
 
+/// The times the wheel took over the load changes of [`felt_load_steps`], s.
+const FELT_S: [f64; 5] = [3.0, 6.0, 4.5, 8.0, 5.0];
+
+/// A closed-valve run with load changes at 100, 200, 300, 400 and 500 s, each felt over its
+/// own time ([`FELT_S`]) and logged as a step, "measured" on `truth`.
+fn felt_load_steps(truth: &dyn SuspensionModel, seed: u64) -> Run {
+    let logged = load_step_run("steps", 590.0, 3350.0, 300.0, 100.0);
+    let mut measured = measure(truth, ease_logged_load(&logged, &FELT_S), 0.24, seed);
+    measured.inputs.wheel_load_kg = logged.inputs.wheel_load_kg;
+    measured
+}
+
 #[test]
 fn each_load_change_gets_the_time_the_wheel_took() {
     let truck = TruckParameters::reference();
     let truth = build_model("m2", &truck).unwrap();
-    // Changes at 100, 200, 300, 400 and 500 s, each felt over its own time.
-    let logged = load_step_run("steps", 590.0, 3350.0, 300.0, 100.0);
-    let felt_s = [3.0, 6.0, 4.5, 8.0, 5.0];
-    let mut measured = measure(&*truth, ease_logged_load(&logged, &felt_s), 0.24, 41);
-    measured.inputs.wheel_load_kg = logged.inputs.wheel_load_kg.clone();
+    let measured = felt_load_steps(&*truth, 41);
+    let felt_s = FELT_S;
     let problem = GreyboxProblem::new(&*truth, &[&measured], &[]);
     let fit = fit_load_transitions(&problem, &[vec![5.0; 5]]).unwrap();
     assert!(fit.loss_each < 0.5 * fit.loss_start, "{fit:?}");
@@ -443,10 +452,7 @@ fn each_load_change_gets_the_time_the_wheel_took() {
 fn each_change_s_time_minimises_its_whole_run_also_for_a_model_that_is_off() {
     let truck = TruckParameters::reference();
     let truth = build_model("m2", &truck).unwrap();
-    let logged = load_step_run("steps", 590.0, 3350.0, 300.0, 100.0);
-    let felt_s = [3.0, 6.0, 4.5, 8.0, 5.0];
-    let mut measured = measure(&*truth, ease_logged_load(&logged, &felt_s), 0.24, 43);
-    measured.inputs.wheel_load_kg = logged.inputs.wheel_load_kg.clone();
+    let measured = felt_load_steps(&*truth, 43);
     // Off the truth: height and pressure disagree on each change's best time.
     let model = perturbed(&truck, "m2", &[("p0", 1.1), ("m2", 0.8)]);
     let problem = GreyboxProblem::new(&*model, &[&measured], &[]);
