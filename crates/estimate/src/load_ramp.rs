@@ -105,9 +105,17 @@ fn smoothstep(progress: f64) -> f64 {
 /// The logged load's changes of `run`: `(time s, change kg)`, in time order.
 pub fn logged_load_changes(run: &Run) -> Vec<(f64, f64)> {
     let load = &run.inputs.wheel_load_kg;
+    logged_load_change_samples(run)
+        .into_iter()
+        .map(|k| (run.time_s[k], load[k] - load[k - 1]))
+        .collect()
+}
+
+/// The samples at which `run`'s logged load changes (each differs from the one before).
+fn logged_load_change_samples(run: &Run) -> Vec<usize> {
+    let load = &run.inputs.wheel_load_kg;
     (1..load.len())
         .filter(|&k| load[k] != load[k - 1])
-        .map(|k| (run.time_s[k], load[k] - load[k - 1]))
         .collect()
 }
 
@@ -381,50 +389,17 @@ pub fn fit_load_transitions(
         .par_iter()
         .map(|&(i, j)| {
             let tail = tails[i].get(j).cloned().flatten();
-            // The run cut at the change is weighted as the whole run is: its own spreads (or
-            // noise levels) would weigh height and pressure differently, and move the
-            // minimiser wherever the two outputs disagree on the time (any model error).
-            let weights = tail.as_ref().and_then(|from| {
-                let whole = GreyboxProblem {
-                    runs: vec![problem.runs[i]],
-                    start_states: vec![None],
-                    ..problem.clone()
-                };
-                let cut = from.run_eased(problem.runs[i], &start[i]);
-                let cut = GreyboxProblem {
-                    runs: vec![&cut],
-                    start_states: vec![None],
-                    ..problem.clone()
-                };
-                let (h_whole, p_whole) = *output_factors(&whole).ok()?.first()?;
-                let (h_cut, p_cut) = *output_factors(&cut).ok()?.first()?;
-                let rescale =
-                    |w: f64, whole: f64, cut: f64| if cut > 0.0 { w * whole / cut } else { w };
-                Some(OutputWeights {
-                    height: rescale(problem.weights.height, h_whole, h_cut),
-                    pressure: rescale(problem.weights.pressure, p_whole, p_cut),
-                })
-            });
-            let tail = tail.zip(weights);
             let mut trial = |tau: f64| {
                 let mut durations = start.clone();
                 durations[i][j] = tau;
                 match &tail {
-                    Some((from, weights)) => {
+                    Some(from) => {
                         evaluations.fetch_add(1, Ordering::Relaxed);
-                        let eased = from.run_eased(problem.runs[i], &durations[i]);
-                        let longest = durations[i].iter().copied().fold(0.0, f64::max);
-                        let fixed = GreyboxProblem {
-                            runs: vec![&eased],
-                            start_states: vec![Some(InitialState::State(from.state.clone()))],
-                            solver: solver_for_ramp(&problem.solver, longest),
-                            weights: *weights,
-                            ..problem.clone()
-                        };
-                        loss_at(&fixed, false).unwrap_or(f64::INFINITY)
+                        from.loss(problem, i, &durations[i])
                     }
-                    None => loss(&durations, Some(i)).unwrap_or(f64::INFINITY),
+                    None => loss(&durations, Some(i)),
                 }
+                .unwrap_or(f64::INFINITY)
             };
             let at_start = trial(start[i][j]);
             let (tau, found) =
@@ -454,11 +429,13 @@ pub fn fit_load_transitions(
     })
 }
 
-/// Where a logged load change happens in its run and the run's state there.
+/// Where a logged load change happens in its run, the run's state there, and the output
+/// weights that make the run cut there count as the whole run.
 #[derive(Debug, Clone)]
 struct ChangeStart {
     sample: usize,
     state: Vec<f64>,
+    weights: OutputWeights,
 }
 
 impl ChangeStart {
@@ -468,21 +445,41 @@ impl ChangeStart {
     fn run_eased(&self, run: &Run, durations_s: &[f64]) -> Run {
         run_from(&ease_logged_load(run, durations_s), self.sample)
     }
+
+    /// The loss of run `i` of `problem` eased over `durations_s`, from this change on.
+    fn loss(
+        &self,
+        problem: &GreyboxProblem<'_>,
+        i: usize,
+        durations_s: &[f64],
+    ) -> Result<f64, EstimateError> {
+        let eased = self.run_eased(problem.runs[i], durations_s);
+        let longest = durations_s.iter().copied().fold(0.0, f64::max);
+        let cut = GreyboxProblem {
+            runs: vec![&eased],
+            start_states: vec![Some(InitialState::State(self.state.clone()))],
+            solver: solver_for_ramp(&problem.solver, longest),
+            weights: self.weights,
+            ..problem.clone()
+        };
+        loss_at(&cut, false)
+    }
 }
 
-/// Per logged change of run `i` of `problem` (eased over `durations_s`), the sample it
-/// happens at and the run's state there, simulated under `problem`'s model and start; `None`
-/// for a change too near the run's end to start a run from, or for all where the run does
-/// not simulate (the search then simulates whole runs).
+/// Per logged change of run `i` of `problem` (eased over `durations_s`), where the search
+/// can start from ([`ChangeStart`]): the state simulated under `problem`'s model and start;
+/// the weights from the whole run's normalisation (the cut run's own spreads, or noise
+/// levels, would weigh height and pressure differently, and move the minimiser wherever the
+/// two outputs disagree on the time: any model error). `None` for a change too near the
+/// run's end to start a run from, or for all where the run does not simulate (the search
+/// then simulates whole runs).
 fn change_states(
     problem: &GreyboxProblem<'_>,
     i: usize,
     durations_s: &[f64],
 ) -> Vec<Option<ChangeStart>> {
     let run = problem.runs[i];
-    let changes: Vec<usize> = (1..run.len())
-        .filter(|&k| run.inputs.wheel_load_kg[k] != run.inputs.wheel_load_kg[k - 1])
-        .collect();
+    let changes = logged_load_change_samples(run);
     let eased = ease_logged_load(run, durations_s);
     // Followed linearly, as every trial follows it (each trial eases its change over at least
     // a sample step), even where the start times are all 0.
@@ -496,20 +493,33 @@ fn change_states(
             .with_states(true),
         ..problem.clone()
     };
-    let Ok(states) = crate::greybox::simulate_states(&whole) else {
+    let factors = |p: &GreyboxProblem<'_>| output_factors(p).ok()?.first().copied();
+    let (Ok(states), Some((h_whole, p_whole))) =
+        (crate::greybox::simulate_states(&whole), factors(&whole))
+    else {
         return vec![None; changes.len()];
     };
+    let rescale = |w: f64, whole: f64, cut: f64| if cut > 0.0 { w * whole / cut } else { w };
     changes
         .iter()
         .map(|&k| {
-            (k + 2 < run.len())
-                .then(|| {
-                    states.at(k).map(|x| ChangeStart {
-                        sample: k,
-                        state: x.to_vec(),
-                    })
-                })
-                .flatten()
+            if k + 2 >= run.len() {
+                return None;
+            }
+            let state = states.at(k)?.to_vec();
+            let cut = run_from(&eased, k);
+            let (h_cut, p_cut) = factors(&GreyboxProblem {
+                runs: vec![&cut],
+                ..whole.clone()
+            })?;
+            Some(ChangeStart {
+                sample: k,
+                state,
+                weights: OutputWeights {
+                    height: rescale(problem.weights.height, h_whole, h_cut),
+                    pressure: rescale(problem.weights.pressure, p_whole, p_cut),
+                },
+            })
         })
         .collect()
 }

@@ -153,6 +153,27 @@ fn full_columns(part: &nalgebra::DMatrix<f64>, cols: &[usize], n: usize) -> nalg
     j
 }
 
+/// The evaluator of `problem`'s model as it stands: its free list ignored.
+fn as_it_stands<'a>(problem: &GreyboxProblem<'a>) -> Result<Evaluator<'a>, EstimateError> {
+    Evaluator::new(&GreyboxProblem {
+        free: Vec::new(),
+        ..problem.clone()
+    })
+}
+
+/// `Ok` when every run of `responses` simulated; else the first failure, by run.
+fn all_simulated(ev: &Evaluator<'_>, responses: &Responses) -> Result<(), EstimateError> {
+    for (run, response) in ev.runs.iter().zip(responses) {
+        if let Err(e) = response {
+            return Err(EstimateError::StartDoesNotSimulate {
+                run: run.name.clone(),
+                source: Box::new(e.clone()),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// The loss of `problem`'s model as it stands (its free list is ignored): the mean squared
 /// normalised residual over every run, [`GreyboxEstimate::loss_estimated`] of an estimate
 /// that frees nothing, from one simulation of each run. What the load-transition searches
@@ -161,21 +182,10 @@ fn full_columns(part: &nalgebra::DMatrix<f64>, cols: &[usize], n: usize) -> nalg
 /// `parallel`: the runs simulated in parallel. Fails where [`estimate`] would: a malformed
 /// problem, or a run that does not simulate.
 pub fn loss_at(problem: &GreyboxProblem<'_>, parallel: bool) -> Result<f64, EstimateError> {
-    let unfreed = GreyboxProblem {
-        free: Vec::new(),
-        ..problem.clone()
-    };
-    let mut ev = Evaluator::new(&unfreed)?;
+    let mut ev = as_it_stands(problem)?;
     ev.parallel = parallel;
     let responses = ev.simulate(&[])?;
-    for (run, response) in ev.runs.iter().zip(&responses) {
-        if let Err(e) = response {
-            return Err(EstimateError::StartDoesNotSimulate {
-                run: run.name.clone(),
-                source: Box::new(e.clone()),
-            });
-        }
-    }
+    all_simulated(&ev, &responses)?;
     let n_data = ev.n_data();
     let mut residuals = vec![0.0; n_data];
     ev.residuals_into(&responses, 0.0, &mut residuals);
@@ -187,12 +197,7 @@ pub fn loss_at(problem: &GreyboxProblem<'_>, parallel: bool) -> Result<f64, Esti
 pub(crate) fn output_factors(
     problem: &GreyboxProblem<'_>,
 ) -> Result<Vec<(f64, f64)>, EstimateError> {
-    let unfreed = GreyboxProblem {
-        free: Vec::new(),
-        ..problem.clone()
-    };
-    let ev = Evaluator::new(&unfreed)?;
-    Ok(ev
+    Ok(as_it_stands(problem)?
         .runs
         .iter()
         .map(|r| (r.height_factor, r.pressure_factor))
@@ -205,22 +210,14 @@ pub(crate) fn output_factors(
 pub(crate) fn simulate_states(
     problem: &GreyboxProblem<'_>,
 ) -> Result<airsus_sim::StateHistory, EstimateError> {
-    let unfreed = GreyboxProblem {
-        free: Vec::new(),
-        ..problem.clone()
-    };
-    let mut ev = Evaluator::new(&unfreed)?;
+    let mut ev = as_it_stands(problem)?;
     ev.parallel = false;
     let mut responses = ev.simulate(&[])?;
-    let name = ev.runs[0].name.clone();
-    let response = responses
+    all_simulated(&ev, &responses)?;
+    responses
         .swap_remove(0)
-        .map_err(|e| EstimateError::StartDoesNotSimulate {
-            run: name,
-            source: Box::new(e),
-        })?;
-    response
-        .states
+        .ok()
+        .and_then(|response| response.states)
         .ok_or_else(|| EstimateError::InvalidOption("the simulation recorded no states".to_owned()))
 }
 
@@ -256,14 +253,7 @@ pub fn estimate(
     observer.stage("simulating the nominal parameters");
     let z0 = vec![0.0; n];
     let nominal = ev.simulate(&ev.theta(&z0))?;
-    for (run, response) in ev.runs.iter().zip(&nominal) {
-        if let Err(e) = response {
-            return Err(EstimateError::StartDoesNotSimulate {
-                run: run.name.clone(),
-                source: Box::new(e.clone()),
-            });
-        }
-    }
+    all_simulated(&ev, &nominal)?;
     let mut r0 = vec![0.0; n_data];
     ev.residuals_into(&nominal, 0.0, &mut r0);
     let loss0: f64 = r0.iter().map(|r| r * r).sum();
