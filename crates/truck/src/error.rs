@@ -12,6 +12,9 @@ pub enum TruckError {
     Simulation(#[from] SimError),
     #[error(transparent)]
     Data(#[from] DataError),
+    /// An argument or a signal is out of its admissible range.
+    #[error("invalid {what}: {reason}")]
+    InvalidInput { what: String, reason: String },
     #[error("tank discharge simulation failed: {0}")]
     Discharge(String),
     #[error("cannot create the output folder {path}: {source}")]
@@ -19,4 +22,11 @@ pub enum TruckError {
         path: std::path::PathBuf,
         source: std::io::Error,
     },
+}
+
+pub(crate) fn invalid(what: impl Into<String>, reason: impl Into<String>) -> TruckError {
+    TruckError::InvalidInput {
+        what: what.into(),
+        reason: reason.into(),
+    }
 }

@@ -1,6 +1,6 @@
 //! Ride-height (level) control with the 3-state valve, evaluated in closed loop (SPEC §7).
 //!
-//! [`controller`] holds the controllers, [`closed_loop`] runs them on a model or the virtual
+//! [`controller`] holds the controllers, `airsus_truck::closed_loop` runs them on a model or the virtual
 //! truck, this module the scenarios and the scores.
 //!
 //! # Scores (on the true, noise-free sensor height)
@@ -22,76 +22,19 @@
 //! fill channel (drawn from the supply tank) and out through the exhaust, with the fill also as
 //! litres of free air at ambient conditions (`V = n R T / p_amb`).
 
-pub mod closed_loop;
 pub mod controller;
 
 use airsus_data::ValveState;
 
 use crate::error::{AppError, invalid};
 use crate::road::profile::Iso8608Road;
-pub use closed_loop::{ClosedLoopConfig, ClosedLoopRun, Plant, simulate_closed_loop};
+pub use airsus_truck::closed_loop::{
+    ClosedLoopConfig, ClosedLoopRun, LevelScenario, Plant, simulate_closed_loop,
+};
 pub use controller::{
     DeadbandController, GuardSettings, LevelController, PredictiveController, Reading, ValveGuard,
     ValveModel,
 };
-
-/// Inputs of a closed-loop run: the true load and the target height at every sample.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LevelScenario {
-    pub name: String,
-    pub time_s: Vec<f64>,
-    pub true_load_kg: Vec<f64>,
-    /// Target sensor height, m.
-    pub target_m: Vec<f64>,
-    /// Road height under the wheel, m (linear between samples; 0 = standing or a level road).
-    pub road_height_m: Vec<f64>,
-    /// Vehicle speed, m/s (what the controller reads from the bus).
-    pub speed_m_s: Vec<f64>,
-    /// Times at which something happens (load change starts, target changes), s.
-    pub events_s: Vec<f64>,
-}
-
-impl LevelScenario {
-    pub fn len(&self) -> usize {
-        self.time_s.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.time_s.is_empty()
-    }
-
-    fn constant(name: &str, duration_s: f64, sample_s: f64, load_kg: f64, target_m: f64) -> Self {
-        let n = (duration_s / sample_s).round() as usize + 1;
-        Self {
-            name: name.to_owned(),
-            time_s: (0..n).map(|i| i as f64 * sample_s).collect(),
-            true_load_kg: vec![load_kg; n],
-            target_m: vec![target_m; n],
-            road_height_m: vec![0.0; n],
-            speed_m_s: vec![0.0; n],
-            events_s: Vec::new(),
-        }
-    }
-
-    /// A load change of `delta_kg` from `start_s` over a smooth ramp of `ramp_s` (a crane
-    /// setting a load down takes seconds, not a sample).
-    fn load_change(&mut self, start_s: f64, delta_kg: f64, ramp_s: f64) {
-        for (t, m) in self.time_s.iter().zip(self.true_load_kg.iter_mut()) {
-            let x = ((t - start_s) / ramp_s).clamp(0.0, 1.0);
-            *m += delta_kg * x * x * (3.0 - 2.0 * x);
-        }
-        self.events_s.push(start_s);
-    }
-
-    fn target_change(&mut self, start_s: f64, target_m: f64) {
-        for (t, h) in self.time_s.iter().zip(self.target_m.iter_mut()) {
-            if *t >= start_s - 1e-9 {
-                *h = target_m;
-            }
-        }
-        self.events_s.push(start_s);
-    }
-}
 
 /// The scenarios `airsus control --scenario` knows.
 pub const SCENARIO_NAMES: &[&str] = &["load-steps", "height-change", "road"];

@@ -18,7 +18,8 @@
 //! lost where `F_w = 0`. Model 3 has no mechanics and is refused.
 
 pub mod linear;
-pub mod profile;
+/// The road profiles live with the virtual truck, which drives its road runs over them.
+pub use airsus_truck::road as profile;
 
 use std::io::Write;
 use std::path::Path;

@@ -1,4 +1,5 @@
-//! Road profiles: a single bump and ISO 8608 random roads.
+//! Road profiles: a single bump and ISO 8608 random roads (the virtual truck's road runs and
+//! `airsus road`).
 //!
 //! # ISO 8608
 //! The displacement power spectral density over spatial frequency `n` (cycles/m) is
@@ -23,13 +24,13 @@ use std::f64::consts::PI;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::error::{AppError, invalid};
+use crate::error::{TruckError, invalid};
 
 /// Reference spatial frequency of ISO 8608, cycles/m.
 pub const ISO8608_N0: f64 = 0.1;
 
 /// `Gd(n0)` of an ISO 8608 class letter (A–H), m³ (geometric mean of the class).
-pub fn iso8608_gd_n0_m3(class: char) -> Result<f64, AppError> {
+pub fn iso8608_gd_n0_m3(class: char) -> Result<f64, TruckError> {
     let k = match class.to_ascii_uppercase() {
         c @ 'A'..='H' => c as u32 - 'A' as u32,
         other => {
@@ -65,7 +66,7 @@ impl Iso8608Road {
         n_max: f64,
         components: usize,
         seed: u64,
-    ) -> Result<Self, AppError> {
+    ) -> Result<Self, TruckError> {
         let gd_n0_m3 = iso8608_gd_n0_m3(class)?;
         if !(n_min.is_finite() && n_min > 0.0 && n_max > n_min && n_max.is_finite()) {
             return Err(invalid(

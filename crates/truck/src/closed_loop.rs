@@ -1,4 +1,5 @@
-//! Closed-loop simulation of a level controller on a model or the virtual truck.
+//! Closed-loop simulation of a level controller on a model or the virtual truck: the levelling
+//! runs of the reference experiments and `airsus control`.
 //!
 //! The controller runs at every sample of the scenario (100 ms): it reads the plant's outputs at `t_k`
 //! through the truck's sensors (noise, then quantisation: 0.1 mm, 0.1 kPa; thesis 2.2), decides
@@ -12,12 +13,11 @@
 use airsus_data::{Run, RunInputs, RunOutputs, ValveState};
 use airsus_model::{InitialCondition, InputSample, StateRole, SuspensionModel};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, SolverOptions, simulate};
-use airsus_truck::model::TruckModel;
-use airsus_truck::sensors::{NoiseSource, SensorSpec};
 
-use crate::control::LevelScenario;
-use crate::control::controller::{LevelController, Reading};
-use crate::error::{AppError, invalid};
+use crate::ecu::{LevelController, Reading};
+use crate::error::{TruckError, invalid};
+use crate::model::TruckModel;
+use crate::sensors::{NoiseSource, SensorSpec};
 
 /// What the controller acts on.
 #[derive(Debug, Clone)]
@@ -136,6 +136,72 @@ impl ClosedLoopRun {
     }
 }
 
+/// Inputs of a closed-loop run: the true load and the target height at every sample.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LevelScenario {
+    pub name: String,
+    pub time_s: Vec<f64>,
+    pub true_load_kg: Vec<f64>,
+    /// Target sensor height, m.
+    pub target_m: Vec<f64>,
+    /// Road height under the wheel, m (linear between samples; 0 = standing or a level road).
+    pub road_height_m: Vec<f64>,
+    /// Vehicle speed, m/s (what the controller reads from the bus).
+    pub speed_m_s: Vec<f64>,
+    /// Times at which something happens (load change starts, target changes), s.
+    pub events_s: Vec<f64>,
+}
+
+impl LevelScenario {
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+
+    /// `duration_s` at `sample_s` with a constant load and target, standing on a level road.
+    pub fn constant(
+        name: &str,
+        duration_s: f64,
+        sample_s: f64,
+        load_kg: f64,
+        target_m: f64,
+    ) -> Self {
+        let n = (duration_s / sample_s).round() as usize + 1;
+        Self {
+            name: name.to_owned(),
+            time_s: (0..n).map(|i| i as f64 * sample_s).collect(),
+            true_load_kg: vec![load_kg; n],
+            target_m: vec![target_m; n],
+            road_height_m: vec![0.0; n],
+            speed_m_s: vec![0.0; n],
+            events_s: Vec::new(),
+        }
+    }
+
+    /// A load change of `delta_kg` from `start_s` over a smooth ramp of `ramp_s` (a crane
+    /// setting a load down takes seconds, not a sample).
+    pub fn load_change(&mut self, start_s: f64, delta_kg: f64, ramp_s: f64) {
+        for (t, m) in self.time_s.iter().zip(self.true_load_kg.iter_mut()) {
+            let x = ((t - start_s) / ramp_s).clamp(0.0, 1.0);
+            *m += delta_kg * x * x * (3.0 - 2.0 * x);
+        }
+        self.events_s.push(start_s);
+    }
+
+    /// The target becomes `target_m` from `start_s` on.
+    pub fn target_change(&mut self, start_s: f64, target_m: f64) {
+        for (t, h) in self.time_s.iter().zip(self.target_m.iter_mut()) {
+            if *t >= start_s - 1e-9 {
+                *h = target_m;
+            }
+        }
+        self.events_s.push(start_s);
+    }
+}
+
 /// Runs `controller` on `plant` through `scenario`, starting in static equilibrium at the first
 /// target height with the first load.
 pub fn simulate_closed_loop(
@@ -143,7 +209,7 @@ pub fn simulate_closed_loop(
     controller: &mut dyn LevelController,
     scenario: &LevelScenario,
     config: &ClosedLoopConfig,
-) -> Result<ClosedLoopRun, AppError> {
+) -> Result<ClosedLoopRun, TruckError> {
     let n = scenario.len();
     if n < 2 {
         return Err(invalid("scenario", "it needs at least two samples"));
