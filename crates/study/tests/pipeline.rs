@@ -60,10 +60,13 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
     );
 
     let p = &r.protocols[0];
-    assert_eq!(p.estimation_runs, ["data-set 1", "data-set 3"]);
+    assert_eq!(
+        p.estimation_runs,
+        ["data-set 1", "data-set 3", "levelling 1", "road 1"]
+    );
     for m in &p.models {
         assert!(m.error.is_none(), "{}: {:?}", m.model, m.error);
-        assert_eq!(m.runs.len(), 4);
+        assert_eq!(m.runs.len(), 8);
         let ds1 = m.run("data-set 1").unwrap();
         let (nominal, estimated) = (ds1.nominal.unwrap(), ds1.estimated.unwrap());
         // Estimation never makes the estimation run's combined fit worse.

@@ -3,12 +3,15 @@
 //!
 //! DIR receives
 //! - `ds1.csv` … `ds4.csv`: the runs as the truck's logger records them (clean load steps,
-//!   sensor noise and quantisation, the supply tank's pressure as measured);
+//!   sensor noise and quantisation, the supply tank's pressure as measured); `lev1.csv`,
+//!   `lev2.csv`: levelling runs (load steps while the truck's ECU levels, [`levelling_run`]);
+//!   `road1.csv`, `road2.csv`: road runs (humps and potholes; an ISO 8608 road);
 //! - `force_map.csv`, `fill_a.csv`, `fill_b.csv`, `exhaust_a.csv`, `exhaust_b.csv`: lab data;
 //! - `truck.toml`: what a manufacturer would know is true (geometry, tire, damper,
 //!   environment); the parameters to be estimated at the SPEC's nominal guesses;
 //! - `study.toml` (the thesis' protocol: estimate on data-set 1) and `study_valve.toml`
-//!   (ours: data-set 1 plus the valve pulses of data-set 3);
+//!   (ours: data-set 1, the valve pulses of data-set 3, levelling run 1 and road run 1;
+//!   [`REFERENCE_RUNS`]);
 //! - `truth/`: the noise-free truth of every run (true load, true tank pressure, true outputs)
 //!   and `truth/truck.toml`, the true values of the thesis-structure parameters;
 //!   `truth/truck_structure.toml`, the whole truth as a file of the `truck` structure (its
@@ -26,10 +29,15 @@ use airsus_data::{
 use airsus_model::{InitialCondition, InputSample, SuspensionModel};
 use airsus_sim::{InitialState, InputSeries, SimulationProblem, SolverOptions, simulate};
 
+use crate::closed_loop::{ClosedLoopConfig, LevelScenario, Plant, simulate_closed_loop};
+use crate::ecu::{DeadbandController, GuardSettings};
 use crate::error::TruckError;
 use crate::lab::{DischargeTest, measure_discharge, measure_force_map};
 use crate::model::{SupplyMode, TruckModel};
-use crate::scenario::{Scenario, data_set_1, data_set_2, data_set_3, data_set_4};
+use crate::scenario::{
+    Scenario, data_set_1, data_set_2, data_set_3, data_set_4, levelling_1, levelling_2, road_1,
+    road_2,
+};
 use crate::sensors::{NoiseSource, SensorSpec};
 use crate::truth::VirtualTruck;
 
@@ -275,7 +283,7 @@ pub fn reference_discharges() -> Vec<(String, DischargeTest, Role)> {
 pub struct GeneratedStudy {
     /// The thesis protocol: estimation on data-set 1 only.
     pub study: PathBuf,
-    /// Our protocol: estimation on data-sets 1 and 3.
+    /// Our protocol: estimation on data-sets 1 and 3, levelling run 1 and road run 1.
     pub study_valve: PathBuf,
     pub files: Vec<PathBuf>,
 }
@@ -379,15 +387,14 @@ pub fn generate_variant(
         });
     }
 
-    let names = ["data-set 1", "data-set 2", "data-set 3", "data-set 4"];
-    let study_with = |estimation: &[usize]| Study {
+    let study_with = |estimated: fn(&ReferenceRun) -> bool| Study {
         truck: truck_path.clone(),
         runs: runs
             .iter()
             .map(|(i, file, truth, as_logged)| StudyRun {
-                name: names[*i].to_owned(),
+                name: REFERENCE_RUNS[*i].study_name.to_owned(),
                 file: file.clone(),
-                role: if estimation.contains(i) {
+                role: if estimated(&REFERENCE_RUNS[*i]) {
                     Role::Estimation
                 } else {
                     Role::Validation
@@ -401,9 +408,9 @@ pub fn generate_variant(
         discharges: discharges.clone(),
     };
     let study = out_dir.join("study.toml");
-    write_study(&study, &study_with(&[0]))?;
+    write_study(&study, &study_with(|r| r.thesis_estimation))?;
     let study_valve = out_dir.join("study_valve.toml");
-    write_study(&study_valve, &study_with(&[0, 2]))?;
+    write_study(&study_valve, &study_with(|r| r.our_estimation))?;
     files.push(study.clone());
     files.push(study_valve.clone());
     Ok(GeneratedStudy {
@@ -413,9 +420,78 @@ pub fn generate_variant(
     })
 }
 
-/// The four reference runs. Data-sets 1–2 start after the truck was lowered onto its ride
-/// height (wall friction holding up), 3–4 after it was raised (friction holding down), so they
-/// start at the same height with different pressures, as thesis 6.1 reports.
+/// The reference runs: how each is named in a study and which protocol estimates on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceRun {
+    /// File stem (`ds1`, `lev1`, ...).
+    pub file: &'static str,
+    /// The run's name in the study files.
+    pub study_name: &'static str,
+    /// The thesis protocol (`study.toml`) estimates on it.
+    pub thesis_estimation: bool,
+    /// Our protocol (`study_valve.toml`) estimates on it.
+    pub our_estimation: bool,
+}
+
+/// The thesis' four data-sets (SPEC §6), then the levelling and road runs (#13): our protocol
+/// estimates on a loading, a valve, a levelling and a road run and validates on the rest; the
+/// thesis protocol estimates on data-set 1 alone.
+pub const REFERENCE_RUNS: [ReferenceRun; 8] = [
+    ReferenceRun {
+        file: "ds1",
+        study_name: "data-set 1",
+        thesis_estimation: true,
+        our_estimation: true,
+    },
+    ReferenceRun {
+        file: "ds2",
+        study_name: "data-set 2",
+        thesis_estimation: false,
+        our_estimation: false,
+    },
+    ReferenceRun {
+        file: "ds3",
+        study_name: "data-set 3",
+        thesis_estimation: false,
+        our_estimation: true,
+    },
+    ReferenceRun {
+        file: "ds4",
+        study_name: "data-set 4",
+        thesis_estimation: false,
+        our_estimation: false,
+    },
+    ReferenceRun {
+        file: "lev1",
+        study_name: "levelling 1",
+        thesis_estimation: false,
+        our_estimation: true,
+    },
+    ReferenceRun {
+        file: "lev2",
+        study_name: "levelling 2",
+        thesis_estimation: false,
+        our_estimation: false,
+    },
+    ReferenceRun {
+        file: "road1",
+        study_name: "road 1",
+        thesis_estimation: false,
+        our_estimation: true,
+    },
+    ReferenceRun {
+        file: "road2",
+        study_name: "road 2",
+        thesis_estimation: false,
+        our_estimation: false,
+    },
+];
+
+/// The reference runs of [`REFERENCE_RUNS`], in its order. Data-sets 1–2 start after the truck
+/// was lowered onto its ride height (wall friction holding up), 3–4 after it was raised
+/// (friction holding down), so they start at the same height with different pressures, as
+/// thesis 6.1 reports; the levelling runs start with the wall unloaded (the closed loop starts
+/// in equilibrium), road run 1 lowered and road run 2 raised.
 pub fn reference_runs(
     truck: &VirtualTruck,
     seed: u64,
@@ -423,21 +499,57 @@ pub fn reference_runs(
 ) -> Result<Vec<GeneratedRun>, TruckError> {
     let m2 = truck.physical.mass.unsprung_kg;
     let friction = truck.effect_parameters.friction_force_n;
+    // (scenario, wall friction at the start, the ECU levels)
     let plan = [
-        (data_set_1(m2, seed), -friction),
-        (data_set_2(m2, seed), -friction),
-        (data_set_3(m2, seed), friction),
-        (data_set_4(m2, seed), friction),
+        (data_set_1(m2, seed), -friction, false),
+        (data_set_2(m2, seed), -friction, false),
+        (data_set_3(m2, seed), friction, false),
+        (data_set_4(m2, seed), friction, false),
+        (levelling_1(m2, seed), 0.0, true),
+        (levelling_2(m2, seed), 0.0, true),
+        (road_1(m2, seed), -friction, false),
+        (road_2(m2, seed)?, friction, false),
     ];
     let mut runs = Vec::with_capacity(plan.len());
-    for (i, (scenario, f)) in plan.iter().enumerate() {
+    for (i, (scenario, f, levels)) in plan.into_iter().enumerate() {
         progress(&format!("simulating {}", scenario.description));
-        runs.push(run_experiment(
-            truck,
-            scenario,
-            *f,
-            seed.wrapping_add(i as u64),
-        )?);
+        let run_seed = seed.wrapping_add(i as u64);
+        runs.push(if levels {
+            levelling_run(truck, scenario, run_seed)?
+        } else {
+            run_experiment(truck, &scenario, f, run_seed)?
+        });
     }
     Ok(runs)
+}
+
+/// A levelling run: the truck's ECU (the deadband controller at its default settings, reading
+/// the sensors every 100 ms) holds the start height through the scenario's load changes; the
+/// valve commands it gave are then the scenario's valve column, and the run is simulated and
+/// logged as every other ([`run_experiment`], wall unloaded as the closed loop starts).
+pub fn levelling_run(
+    truck: &VirtualTruck,
+    mut scenario: Scenario,
+    seed: u64,
+) -> Result<GeneratedRun, TruckError> {
+    let n = scenario.len();
+    let level = LevelScenario {
+        name: scenario.name.clone(),
+        time_s: scenario.time_s.clone(),
+        true_load_kg: scenario.true_load_kg.clone(),
+        target_m: vec![START_SENSOR_HEIGHT_M; n],
+        road_height_m: scenario.road_height_m.clone(),
+        speed_m_s: vec![0.0; n],
+        events_s: Vec::new(),
+    };
+    let plant = Plant::Truck(Box::new(TruckModel::new(truck.clone(), SupplyMode::Tank)));
+    let mut ecu = DeadbandController::new(GuardSettings::default());
+    let config = ClosedLoopConfig {
+        supply_gauge_pa: START_SUPPLY_GAUGE_PA,
+        seed: seed ^ 0xec00_0001,
+        ..ClosedLoopConfig::default()
+    };
+    let closed = simulate_closed_loop(&plant, &mut ecu, &level, &config)?;
+    scenario.valve = closed.valve;
+    run_experiment(truck, &scenario, 0.0, seed)
 }

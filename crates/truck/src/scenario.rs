@@ -9,7 +9,9 @@
 
 use airsus_data::ValveState;
 
+use crate::error::TruckError;
 use crate::physics::smoothstep;
+use crate::road::{Iso8608Road, half_sine_bump_m};
 use crate::sensors::NoiseSource;
 
 /// Sample time of the truck's logger, s.
@@ -222,6 +224,150 @@ pub fn data_set_4(unsprung_kg: f64, seed: u64) -> Scenario {
         s.valve_pulse(start, noise.uniform(8.0, 15.0), state);
     }
     s
+}
+
+/// A levelling run: load steps of 250–350 kg (`pattern`: +1 sets one down, -1 lifts the
+/// last one off) at `starts_s`, with the truck's level-control ECU at work. The valve column
+/// stays closed here: [`crate::experiments::levelling_run`] fills in what the ECU commanded.
+fn levelling(
+    name: &str,
+    description: &str,
+    duration_s: f64,
+    plan: &[(f64, i8)],
+    unsprung_kg: f64,
+    noise: &mut NoiseSource,
+) -> Scenario {
+    let mut s = Scenario::constant(
+        name,
+        description,
+        duration_s,
+        wheel_load_kg(REFERENCE_SPRUNG_KG, unsprung_kg),
+    );
+    let mut on_truck = Vec::new();
+    for &(start_s, direction) in plan {
+        let delta = if direction > 0 {
+            let d = step_size(noise);
+            on_truck.push(d);
+            d
+        } else {
+            -on_truck.pop().unwrap_or(300.0)
+        };
+        s.load_step(start_s, delta, ramp(noise));
+    }
+    s
+}
+
+/// Levelling run 1 (estimation in our protocol): up, up, down, up, down, down, 70 s apart,
+/// while the ECU's deadband controller holds the ride height; 8 minutes.
+pub fn levelling_1(unsprung_kg: f64, seed: u64) -> Scenario {
+    let mut noise = NoiseSource::new(seed ^ 0x1e7e_0001);
+    levelling(
+        "lev1",
+        "levelling run 1 (estimation): load steps up, up, down, up, down, down; deadband level control",
+        480.0,
+        &[
+            (30.0, 1),
+            (100.0, 1),
+            (170.0, -1),
+            (240.0, 1),
+            (310.0, -1),
+            (380.0, -1),
+        ],
+        unsprung_kg,
+        &mut noise,
+    )
+}
+
+/// Levelling run 2 (validation): up, down, up, up, down, down at uneven gaps (a second step
+/// may come before the level has settled); 8 minutes.
+pub fn levelling_2(unsprung_kg: f64, seed: u64) -> Scenario {
+    let mut noise = NoiseSource::new(seed ^ 0x1e7e_0002);
+    levelling(
+        "lev2",
+        "levelling run 2 (validation): load steps up, down, up, up, down, down; deadband level control",
+        480.0,
+        &[
+            (40.0, 1),
+            (130.0, -1),
+            (200.0, 1),
+            (225.0, 1),
+            (330.0, -1),
+            (400.0, -1),
+        ],
+        unsprung_kg,
+        &mut noise,
+    )
+}
+
+/// Speed of road run 1, m/s (20 km/h: a test track's humps and potholes).
+pub const ROAD_1_SPEED_M_S: f64 = 20.0 / 3.6;
+/// Speed of road run 2, m/s (50 km/h).
+pub const ROAD_2_SPEED_M_S: f64 = 50.0 / 3.6;
+
+/// The distance driven at every sample: standing until `start_s`, at `speed_m_s` until
+/// `end_s`, standing again after.
+fn distance_m(time_s: &[f64], start_s: f64, end_s: f64, speed_m_s: f64) -> Vec<f64> {
+    time_s
+        .iter()
+        .map(|&t| (t.clamp(start_s, end_s) - start_s) * speed_m_s)
+        .collect()
+}
+
+/// Road run 1 (estimation in our protocol): at 20 km/h over four humps (half-sines of 40–70 mm
+/// over 1.5–2.5 m: 0.3–0.45 s each, near the half period of the body's bounce) and three
+/// potholes (30–50 mm deep over 1–1.5 m), standing for 5 s before and after; reference load,
+/// valve closed; 70 s. The logger's 100 ms samples see the body's bounce and the humps; the
+/// wheel hop (about 9 Hz) is above them.
+pub fn road_1(unsprung_kg: f64, seed: u64) -> Scenario {
+    let mut noise = NoiseSource::new(seed ^ 0x70ad_0001);
+    let mut s = Scenario::constant(
+        "road1",
+        "road run 1 (estimation): speed humps and potholes at 20 km/h, valve closed",
+        70.0,
+        wheel_load_kg(REFERENCE_SPRUNG_KG, unsprung_kg),
+    );
+    let distance = distance_m(&s.time_s, 5.0, 65.0, ROAD_1_SPEED_M_S);
+    // Hump, pothole, hump, ... every 40-48 m, so the body settles between them.
+    let mut features = Vec::new();
+    let mut at_m = 20.0;
+    for k in 0..7 {
+        let (length_m, height_m) = if k % 2 == 0 {
+            (noise.uniform(1.5, 2.5), noise.uniform(0.040, 0.070))
+        } else {
+            (noise.uniform(1.0, 1.5), -noise.uniform(0.030, 0.050))
+        };
+        features.push((at_m, length_m, height_m));
+        at_m += noise.uniform(40.0, 48.0);
+    }
+    s.road_height_m = distance
+        .iter()
+        .map(|&d| {
+            features
+                .iter()
+                .map(|&(start, length, height)| half_sine_bump_m(d, start, length, height))
+                .sum()
+        })
+        .collect();
+    s
+}
+
+/// Road run 2 (validation): an ISO 8608 class C road at 50 km/h, standing for 5 s before and
+/// after; reference load, valve closed; 90 s. The road carries waves the logger's 100 ms
+/// samples resolve (0.011–0.29 cycles/m: 0.15–4 Hz at that speed) and starts level.
+pub fn road_2(unsprung_kg: f64, seed: u64) -> Result<Scenario, TruckError> {
+    let mut s = Scenario::constant(
+        "road2",
+        "road run 2 (validation): ISO 8608 class C at 50 km/h, valve closed",
+        90.0,
+        wheel_load_kg(REFERENCE_SPRUNG_KG, unsprung_kg),
+    );
+    let distance = distance_m(&s.time_s, 5.0, 85.0, ROAD_2_SPEED_M_S);
+    let n_max = 0.4 / (SAMPLE_TIME_S * ROAD_2_SPEED_M_S);
+    let road = Iso8608Road::new('C', 0.011, n_max, 200, seed ^ 0x70ad_0002)?;
+    let heights = road.heights_m(&distance);
+    let start = heights.first().copied().unwrap_or(0.0);
+    s.road_height_m = heights.iter().map(|h| h - start).collect();
+    Ok(s)
 }
 
 #[cfg(test)]

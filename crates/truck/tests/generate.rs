@@ -30,23 +30,40 @@ fn the_study_follows_the_data_contract_and_looks_like_the_thesis_truck() {
 
     // Every file loads back through the public readers.
     let study = read_study(&generated.study).unwrap();
-    assert_eq!(study.runs.len(), 4);
-    assert_eq!(
+    let estimated = |study: &airsus_data::Study| -> Vec<String> {
         study
             .runs
             .iter()
             .filter(|r| r.role == Role::Estimation)
-            .count(),
-        1
+            .map(|r| r.name.clone())
+            .collect()
+    };
+    // The thesis' four data-sets, then the levelling and road runs; the thesis protocol
+    // estimates on data-set 1, ours on a loading, a valve, a levelling and a road run.
+    let files: Vec<_> = study
+        .runs
+        .iter()
+        .map(|r| r.file.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        files,
+        [
+            "ds1.csv",
+            "ds2.csv",
+            "ds3.csv",
+            "ds4.csv",
+            "lev1.csv",
+            "lev2.csv",
+            "road1.csv",
+            "road2.csv"
+        ]
     );
+    assert!(study.runs.iter().all(|r| r.truth.is_some()));
+    assert_eq!(estimated(&study), ["data-set 1"]);
     let valve_study = read_study(&generated.study_valve).unwrap();
     assert_eq!(
-        valve_study
-            .runs
-            .iter()
-            .filter(|r| r.role == Role::Estimation)
-            .count(),
-        2
+        estimated(&valve_study),
+        ["data-set 1", "data-set 3", "levelling 1", "road 1"]
     );
     let nominal = read_truck(&study.truck).unwrap();
     assert_eq!(
@@ -168,7 +185,7 @@ fn measurement_files_carry_the_sensor_resolution_without_float_artefacts() {
     // Decimals per column as the sensors resolve them: time (100 ms clock) 1, load 1,
     // valve 0, supply (1 kPa) 0, road 2, height (0.1 mm) 1, pressure (0.1 kPa) 1.
     let max_decimals = [1usize, 1, 0, 0, 2, 1, 1];
-    for name in ["ds1", "ds2", "ds3", "ds4"] {
+    for name in ["ds1", "ds2", "ds3", "ds4", "lev1", "lev2", "road1", "road2"] {
         let path = dir.path().join(format!("{name}.csv"));
         let text = std::fs::read_to_string(&path).unwrap();
         let mut lines = text.lines();
@@ -180,7 +197,7 @@ fn measurement_files_carry_the_sensor_resolution_without_float_artefacts() {
             for (col, (cell, &most)) in line.split(',').zip(&max_decimals).enumerate() {
                 let decimals = cell.split_once('.').map_or(0, |(_, f)| f.len());
                 assert!(
-                    decimals <= most && !cell.starts_with("-0.0"),
+                    decimals <= most && !(cell.starts_with('-') && cell.parse() == Ok(0.0)),
                     "{name}.csv:{}:{}: `{cell}` has {decimals} decimals, the sensor {most}",
                     k + 2,
                     col + 1

@@ -971,13 +971,17 @@ def generate(
 ) -> Dict[str, Any]:
     """Generate the thesis' reference experiments with the built-in virtual truck, as
     ``airsus generate --out OUT --seed SEED --variant K``: data-sets 1-4 (``ds1.csv`` to
-    ``ds4.csv``), a bellow force map, four tank discharges, their noise-free truth
+    ``ds4.csv``), two levelling runs (``lev1.csv``, ``lev2.csv``: load steps while the truck's
+    deadband ECU levels) and two road runs (``road1.csv``: humps and potholes at 20 km/h;
+    ``road2.csv``: ISO 8608 class C at 50 km/h), a bellow force map, four tank discharges,
+    their noise-free truth
     (``truth/``), a nominal ``truck.toml`` and the study files. The same seed writes the same
     bytes. ``variant`` picks a member of the virtual truck family (0, the reference truck;
     the others differ in laws and values, with their truth in ``truth/``).
 
     Returns ``{"study": path of study.toml (estimation on data-set 1), "study_valve": path of
-    study_valve.toml (data-sets 1 and 3), "files": every file written}``.
+    study_valve.toml (data-sets 1 and 3, levelling run 1, road run 1), "files": every file
+    written}``.
     ``progress`` is called with ``{"event": "stage", "message": ...}`` per step.
     """
     result = _native.generate(os.fsdecode(out), int(seed), progress=progress, variant=int(variant))
