@@ -38,9 +38,10 @@ pub mod submodel;
 
 pub use error::EstimateError;
 pub use greybox::{
-    FreeParameter, GreyboxEstimate, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
-    InitialChoice, MultiStart, MultiStartSummary, Normalisation, OutputWeights, StopReason,
-    check_load_change_exclusion_s, estimate, estimate_multistart, loss_at,
+    ForceMapPrior, FreeParameter, GreyboxEstimate, GreyboxOptions, GreyboxProblem,
+    IdentifiabilityPolicy, InitialChoice, MultiStart, MultiStartSummary, Normalisation,
+    OutputWeights, StopReason, check_load_change_exclusion_s, estimate, estimate_multistart,
+    loss_at,
 };
 pub use initial_state::{
     EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,

@@ -3,7 +3,8 @@
 //! up to the sensors' noise. The data are the virtual truck's, made by a richer simulation
 //! than the structure fitted (Dahl friction, gas heat exchange, the supply line, an ISO 6358
 //! valve, a pressure-dependent area, lever flex) and logged as a real truck logs them: the
-//! load as steps the wheel takes over 3-8 s, one load change not logged at all.
+//! load as steps the wheel takes over 3-8 s, one load change not logged at all; the runs are
+//! loading, valve, levelling (the truck's deadband ECU at work) and road runs.
 
 use airsus_apps::weigh::{
     EkfTuning, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty, evaluate_weighing,
@@ -35,13 +36,32 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
     // load can follow it, so its ceiling is that of the run as the log tells it (measured
     // 92.4/90.3 % against 92.8/90.7 %; the truth with the mishap scores 98.5/99.1 %), and
     // that one is well below the full ceiling (the mishap costs more than 5 points).
-    for run in ["data-set 1", "data-set 2", "data-set 3", "data-set 4"] {
-        let ceiling = r
-            .runs
-            .iter()
-            .find(|info| info.name == run)
-            .and_then(|info| info.ceiling.clone())
-            .expect("a generated run has its truth");
+    // The held-out levelling run: the controller holds the height within a few millimetres
+    // and the pressure follows the load, so the few tenths of a millimetre and kilopascal that
+    // each logged step's unknown transition time costs weigh more there than anywhere else.
+    // Measured: the truth structure itself scores 95.5/99.1 % with each change eased over its
+    // true time, 90.1/96.4 % over the study's common ramp; the estimate 89.8/96.4 %. Held to
+    // 7 and 4 points. The held-out long valve steps of data-set 4 reach heights the estimation
+    // runs do not: there the force map holds the effective area (without it their pressure
+    // moved between 91.8 and 95.2 % with the noise estimate of the road run alone; with it
+    // 96.4 % against the ceiling's 97.0 %).
+    let names: Vec<&str> = r.runs.iter().map(|info| info.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "data-set 1",
+            "data-set 2",
+            "data-set 3",
+            "data-set 4",
+            "levelling 1",
+            "levelling 2",
+            "road 1",
+            "road 2"
+        ]
+    );
+    for info in &r.runs {
+        let run = info.name.as_str();
+        let ceiling = info.ceiling.clone().expect("a generated run has its truth");
         let (height, pressure) = match ceiling.logged_input {
             Some(logged) => {
                 assert_eq!(run, "data-set 2", "only data-set 2 hides a load change");
@@ -57,16 +77,23 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
             ("height", fit.height_percent, height),
             ("pressure", fit.pressure_percent, pressure),
         ] {
+            let margin = match (run, output) {
+                ("levelling 2", "height") => 7.0,
+                ("levelling 2", _) => 4.0,
+                _ => 2.0,
+            };
             assert!(
-                got > best - 2.0,
+                got > best - margin,
                 "{run} {output}: {got:.1} % against the ceiling {best:.1} %; notes {:?}",
                 truck.notes
             );
         }
     }
-    // Each logged change of the loading run was eased over its own time.
-    assert_eq!(truck.load_transitions.len(), 1, "{:?}", truck.notes);
-    assert_eq!(truck.load_transitions[0].durations_s.len(), 6);
+    // Each logged change of the loading and the levelling run was eased over its own time.
+    assert_eq!(truck.load_transitions.len(), 2, "{:?}", truck.notes);
+    for transitions in &truck.load_transitions {
+        assert_eq!(transitions.durations_s.len(), 6, "{}", transitions.run);
+    }
 
     // Issue #14: weighing with what the study estimated, nothing else. The load filter on the
     // estimated `truck` file, scored against the true load of the held-out runs. Measured:

@@ -13,7 +13,7 @@
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use airsus_data::Run;
+use airsus_data::{EffectiveAreaLaw, ForceMap, Run};
 use airsus_model::{InitialCondition, ModelError, SuspensionModel};
 use airsus_sim::{
     InitialState, InputSeries, SimError, SimulationProblem, SimulationResponse, SolverOptions,
@@ -22,7 +22,7 @@ use airsus_sim::{
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use super::problem::{GreyboxProblem, InitialChoice, Normalisation};
+use super::problem::{ForceMapPrior, GreyboxProblem, InitialChoice, Normalisation};
 use crate::error::EstimateError;
 
 /// Sensor resolutions (SPEC §1), the floors of the normalisation: a run whose height or
@@ -76,6 +76,31 @@ impl RunData<'_> {
     }
 }
 
+/// The force map as a prior on the effective-area law ([`super::problem::ForceMapPrior`]):
+/// one residual per lab point, `factor (p A_eff(h, p) − F)`, appended after the runs'
+/// residuals as one more block. `factor = c / (σ_F √M)` over the map's `M` points, with `c²`
+/// the mean squared noise the runs' blocks carry in normalised units.
+#[derive(Debug)]
+pub(crate) struct AreaPrior<'a> {
+    pub map: &'a ForceMap,
+    pub factor: f64,
+    /// `(factor σ_F)²`: the variance of one residual at the start's misfit, normalised.
+    pub noise_variance: f64,
+}
+
+impl AreaPrior<'_> {
+    fn residuals_into(&self, area: &EffectiveAreaLaw, out: &mut [f64]) {
+        for (k, r) in out.iter_mut().enumerate() {
+            *r = self.factor * ForceMapPrior::force_error_n(self.map, area, k);
+        }
+    }
+}
+
+/// The effective-area law a model uses, if it keeps a truck file.
+fn area_law(model: &dyn SuspensionModel) -> Option<&EffectiveAreaLaw> {
+    model.truck_parameters().map(|t| &t.bellow.effective_area)
+}
+
 /// Simulated outputs of all runs at one parameter point.
 pub(crate) type Responses = Vec<Result<SimulationResponse, SimError>>;
 
@@ -85,6 +110,8 @@ pub(crate) struct Evaluator<'a> {
     pub base: Box<dyn SuspensionModel>,
     pub params: Vec<Resolved>,
     pub runs: Vec<RunData<'a>>,
+    /// The force map as a prior on the effective-area law ([`GreyboxProblem::force_map`]).
+    pub prior: Option<AreaPrior<'a>>,
     pub solver: SolverOptions,
     pub parallel: bool,
     pub simulations: AtomicUsize,
@@ -194,10 +221,41 @@ impl<'a> Evaluator<'a> {
                 }
             }
         }
+        let prior = match (problem.force_map, area_law(model)) {
+            (Some(prior), Some(_)) if !prior.map.is_empty() => {
+                let map = prior.map;
+                let m = map.len() as f64;
+                let rms_force = (map.force_n.iter().map(|f| f * f).sum::<f64>() / m).sqrt();
+                // Floored: a map given as exact must not weigh infinitely.
+                let sigma_f = prior.force_noise_n.max(1e-3 * rms_force);
+                let block_noise: Vec<f64> = runs
+                    .iter()
+                    .flat_map(|r| {
+                        let n = r.len() as f64;
+                        [
+                            n * (r.height_factor
+                                * measurement_noise(r.height, HEIGHT_RESOLUTION_M))
+                            .powi(2),
+                            n * (r.pressure_factor
+                                * measurement_noise(r.pressure, PRESSURE_RESOLUTION_PA))
+                            .powi(2),
+                        ]
+                    })
+                    .collect();
+                let c2 = block_noise.iter().sum::<f64>() / block_noise.len() as f64;
+                (sigma_f.is_finite() && sigma_f > 0.0 && c2 > 0.0).then(|| AreaPrior {
+                    map,
+                    factor: c2.sqrt() / (sigma_f * m.sqrt()),
+                    noise_variance: c2 / m,
+                })
+            }
+            _ => None,
+        };
         Ok(Self {
             base: model.box_clone(),
             params,
             runs,
+            prior,
             solver: problem.solver.clone(),
             parallel: true,
             simulations: AtomicUsize::new(0),
@@ -207,7 +265,12 @@ impl<'a> Evaluator<'a> {
 
     /// Number of data residuals (both outputs of all runs).
     pub fn n_data(&self) -> usize {
-        self.runs.iter().map(|r| 2 * r.len()).sum()
+        self.runs.iter().map(|r| 2 * r.len()).sum::<usize>() + self.n_prior()
+    }
+
+    /// Residuals of the force-map prior (0 without one).
+    fn n_prior(&self) -> usize {
+        self.prior.as_ref().map_or(0, |p| p.map.len())
     }
 
     /// Row ranges of the (run, output) blocks: run `r` height is block `2r`, pressure `2r+1`.
@@ -219,6 +282,9 @@ impl<'a> Evaluator<'a> {
             out.push(start..start + n);
             out.push(start + n..start + 2 * n);
             start += 2 * n;
+        }
+        if self.prior.is_some() {
+            out.push(start..start + self.n_prior());
         }
         out
     }
@@ -261,9 +327,16 @@ impl<'a> Evaluator<'a> {
         })
     }
 
-    /// Writes the normalised residuals `w (y − ŷ)/σ` into `out` (length [`Self::n_data`]); a
-    /// failed run's residuals are `fail_value`. Returns whether any run failed.
-    pub fn residuals_into(&self, responses: &Responses, fail_value: f64, out: &mut [f64]) -> bool {
+    /// Writes the normalised residuals `w (y − ŷ)/σ` of `responses`, simulated at `theta`,
+    /// into `out` (length [`Self::n_data`]), then the force-map prior's at `theta`; a failed
+    /// run's residuals are `fail_value`. Returns whether any run failed.
+    pub fn residuals_into(
+        &self,
+        theta: &[f64],
+        responses: &Responses,
+        fail_value: f64,
+        out: &mut [f64],
+    ) -> bool {
         let mut failed = false;
         let mut start = 0;
         for (run, response) in self.runs.iter().zip(responses) {
@@ -291,15 +364,29 @@ impl<'a> Evaluator<'a> {
             }
             start += 2 * n;
         }
+        if let Some(prior) = &self.prior {
+            let out = &mut out[start..start + prior.map.len()];
+            match self.model_at(theta) {
+                Ok(model) => match area_law(&*model) {
+                    Some(area) => prior.residuals_into(area, out),
+                    None => out.fill(0.0),
+                },
+                Err(_) => {
+                    failed = true;
+                    out.fill(fail_value);
+                }
+            }
+        }
         failed
     }
 
     /// Data residuals at scaled point `z`; `None` if any simulation failed (or the model
     /// rejected the values).
     pub fn residuals_at(&self, z: &[f64]) -> Option<Vec<f64>> {
-        let responses = self.simulate(&self.theta(z)).ok()?;
+        let theta = self.theta(z);
+        let responses = self.simulate(&theta).ok()?;
         let mut out = vec![0.0; self.n_data()];
-        if self.residuals_into(&responses, 0.0, &mut out) {
+        if self.residuals_into(&theta, &responses, 0.0, &mut out) {
             None
         } else {
             Some(out)
@@ -488,6 +575,9 @@ pub(crate) fn noise_variance_from_data(ev: &Evaluator<'_>) -> Vec<f64> {
             out.push(s * s);
         }
     }
+    if let Some(prior) = &ev.prior {
+        out.push(prior.noise_variance);
+    }
     out
 }
 
@@ -526,7 +616,7 @@ mod tests {
         let z = [(-0.5 - ev.params[0].nominal) / ev.params[0].scale];
         let responses = ev.simulate(&ev.theta(&z)).unwrap();
         let mut out = vec![0.0; ev.n_data()];
-        assert!(ev.residuals_into(&responses, 123.0, &mut out));
+        assert!(ev.residuals_into(&ev.theta(&z), &responses, 123.0, &mut out));
         assert!(out.iter().all(|&x| x == 123.0));
         assert_eq!((ev.simulations(), ev.failures()), (1, 1));
         assert!(ev.residuals_at(&z).is_none());

@@ -36,8 +36,8 @@ pub use identifiability::{
 };
 pub use multistart::{MultiStart, MultiStartSummary, estimate_multistart};
 pub use problem::{
-    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice,
-    Normalisation, OutputWeights, check_load_change_exclusion_s,
+    ForceMapPrior, FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
+    InitialChoice, Normalisation, OutputWeights, check_load_change_exclusion_s,
 };
 pub use result::{
     Correlation, EstimatedParameter, GreyboxEstimate, IdentifiabilityReport, ParameterStatus,
@@ -188,7 +188,7 @@ pub fn loss_at(problem: &GreyboxProblem<'_>, parallel: bool) -> Result<f64, Esti
     all_simulated(&ev, &responses)?;
     let n_data = ev.n_data();
     let mut residuals = vec![0.0; n_data];
-    ev.residuals_into(&responses, 0.0, &mut residuals);
+    ev.residuals_into(&[], &responses, 0.0, &mut residuals);
     Ok(residuals.iter().map(|r| r * r).sum::<f64>() / n_data as f64)
 }
 
@@ -252,10 +252,11 @@ pub fn estimate(
 
     observer.stage("simulating the nominal parameters");
     let z0 = vec![0.0; n];
-    let nominal = ev.simulate(&ev.theta(&z0))?;
+    let theta0 = ev.theta(&z0);
+    let nominal = ev.simulate(&theta0)?;
     all_simulated(&ev, &nominal)?;
     let mut r0 = vec![0.0; n_data];
-    ev.residuals_into(&nominal, 0.0, &mut r0);
+    ev.residuals_into(&theta0, &nominal, 0.0, &mut r0);
     let loss0: f64 = r0.iter().map(|r| r * r).sum();
     let rms0 = (loss0 / n_data as f64).sqrt();
     // A failed run's residuals: far above anything a simulating model reaches from here.
@@ -516,7 +517,7 @@ pub fn estimate(
         }
     }
     let mut r_final = vec![0.0; n_data];
-    ev.residuals_into(&estimated, fail_value, &mut r_final);
+    ev.residuals_into(&ev.theta(&z), &estimated, fail_value, &mut r_final);
     let fits = run_fits(&ev, &nominal, &estimated);
     observer.finish();
     Ok(GreyboxEstimate {

@@ -1,7 +1,7 @@
 //! The grey-box *problem* (what is minimised) and the *options* of the solver (how), kept
 //! apart as in argmin; [`super::estimate`] is the executor that runs them.
 
-use airsus_data::Run;
+use airsus_data::{EffectiveAreaLaw, ForceMap, Run};
 use airsus_model::SuspensionModel;
 use airsus_sim::{InitialState, SolverOptions};
 
@@ -85,6 +85,42 @@ impl Default for OutputWeights {
     }
 }
 
+/// A bellow force map (lab: heights, gauge pressures, forces) as a prior on a model's
+/// effective-area law (issue #13 item 3): one residual per point, `(p A_eff(h, p) − F) / σ_F`,
+/// scaled so that the map at its noise `σ_F` weighs as much as one output of a run explained
+/// to its noise (the mean over the runs' blocks). The runs pin the area only at the heights the
+/// truck visited; a law freed on them alone can run away elsewhere (on the virtual truck: the
+/// held-out long valve steps' pressure moved by 3 points with the weights of the estimation
+/// runs, and the screen left some of the quartic's coefficients undetermined). A model without
+/// a truck file ignores it.
+#[derive(Debug, Clone, Copy)]
+pub struct ForceMapPrior<'a> {
+    pub map: &'a ForceMap,
+    /// The map's force error `σ_F`, N: the load cell's noise and what the law cannot follow
+    /// (e.g. the rms misfit of the effective-area fit to the map), floored at 0.1 % of the
+    /// map's rms force.
+    pub force_noise_n: f64,
+}
+
+impl ForceMapPrior<'_> {
+    /// `p A(h, p) − F` at point `k` of `map` under `law`, N.
+    pub fn force_error_n(map: &ForceMap, law: &EffectiveAreaLaw, k: usize) -> f64 {
+        let gauge = map.bellow_gauge_pa[k];
+        gauge * law.area_clamped_m2(map.bellow_height_m[k], gauge) - map.force_n[k]
+    }
+
+    /// The rms of [`Self::force_error_n`] over `map`, N: for a law fitted to the map (the
+    /// study's start), the map's `σ_F`.
+    pub fn misfit_n(map: &ForceMap, law: &EffectiveAreaLaw) -> f64 {
+        let n = map.len().max(1) as f64;
+        ((0..map.len())
+            .map(|k| Self::force_error_n(map, law, k).powi(2))
+            .sum::<f64>()
+            / n)
+            .sqrt()
+    }
+}
+
 /// A grey-box estimation problem (thesis 3.2.3/5.2.6, SPEC §4): a model whose current
 /// parameter values are the nominal (start) point, the estimation runs, and the freed
 /// parameters.
@@ -128,6 +164,9 @@ pub struct GreyboxProblem<'a> {
     /// and 3 ran away to a creep time of 0.9 s and an unsprung mass of 158 kg (data-set 3
     /// pressure 90.8 → 7.9 %); with 10 s left out it stayed near the truth (88.0 %).
     pub exclude_after_load_change_s: f64,
+    /// A bellow force map that enters the loss as a prior on the model's effective-area law
+    /// ([`ForceMapPrior`]). `None`: the runs alone.
+    pub force_map: Option<ForceMapPrior<'a>>,
 }
 
 /// Checks a time to leave out after each logged load change, given by a user
@@ -153,7 +192,15 @@ impl<'a> GreyboxProblem<'a> {
             start_states: Vec::new(),
             solver: SolverOptions::default(),
             exclude_after_load_change_s: 0.0,
+            force_map: None,
         }
+    }
+
+    /// Adds `map`, measured with a force error of `force_noise_n`, as a prior on the
+    /// effective-area law ([`ForceMapPrior`]).
+    pub fn with_force_map(mut self, map: &'a ForceMap, force_noise_n: f64) -> Self {
+        self.force_map = Some(ForceMapPrior { map, force_noise_n });
+        self
     }
 
     /// Starts run `i` from `starts[i]` (when `Some`).

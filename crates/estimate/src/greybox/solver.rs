@@ -87,8 +87,10 @@ impl LmFit<'_, '_, '_> {
         let ev = self.ev;
         let n_data = ev.n_data();
         let mut out = DVector::zeros(n_data + self.active.len());
-        let failed = match ev.simulate(&ev.theta(&self.z)) {
+        let theta = ev.theta(&self.z);
+        let failed = match ev.simulate(&theta) {
             Ok(responses) => ev.residuals_into(
+                &theta,
                 &responses,
                 self.settings.fail_value,
                 &mut out.as_mut_slice()[..n_data],
