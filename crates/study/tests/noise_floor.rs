@@ -98,8 +98,10 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
     // Issue #14: weighing with what the study estimated, nothing else. The load filter on the
     // estimated `truck` file, scored against the true load of the held-out runs. Measured:
     // data-set 2 standstills within 0.59 % (means within 0.29 %), data-set 4 within 0.6 %
-    // at standstill and 0.55 % while the valve works. The interval is still too wide (it
-    // covers the truth on every sample).
+    // at standstill and 0.55 % while the valve works; the held-out levelling run, where the
+    // ECU works the valve after every load step, within 0.13 % at standstill and 0.25 %
+    // while the valve works or has just closed. The interval is still too wide (it covers
+    // the truth on every sample).
     let file = dir
         .path()
         .join("out")
@@ -109,7 +111,9 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
         StaticLaw::from_truck(&estimated),
         WeighingUncertainty::default(),
     );
-    for (run, standstill_max, valve_max) in [("ds2", 0.75, 0.0), ("ds4", 0.75, 1.0)] {
+    for (run, standstill_max, valve_max) in
+        [("ds2", 0.75, 0.0), ("ds4", 0.75, 1.0), ("lev2", 0.5, 1.0)]
+    {
         let logged = read_run(&data.join(format!("{run}.csv"))).unwrap();
         let truth = read_run(&data.join(format!("truth/{run}.csv"))).unwrap();
         let model = build_any_model("truck", &estimated).unwrap();
