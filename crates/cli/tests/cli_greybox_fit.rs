@@ -334,3 +334,48 @@ fn greybox_eases_each_logged_load_change_over_its_own_time() {
         "data-set 1 height {height_logged:.1} → {height:.1} %, pressure {pressure_logged:.1} → {pressure:.1} %"
     );
 }
+
+#[test]
+fn greybox_takes_a_force_map_into_the_loss_and_refuses_a_bad_one() {
+    let dir = generated();
+    let p = |name: &str| path(&dir, name);
+    let (truck, run) = (p("truck.toml"), p("ds3.csv"));
+    let fit = |extra: &[&str]| {
+        let mut args = vec![
+            "greybox",
+            "--model",
+            "m2",
+            "--free",
+            "p0,p1,p2,p3,p4",
+            "--truck",
+            &truck,
+            "--run",
+            &run,
+            "--initial-state",
+            "equilibrium",
+            "--load-ramp",
+            "logged",
+            "--max-iterations",
+            "5",
+        ];
+        args.extend_from_slice(extra);
+        airsus(&args)
+    };
+    let map = p("force_map.csv");
+    let out = fit(&["--force-map", &map]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("force map: 140 points in the loss"),
+        "{stderr}"
+    );
+    let out = fit(&["--force-map", &map, "--force-map-noise-n", "0"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("--force-map-noise-n 0"), "{stderr}");
+    let missing = p("no_map.csv");
+    let out = fit(&["--force-map", &missing]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("no_map.csv"), "{stderr}");
+}

@@ -18,11 +18,12 @@
 use airsus_data::atomic::refuse_overwriting_inputs;
 use std::path::PathBuf;
 
-use airsus_data::{Outputs, read_truck, write_truck};
+use airsus_data::{Outputs, read_force_map, read_truck, write_truck};
 use airsus_estimate::{
-    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice, LoadRamp,
-    MultiStart, NoProgress, Normalisation, Observer, OutputWeights, PrefixOptions, StartMethod,
-    TerminalProgress, estimate_with_starts, estimation_start, initial_state::DEFAULT_PREFIX_S,
+    ForceMapPrior, FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
+    InitialChoice, LoadRamp, MultiStart, NoProgress, Normalisation, Observer, OutputWeights,
+    PrefixOptions, StartMethod, TerminalProgress, estimate_with_starts, estimation_start,
+    initial_state::DEFAULT_PREFIX_S,
 };
 use airsus_truck::models::{build_any_model, default_free};
 
@@ -138,6 +139,16 @@ pub struct GreyboxArgs {
     /// Estimate parameters found not identifiable anyway (they are only reported).
     #[arg(long)]
     pub keep_unidentifiable: bool,
+    /// A bellow force map (lab: `bellow_height_mm, pressure_kpa, force_n`) that enters the
+    /// loss as a prior on the effective-area law: one residual per point, weighted as one
+    /// more output of a run at its noise. The runs pin the area only at the heights they
+    /// visit; the map holds it elsewhere.
+    #[arg(long, value_name = "MAP.csv")]
+    pub force_map: Option<PathBuf>,
+    /// The force map's error, N (default: the misfit of the truck file's effective-area law
+    /// to the map, which is the map's noise when the law was fitted to it).
+    #[arg(long, value_name = "N", requires = "force_map")]
+    pub force_map_noise_n: Option<f64>,
     /// Print the result as JSON.
     #[arg(long)]
     pub json: bool,
@@ -181,8 +192,15 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         let mut inputs: Vec<&std::path::Path> = vec![&args.truck];
         inputs.extend(args.runs.iter().map(PathBuf::as_path));
         inputs.extend(source.dbc.as_deref());
+        inputs.extend(args.force_map.as_deref());
         refuse_overwriting_inputs(out, &inputs)?;
     }
+    if let Some(noise) = args.force_map_noise_n
+        && !(noise.is_finite() && noise > 0.0)
+    {
+        bail!("--force-map-noise-n {noise}: expected a force error in newtons, above 0");
+    }
+    let force_map = args.force_map.as_deref().map(read_force_map).transpose()?;
     let loaded = read_truck(&args.truck)?;
     if !loaded.defaulted.is_empty() {
         eprintln!(
@@ -242,6 +260,18 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         .with_normalisation(args.normalisation.into())
         .with_exclusion_after_load_changes(args.exclude_after_load_change_s);
     problem.free = free;
+    if let Some(map) = &force_map {
+        let noise_n = args
+            .force_map_noise_n
+            .unwrap_or_else(|| ForceMapPrior::misfit_n(map, &truck.bellow.effective_area));
+        if !args.json {
+            eprintln!(
+                "force map: {} points in the loss, force error {noise_n:.1} N",
+                map.len()
+            );
+        }
+        problem = problem.with_force_map(map, noise_n);
+    }
     let options = GreyboxOptions {
         max_iterations: args.max_iterations,
         tolerance: args.tolerance,
