@@ -147,3 +147,31 @@ def test_an_estimation_run_simulates_with_the_transitions_greybox_fitted(
         airsus.simulate("m2", fit.truck, short_run, load_transitions_s=[3.0, 4.0])
     with pytest.raises(airsus.AirsusError, match="not both"):
         airsus.simulate("m2", fit.truck, short_run, load_ramp_s=3.0, load_transitions_s=transitions)
+
+
+def test_greybox_takes_a_force_map(reference: Path, short_run: Path) -> None:
+    nominal = airsus.Truck.load(reference / "truck.toml")
+    truth = nominal.copy()
+    truth["p0"] = nominal["p0"] + 0.002
+    measured = measured_by(truth, short_run)
+    fit = airsus.greybox(
+        "m2",
+        nominal,
+        [measured],
+        free=["p0"],
+        force_map=reference / "force_map.csv",
+        initial_state="equilibrium",
+        load_ramp="logged",
+        max_iterations=5,
+    )
+    # The map is the virtual truck's, whose area is not the nominal quartic's: it pulls p0
+    # away from the value the run alone recovers, but the run still rules.
+    assert fit.estimates.loc["p0", "estimate"] != pytest.approx(truth["p0"], abs=1e-9)
+    assert fit.nrmse.loc["synthetic", "pressure_estimated"] > 90.0
+    for bad, match in [
+        ({"force_map_noise_n": 0.0}, "force_map_noise_n 0"),
+        ({"force_map": reference / "no_map.csv"}, "no_map.csv"),
+    ]:
+        options = {"force_map": reference / "force_map.csv", **bad}
+        with pytest.raises(airsus.AirsusError, match=match):
+            airsus.greybox("m2", nominal, [measured], free=["p0"], max_iterations=1, **options)

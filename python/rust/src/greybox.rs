@@ -6,9 +6,9 @@ use pyo3::types::PyDict;
 
 use airsus_data::{Outputs, TruckParameters};
 use airsus_estimate::{
-    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice, LoadRamp,
-    MultiStart, Normalisation, OutputWeights, PrefixOptions, StartMethod, estimate_with_starts,
-    estimation_start,
+    ForceMapPrior, FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
+    InitialChoice, LoadRamp, MultiStart, Normalisation, OutputWeights, PrefixOptions, StartMethod,
+    estimate_with_starts, estimation_start,
 };
 use airsus_truck::models::{build_any_model, default_free};
 
@@ -31,6 +31,10 @@ struct Settings {
     normalisation: Normalisation,
     start: StartMethod,
     load_ramp: LoadRamp,
+    /// A bellow force map file as a prior on the effective-area law, and its force error
+    /// (None: the misfit of the truck's law to it), as `--force-map`.
+    force_map: Option<std::path::PathBuf>,
+    force_map_noise_n: Option<f64>,
 }
 
 /// The loss normalisation by the command's name (`--normalisation`).
@@ -97,6 +101,20 @@ fn run_greybox(
         .with_initial(settings.initial)
         .with_normalisation(settings.normalisation);
     problem.free = free;
+    let force_map = settings
+        .force_map
+        .as_deref()
+        .map(airsus_data::read_force_map)
+        .transpose()?;
+    if let Some(map) = &force_map {
+        let noise_n = settings
+            .force_map_noise_n
+            .unwrap_or_else(|| ForceMapPrior::misfit_n(map, &truck.bellow.effective_area));
+        if !(noise_n.is_finite() && noise_n > 0.0) {
+            bail!("force_map_noise_n {noise_n}: expected a force error in newtons, above 0");
+        }
+        problem = problem.with_force_map(map, noise_n);
+    }
     let options = GreyboxOptions {
         max_iterations: settings.max_iterations,
         tolerance: settings.tolerance,
@@ -155,7 +173,7 @@ fn run_greybox(
 /// run, each logged change's transition time), "load_ramp_s", "truck": the truck with the
 /// estimates written back (as `--out`)}`.
 #[pyfunction]
-#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None, normalisation=None, initial_state=None, load_ramp=None))]
+#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None, normalisation=None, initial_state=None, load_ramp=None, force_map=None, force_map_noise_n=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn greybox<'py>(
     py: Python<'py>,
@@ -175,6 +193,8 @@ pub fn greybox<'py>(
     normalisation: Option<String>,
     initial_state: Option<String>,
     load_ramp: Option<String>,
+    force_map: Option<std::path::PathBuf>,
+    force_map_noise_n: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = truck.params.clone();
     drop(truck);
@@ -222,6 +242,8 @@ pub fn greybox<'py>(
         keep_unidentifiable,
         normalisation: parse_normalisation(normalisation.as_deref().unwrap_or("pooled-spread"))
             .or_py()?,
+        force_map,
+        force_map_noise_n,
     };
     let progress = Progress::new(progress);
     let result = py.detach(|| run_greybox(&model, params, &sources, &settings, &progress));

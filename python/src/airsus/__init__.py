@@ -592,6 +592,8 @@ def greybox(
     progress: Progress = None,
     initial_state: Optional[str] = None,
     load_ramp: str = "estimate",
+    force_map: Optional[PathLike] = None,
+    force_map_noise_n: Optional[float] = None,
 ) -> GreyboxResult:
     """Estimate named physical parameters of a model from one or more runs at once, as
     ``airsus greybox`` does (thesis 5.2.6; MATLAB ``nlgreyest`` with simulation focus).
@@ -633,6 +635,11 @@ def greybox(
         initial_state: ``"prefix"`` or ``"equilibrium"`` (see above), as
             ``--initial-state``; ``None``: prefix, or equilibrium with ``initial="pressure"``.
         load_ramp: ``"estimate"`` or ``"logged"`` (see above), as ``--load-ramp``.
+        force_map: a bellow force map file (``bellow_height_mm, pressure_kpa, force_n``) that
+            enters the loss as a prior on the effective-area law, as ``--force-map``: the runs
+            pin the area only at the heights they visit, the map holds it elsewhere.
+        force_map_noise_n: the map's force error, N (default: the misfit of the truck's
+            effective-area law to the map), as ``--force-map-noise-n``.
         progress: called with a dict per event while the fit runs (the GIL is released):
             ``{"event": "stage", "message": ...}`` or ``{"event": "iteration", "round",
             "iteration", "loss", "simulations", "failed_simulations"}``.
@@ -662,6 +669,8 @@ def greybox(
         normalisation=normalisation,
         initial_state=initial_state,
         load_ramp=load_ramp,
+        force_map=os.fsdecode(force_map) if force_map is not None else None,
+        force_map_noise_n=None if force_map_noise_n is None else float(force_map_noise_n),
     )
     return GreyboxResult(native)
 

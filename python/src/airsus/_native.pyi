@@ -70,6 +70,8 @@ def greybox(
     normalisation: Optional[str] = None,
     initial_state: Optional[str] = None,
     load_ramp: Optional[str] = None,
+    force_map: Optional[str] = None,
+    force_map_noise_n: Optional[float] = None,
 ) -> Dict[str, Any]: ...
 def ident(
     data: _RunSpec,
