@@ -123,9 +123,8 @@ const NOISE_TRIM_VARIANCE_KEPT: f64 = 0.9248;
 /// road: there the body and the wheel move at 1–5 Hz and their second differences are many
 /// times the noise's (an ISO 8608 road run: the ceiling implied by all of them 57 % where the
 /// truth's is 97 %). So the run is cut into stretches of 2 s, each stretch's loudness read
-/// from its quietest 90 % of `d²`, and the quiet stretches kept: starting from the tenth
-/// percentile, those within [`QUIET_STRETCH_FACTOR`] of their own mean, iterated to a fixed
-/// point. A load step or a hump makes its stretch loud and it drops out; for white noise
+/// from its quietest 90 % of `d²`, and the quiet stretches kept: starting from the third
+/// quietest, those within [`QUIET_STRETCH_FACTOR`] of their own mean, grown to a fixed point. A load step or a hump makes its stretch loud and it drops out; for white noise
 /// alone nearly every stretch stays. Over the quiet stretches' `d²` the largest 1 % are
 /// dropped (a step inside a quiet stretch) and the Gaussian share they carry is put back.
 /// Stretches without any change (a quantised signal sitting on one level) carry no
@@ -170,8 +169,21 @@ pub fn estimate_noise_std(y: &[f64]) -> Option<f64> {
         return Some(0.0);
     }
     informative.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // Sorted by loudness: the quiet stretches are a prefix; find its length as a fixed point.
-    let mut level = informative[informative.len() / 10].0;
+    // Sorted by loudness: the quiet stretches are a prefix; find its length as a fixed point,
+    // grown from the third quietest stretch that has any loudness. A start higher up (the
+    // tenth percentile) is itself loud on a road run that stands for less than a tenth of its
+    // time, and three times it lets every loud stretch in; the very quietest can be so quiet
+    // by chance that three times it reaches no other (a 2 s stretch's loudness scatters by
+    // 45 %); a loudness of 0 (a quantised signal on one level) would let none in.
+    let audible: Vec<f64> = informative
+        .iter()
+        .map(|s| s.0)
+        .filter(|&loud| loud > 0.0)
+        .collect();
+    let mut level = audible
+        .get(2.min(audible.len().saturating_sub(1)))
+        .copied()
+        .unwrap_or(0.0);
     let mut quiet = 0;
     for _ in 0..50 {
         let now = informative
