@@ -346,6 +346,8 @@ pub fn generate_variant(
         .into_iter()
         .enumerate()
     {
+        // The study files name each run by its place in REFERENCE_RUNS.
+        debug_assert_eq!(run.logged.name, REFERENCE_RUNS[i].file);
         let file = out_dir.join(format!("{}.csv", run.logged.name));
         write_run_with_precision(&file, &run.logged, &logged_precision())?;
         let truth_file = truth_dir.join(format!("{}.csv", run.truth.name));

@@ -106,13 +106,16 @@ fn run_greybox(
         .as_deref()
         .map(airsus_data::read_force_map)
         .transpose()?;
+    if let Some(noise_n) = settings.force_map_noise_n
+        && !(noise_n.is_finite() && noise_n > 0.0)
+    {
+        bail!("force_map_noise_n {noise_n}: expected a force error in newtons, above 0");
+    }
     if let Some(map) = &force_map {
+        // As the command: a computed misfit of 0 is floored by the estimator.
         let noise_n = settings
             .force_map_noise_n
             .unwrap_or_else(|| ForceMapPrior::misfit_n(map, &truck.bellow.effective_area));
-        if !(noise_n.is_finite() && noise_n > 0.0) {
-            bail!("force_map_noise_n {noise_n}: expected a force error in newtons, above 0");
-        }
         problem = problem.with_force_map(map, noise_n);
     }
     let options = GreyboxOptions {
