@@ -76,6 +76,23 @@ impl Scenario {
         }
     }
 
+    /// Loads of 250–350 kg set down (`+1`) or the last one still on the truck lifted off
+    /// (`-1`) at the plan's times, each taken over a 3-8 s ramp; sizes and ramps drawn from
+    /// `noise` in plan order.
+    fn set_down_and_lift_off(&mut self, plan: &[(f64, i8)], noise: &mut NoiseSource) {
+        let mut on_truck = Vec::new();
+        for &(start_s, direction) in plan {
+            let delta = if direction > 0 {
+                let d = step_size(noise);
+                on_truck.push(d);
+                d
+            } else {
+                -on_truck.pop().unwrap_or(300.0)
+            };
+            self.load_step(start_s, delta, ramp(noise));
+        }
+    }
+
     /// The truth alone changes (a mishap the log does not show), smoothly over `ramp_s`.
     fn unlogged_load_change(&mut self, start_s: f64, delta_kg: f64, ramp_s: f64) {
         let start = self.index_at(start_s);
@@ -138,16 +155,17 @@ pub fn data_set_1(unsprung_kg: f64, seed: u64) -> Scenario {
         1500.0,
         wheel_load_kg(REFERENCE_SPRUNG_KG, unsprung_kg),
     );
-    let mut on_truck = Vec::new();
-    for k in 0..3 {
-        let delta = step_size(&mut noise);
-        on_truck.push(delta);
-        s.load_step(120.0 + 200.0 * f64::from(k), delta, ramp(&mut noise));
-    }
-    for k in 0..3 {
-        let delta = on_truck.pop().unwrap_or(300.0);
-        s.load_step(720.0 + 200.0 * f64::from(k), -delta, ramp(&mut noise));
-    }
+    s.set_down_and_lift_off(
+        &[
+            (120.0, 1),
+            (320.0, 1),
+            (520.0, 1),
+            (720.0, -1),
+            (920.0, -1),
+            (1120.0, -1),
+        ],
+        &mut noise,
+    );
     s
 }
 
@@ -226,9 +244,9 @@ pub fn data_set_4(unsprung_kg: f64, seed: u64) -> Scenario {
     s
 }
 
-/// A levelling run: load steps of 250–350 kg (`pattern`: +1 sets one down, -1 lifts the
-/// last one off) at `starts_s`, with the truck's level-control ECU at work. The valve column
-/// stays closed here: [`crate::experiments::levelling_run`] fills in what the ECU commanded.
+/// A levelling run: load steps of 250–350 kg ([`Scenario::set_down_and_lift_off`]) with the
+/// truck's level-control ECU at work. The valve column stays closed here:
+/// [`crate::experiments::levelling_run`] fills in what the ECU commanded.
 fn levelling(
     name: &str,
     description: &str,
@@ -243,17 +261,7 @@ fn levelling(
         duration_s,
         wheel_load_kg(REFERENCE_SPRUNG_KG, unsprung_kg),
     );
-    let mut on_truck = Vec::new();
-    for &(start_s, direction) in plan {
-        let delta = if direction > 0 {
-            let d = step_size(noise);
-            on_truck.push(d);
-            d
-        } else {
-            -on_truck.pop().unwrap_or(300.0)
-        };
-        s.load_step(start_s, delta, ramp(noise));
-    }
+    s.set_down_and_lift_off(plan, noise);
     s
 }
 
@@ -306,7 +314,7 @@ pub const ROAD_2_SPEED_M_S: f64 = 50.0 / 3.6;
 
 /// The distance driven at every sample: standing until `start_s`, at `speed_m_s` until
 /// `end_s`, standing again after.
-fn distance_m(time_s: &[f64], start_s: f64, end_s: f64, speed_m_s: f64) -> Vec<f64> {
+pub fn distance_m(time_s: &[f64], start_s: f64, end_s: f64, speed_m_s: f64) -> Vec<f64> {
     time_s
         .iter()
         .map(|&t| (t.clamp(start_s, end_s) - start_s) * speed_m_s)

@@ -31,6 +31,7 @@ use crate::road::profile::Iso8608Road;
 pub use airsus_truck::closed_loop::{
     ClosedLoopConfig, ClosedLoopRun, LevelScenario, Plant, simulate_closed_loop,
 };
+use airsus_truck::scenario::distance_m;
 pub use controller::{
     DeadbandController, GuardSettings, LevelController, PredictiveController, Reading, ValveGuard,
     ValveModel,
@@ -78,11 +79,7 @@ pub fn level_scenario(name: &str, target_m: f64, load_kg: f64) -> Result<LevelSc
             let mut s = LevelScenario::constant(name, 280.0, sample_s, load_kg, target_m);
             let road = Iso8608Road::new('C', 0.01, 0.3, 200, 8608)?;
             let (start_s, end_s) = (20.0, 220.0);
-            let distance: Vec<f64> = s
-                .time_s
-                .iter()
-                .map(|&t| (t.clamp(start_s, end_s) - start_s) * ROAD_SPEED_M_S)
-                .collect();
+            let distance = distance_m(&s.time_s, start_s, end_s, ROAD_SPEED_M_S);
             let heights = road.heights_m(&distance);
             // Level at the start of the drive, and standing (constant) after it.
             let h0 = heights[0];
