@@ -40,8 +40,8 @@ pub use error::EstimateError;
 pub use greybox::{
     ForceMapPrior, FreeParameter, GreyboxEstimate, GreyboxOptions, GreyboxProblem,
     IdentifiabilityPolicy, InitialChoice, MultiStart, MultiStartSummary, Normalisation,
-    OutputWeights, StopReason, check_load_change_exclusion_s, estimate, estimate_multistart,
-    loss_at,
+    OutputWeights, StopReason, check_force_map_noise_n, check_load_change_exclusion_s, estimate,
+    estimate_multistart, loss_at,
 };
 pub use initial_state::{
     EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,

@@ -521,7 +521,7 @@ fn the_force_map_holds_the_effective_area_where_the_runs_do_not_go() {
     let start = perturbed(&truck, "m2", &[("p3", 1.1), ("p4", 0.9)]);
     let free = ["p0", "p1", "p2", "p3", "p4"];
     let alone = GreyboxProblem::new(&*start, &[&pulses], &free);
-    let with_map = alone.clone().with_force_map(&map, 50.0);
+    let with_map = alone.clone().with_force_map(&map, Some(50.0));
     let options = GreyboxOptions::default().with_max_iterations(30);
     let area_error = |result: &GreyboxEstimate| {
         let mut fitted = truck.clone();

@@ -5,8 +5,8 @@ use std::time::Instant;
 
 use airsus_data::{Run, TruckParameters, ValveState, write_truck};
 use airsus_estimate::{
-    ForceMapPrior, GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, PrefixOptions,
-    StartChoice, StartMethod, StopReason, ease_logged_load, estimate_with_starts, ramp_logged_load,
+    GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, PrefixOptions, StartChoice,
+    StartMethod, StopReason, ease_logged_load, estimate_with_starts, ramp_logged_load,
     resolve_start, solver_for_ramp,
 };
 use airsus_model::SuspensionModel;
@@ -278,9 +278,8 @@ pub fn fit_and_validate(
     }
     // The force map holds the effective area where the estimation runs do not go; its force
     // error is what the start's law (the effective-area fit to it) leaves.
-    if let (Some(map), Some(start)) = (&input.force_map, nominal.truck_parameters()) {
-        let misfit_n = ForceMapPrior::misfit_n(map, &start.bellow.effective_area);
-        problem = problem.with_force_map(map, misfit_n);
+    if let Some(map) = &input.force_map {
+        problem = problem.with_force_map(map, None);
     }
     let fit_options = GreyboxOptions::default().with_max_iterations(options.max_iterations);
     let global = MultiStart {

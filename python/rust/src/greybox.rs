@@ -6,8 +6,8 @@ use pyo3::types::PyDict;
 
 use airsus_data::{Outputs, TruckParameters};
 use airsus_estimate::{
-    ForceMapPrior, FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
-    InitialChoice, LoadRamp, MultiStart, Normalisation, OutputWeights, PrefixOptions, StartMethod,
+    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice, LoadRamp,
+    MultiStart, Normalisation, OutputWeights, PrefixOptions, StartMethod, check_force_map_noise_n,
     estimate_with_starts, estimation_start,
 };
 use airsus_truck::models::{build_any_model, default_free};
@@ -106,17 +106,11 @@ fn run_greybox(
         .as_deref()
         .map(airsus_data::read_force_map)
         .transpose()?;
-    if let Some(noise_n) = settings.force_map_noise_n
-        && !(noise_n.is_finite() && noise_n > 0.0)
-    {
-        bail!("force_map_noise_n {noise_n}: expected a force error in newtons, above 0");
+    if let Some(noise_n) = settings.force_map_noise_n {
+        check_force_map_noise_n(noise_n).map_err(|e| anyhow::anyhow!("force_map_noise_n {e}"))?;
     }
     if let Some(map) = &force_map {
-        // As the command: a computed misfit of 0 is floored by the estimator.
-        let noise_n = settings
-            .force_map_noise_n
-            .unwrap_or_else(|| ForceMapPrior::misfit_n(map, &truck.bellow.effective_area));
-        problem = problem.with_force_map(map, noise_n);
+        problem = problem.with_force_map(map, settings.force_map_noise_n);
     }
     let options = GreyboxOptions {
         max_iterations: settings.max_iterations,

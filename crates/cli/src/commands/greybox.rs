@@ -20,10 +20,9 @@ use std::path::PathBuf;
 
 use airsus_data::{Outputs, read_force_map, read_truck, write_truck};
 use airsus_estimate::{
-    ForceMapPrior, FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
-    InitialChoice, LoadRamp, MultiStart, NoProgress, Normalisation, Observer, OutputWeights,
-    PrefixOptions, StartMethod, TerminalProgress, estimate_with_starts, estimation_start,
-    initial_state::DEFAULT_PREFIX_S,
+    FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice, LoadRamp,
+    MultiStart, NoProgress, Normalisation, Observer, OutputWeights, PrefixOptions, StartMethod,
+    TerminalProgress, estimate_with_starts, estimation_start, initial_state::DEFAULT_PREFIX_S,
 };
 use airsus_truck::models::{build_any_model, default_free};
 
@@ -195,10 +194,9 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         inputs.extend(args.force_map.as_deref());
         refuse_overwriting_inputs(out, &inputs)?;
     }
-    if let Some(noise) = args.force_map_noise_n
-        && !(noise.is_finite() && noise > 0.0)
-    {
-        bail!("--force-map-noise-n {noise}: expected a force error in newtons, above 0");
+    if let Some(noise) = args.force_map_noise_n {
+        airsus_estimate::check_force_map_noise_n(noise)
+            .map_err(|e| anyhow::anyhow!("--force-map-noise-n {e}"))?;
     }
     let force_map = args.force_map.as_deref().map(read_force_map).transpose()?;
     let loaded = read_truck(&args.truck)?;
@@ -261,16 +259,14 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         .with_exclusion_after_load_changes(args.exclude_after_load_change_s);
     problem.free = free;
     if let Some(map) = &force_map {
-        let noise_n = args
-            .force_map_noise_n
-            .unwrap_or_else(|| ForceMapPrior::misfit_n(map, &truck.bellow.effective_area));
-        if !args.json {
+        problem = problem.with_force_map(map, args.force_map_noise_n);
+        if let (Some(prior), false) = (&problem.force_map, args.json) {
             eprintln!(
-                "force map: {} points in the loss, force error {noise_n:.1} N",
-                map.len()
+                "force map: {} points in the loss, force error {:.1} N",
+                map.len(),
+                prior.force_noise_n
             );
         }
-        problem = problem.with_force_map(map, noise_n);
     }
     let options = GreyboxOptions {
         max_iterations: args.max_iterations,

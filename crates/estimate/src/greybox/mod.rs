@@ -37,7 +37,8 @@ pub use identifiability::{
 pub use multistart::{MultiStart, MultiStartSummary, estimate_multistart};
 pub use problem::{
     ForceMapPrior, FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
-    InitialChoice, Normalisation, OutputWeights, check_load_change_exclusion_s,
+    InitialChoice, Normalisation, OutputWeights, check_force_map_noise_n,
+    check_load_change_exclusion_s,
 };
 pub use result::{
     Correlation, EstimatedParameter, GreyboxEstimate, IdentifiabilityReport, ParameterStatus,

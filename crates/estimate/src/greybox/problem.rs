@@ -179,6 +179,18 @@ pub fn check_load_change_exclusion_s(seconds: f64) -> Result<f64, String> {
     }
 }
 
+/// Checks a force-map error given by a user (`--force-map-noise-n`, Python's
+/// `force_map_noise_n`).
+pub fn check_force_map_noise_n(newtons: f64) -> Result<f64, String> {
+    if newtons.is_finite() && newtons > 0.0 {
+        Ok(newtons)
+    } else {
+        Err(format!(
+            "{newtons}: expected a force error in newtons, above 0"
+        ))
+    }
+}
+
 impl<'a> GreyboxProblem<'a> {
     /// A problem freeing `free` (short names, default bounds) on `runs`.
     pub fn new(model: &'a dyn SuspensionModel, runs: &[&'a Run], free: &[&str]) -> Self {
@@ -196,9 +208,16 @@ impl<'a> GreyboxProblem<'a> {
         }
     }
 
-    /// Adds `map`, measured with a force error of `force_noise_n`, as a prior on the
-    /// effective-area law ([`ForceMapPrior`]).
-    pub fn with_force_map(mut self, map: &'a ForceMap, force_noise_n: f64) -> Self {
+    /// Adds `map`, measured with a force error of `force_noise_n` (checked with
+    /// [`check_force_map_noise_n`] where a user gives it), as a prior on the effective-area
+    /// law ([`ForceMapPrior`]). `None`: the misfit of the model's own law to the map
+    /// ([`ForceMapPrior::misfit_n`]), its noise when the law was fitted to it.
+    pub fn with_force_map(mut self, map: &'a ForceMap, force_noise_n: Option<f64>) -> Self {
+        let force_noise_n = force_noise_n.unwrap_or_else(|| {
+            self.model.truck_parameters().map_or(0.0, |truck| {
+                ForceMapPrior::misfit_n(map, &truck.bellow.effective_area)
+            })
+        });
         self.force_map = Some(ForceMapPrior { map, force_noise_n });
         self
     }
