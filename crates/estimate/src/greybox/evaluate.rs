@@ -74,6 +74,16 @@ impl RunData<'_> {
     fn len(&self) -> usize {
         self.height.len()
     }
+
+    /// The measurement noise of height and pressure in normalised units (times their
+    /// factors): what one residual of each block is at a model that explains all but the
+    /// noise.
+    fn normalised_noise(&self) -> [f64; 2] {
+        [
+            self.height_factor * measurement_noise(self.height, HEIGHT_RESOLUTION_M),
+            self.pressure_factor * measurement_noise(self.pressure, PRESSURE_RESOLUTION_PA),
+        ]
+    }
 }
 
 /// The force map as a prior on the effective-area law ([`super::problem::ForceMapPrior`]):
@@ -230,17 +240,7 @@ impl<'a> Evaluator<'a> {
                 let sigma_f = prior.force_noise_n.max(1e-3 * rms_force);
                 let block_noise: Vec<f64> = runs
                     .iter()
-                    .flat_map(|r| {
-                        let n = r.len() as f64;
-                        [
-                            n * (r.height_factor
-                                * measurement_noise(r.height, HEIGHT_RESOLUTION_M))
-                            .powi(2),
-                            n * (r.pressure_factor
-                                * measurement_noise(r.pressure, PRESSURE_RESOLUTION_PA))
-                            .powi(2),
-                        ]
-                    })
+                    .flat_map(|r| r.normalised_noise().map(|s| r.len() as f64 * s.powi(2)))
                     .collect();
                 let c2 = block_noise.iter().sum::<f64>() / block_noise.len() as f64;
                 (sigma_f.is_finite() && sigma_f > 0.0 && c2 > 0.0).then(|| AreaPrior {
@@ -565,13 +565,9 @@ pub(crate) fn measurement_noise(signal: &[f64], q: f64) -> f64 {
 pub(crate) fn noise_variance_from_data(ev: &Evaluator<'_>) -> Vec<f64> {
     let mut out = Vec::with_capacity(2 * ev.runs.len());
     for run in &ev.runs {
-        for (signal, factor, q) in [
-            (run.height, run.height_factor, HEIGHT_RESOLUTION_M),
-            (run.pressure, run.pressure_factor, PRESSURE_RESOLUTION_PA),
-        ] {
-            let sigma = measurement_noise(signal, q);
+        for s in run.normalised_noise() {
             // A zero weight leaves the block out: its "noise" is irrelevant, keep it finite.
-            let s = (sigma * factor).max(f64::MIN_POSITIVE);
+            let s = s.max(f64::MIN_POSITIVE);
             out.push(s * s);
         }
     }
