@@ -12,6 +12,12 @@
 //! `S(p) = 3p² − 2p³`): the felt load is `m(t) = m(t₀) + Σᵢ Δmᵢ S((t − tᵢ)/τ)`. `τ` is one
 //! number per logging set-up, estimated from the runs with the model's parameters fixed
 //! ([`fit_load_ramp`]); `τ = 0` is the logged load itself.
+//!
+//! Every search here compares losses at one parameter set, on the runs' data alone: a
+//! problem's force-map prior ([`GreyboxProblem::force_map`]) depends on the parameters only,
+//! adds the same to every trial, and would cost each trial a reading of every run's noise
+//! (its weight), so the trials leave it out (`force_map: None`); the relative gain
+//! [`MIN_RELATIVE_GAIN`] is then a gain on the data.
 
 use airsus_data::Run;
 use airsus_sim::{InitialState, LoadInput, SolverOptions};
@@ -221,6 +227,7 @@ pub fn fit_load_ramp(problem: &GreyboxProblem<'_>) -> Result<LoadRampFit, Estima
         let fixed = GreyboxProblem {
             runs: ramped.iter().collect(),
             solver: solver_for_ramp(&problem.solver, tau),
+            force_map: None,
             ..problem.clone()
         };
         loss_at(&fixed, true)
@@ -347,6 +354,7 @@ pub fn fit_load_transitions(
                 .map(|&i| problem.start_states.get(i).cloned().flatten())
                 .collect(),
             solver: solver_for_ramp(&problem.solver, longest),
+            force_map: None,
             ..problem.clone()
         };
         loss_at(&fixed, only.is_none())
@@ -460,6 +468,7 @@ impl ChangeStart {
             start_states: vec![Some(InitialState::State(self.state.clone()))],
             solver: solver_for_ramp(&problem.solver, longest),
             weights: self.weights,
+            force_map: None,
             ..problem.clone()
         };
         loss_at(&cut, false)
