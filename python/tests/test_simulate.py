@@ -24,12 +24,16 @@ def test_the_model_registry() -> None:
         "states",
         "roles",
         "default_free",
+        "valve_free",
+        "road_free",
     ]
     m2 = registry.set_index("name").loc["m2"]
     assert "m2" in m2["parameters"] and "p0" in m2["parameters"]
     assert len(m2["states"]) == 5
     assert m2["roles"][m2["states"].index("n_mol")] == "bellow_air"
     assert m2["default_free"] == ["p0", "p1", "p2", "p3", "p4", "m2", "ig"]
+    assert m2["road_free"] == ["dscl"] and "dscl" in m2["parameters"]
+    assert registry.set_index("name").loc["m3"]["road_free"] == []
     truck = registry.set_index("name").loc["truck"]
     assert truck["roles"][truck["states"].index("gas_t_k")] == "gas_temperature"
 

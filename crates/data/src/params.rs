@@ -91,6 +91,8 @@ pub enum Field {
     LeverInertia,
     HingeFriction,
     TireStiffness,
+    /// `dscl`: the damper table's scale.
+    DamperScale,
     LeverCompliance,
     FillResistance,
     ExhaustResistance,
@@ -122,6 +124,7 @@ impl Field {
             Self::LeverInertia => ("mass", "lever_inertia_kg_m2", None),
             Self::HingeFriction => ("bellow", "hinge_friction_n_s_per_m", None),
             Self::TireStiffness => ("tire", "stiffness_n_per_m", None),
+            Self::DamperScale => ("damper", "scale", None),
             Self::LeverCompliance => ("geometry", "lever_compliance_m_per_n", None),
             Self::FillResistance => ("valve", "fill_resistance_pa_s_per_mol", None),
             Self::ExhaustResistance => ("valve", "exhaust_resistance_pa_s_per_mol", None),
@@ -181,6 +184,8 @@ pub const LEVER_MODEL_FIELDS: &[Field] = &[
     Field::LeverCompliance,
     Field::FillResistance,
     Field::ExhaustResistance,
+    // Last, so that the thesis' parameters keep their places (FMU value references).
+    Field::DamperScale,
 ];
 
 /// One named parameter: its description and its home in the truck parameters.
@@ -315,6 +320,15 @@ pub const CATALOG: &[Param] = &[
         1e8,
     )
     .needing("road input (the tire compresses)"),
+    param(
+        Field::DamperScale,
+        "dscl",
+        "-",
+        "damper table scale: every force of the table times it (thesis 3.1.2)",
+        0.1,
+        10.0,
+    )
+    .needing("road input or fast motion (the damper strokes)"),
     param(
         Field::LeverCompliance,
         "kscl",
@@ -541,6 +555,7 @@ pub fn get(truck: &TruckParameters, field: Field) -> f64 {
             Field::LeverInertia => Some(truck.mass.lever_inertia_kg_m2),
             Field::HingeFriction => Some(truck.bellow.hinge_friction_n_s_per_m),
             Field::TireStiffness => Some(truck.tire.stiffness_n_per_m),
+            Field::DamperScale => Some(truck.damper.scale),
             Field::LeverCompliance => Some(truck.geometry.lever_compliance_m_per_n),
             Field::SlowForceScale => truck.slow_dynamics.force_scale,
             Field::CreepStiffness => truck.slow_dynamics.creep_stiffness_n_per_m,
@@ -569,6 +584,7 @@ pub fn set(truck: &mut TruckParameters, field: Field, value: f64) -> bool {
             Field::LeverInertia => &mut truck.mass.lever_inertia_kg_m2,
             Field::HingeFriction => &mut truck.bellow.hinge_friction_n_s_per_m,
             Field::TireStiffness => &mut truck.tire.stiffness_n_per_m,
+            Field::DamperScale => &mut truck.damper.scale,
             Field::LeverCompliance => &mut truck.geometry.lever_compliance_m_per_n,
             Field::SlowForceScale => {
                 truck.slow_dynamics.force_scale = Some(value);

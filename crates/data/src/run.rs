@@ -90,6 +90,10 @@ pub struct Run {
     pub outputs: Option<RunOutputs>,
 }
 
+/// The least road height range, m, that counts as road action ([`Run::road_action`]): a
+/// millimetre, above a level road's logged jitter and far below a hump.
+pub const ROAD_ACTION_M: f64 = 1e-3;
+
 impl Run {
     pub fn len(&self) -> usize {
         self.time_s.len()
@@ -102,6 +106,18 @@ impl Run {
     /// Whether the valve moves during the run (what makes flow parameters identifiable).
     pub fn valve_action(&self) -> bool {
         self.inputs.valve.iter().any(|&v| v != ValveState::Closed)
+    }
+
+    /// Whether the road moves the wheel during the run by more than [`ROAD_ACTION_M`] (what
+    /// strokes the damper and compresses the tire fast enough to tell their laws).
+    pub fn road_action(&self) -> bool {
+        let road = &self.inputs.road_height_m;
+        let (low, high) = road
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &z| {
+                (lo.min(z), hi.max(z))
+            });
+        high - low > ROAD_ACTION_M
     }
 
     /// The run's columns in the contract's file units and order, as (name, unit, values):

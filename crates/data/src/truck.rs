@@ -83,6 +83,22 @@ pub struct TireParameters {
 pub struct DamperTable {
     pub velocity_m_s: Vec<f64>,
     pub force_n: Vec<f64>,
+    /// `dscl`: every force of the table times this (key `damper.scale`, default 1). A
+    /// damper's table is measured on one unit or read from a data sheet; the one on the truck
+    /// damps more or less (wear, temperature, tolerance) with about the same shape, so one
+    /// factor is what road runs can estimate where the table's points are not.
+    pub scale: f64,
+}
+
+impl DamperTable {
+    /// A table of `velocity_m_s` and `force_n` at scale 1.
+    pub fn new(velocity_m_s: Vec<f64>, force_n: Vec<f64>) -> Self {
+        Self {
+            velocity_m_s,
+            force_n,
+            scale: 1.0,
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -253,10 +269,10 @@ impl TruckParameters {
             tire: TireParameters {
                 stiffness_n_per_m: 1.8e6,
             },
-            damper: DamperTable {
-                velocity_m_s: vec![-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0],
-                force_n: vec![-6000.0, -4000.0, -1500.0, 0.0, 3000.0, 9000.0, 13000.0],
-            },
+            damper: DamperTable::new(
+                vec![-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0],
+                vec![-6000.0, -4000.0, -1500.0, 0.0, 3000.0, 9000.0, 13000.0],
+            ),
             bellow: BellowParameters {
                 effective_area: EffectiveAreaLaw::polynomial([
                     -0.0289, 0.8362, -3.0698, 4.9616, -2.9941,
@@ -315,6 +331,9 @@ enum Presence {
     Estimable,
     /// The file may leave it out; the model then uses its own default.
     Optional,
+    /// The file may leave it out; the reference truck's value is then used without a word:
+    /// a neutral value (a scale of 1) that leaves the file's other values as they are.
+    Neutral,
 }
 
 /// The declared parameters that have a key of their own in a section (the key comes from the
@@ -328,6 +347,11 @@ const DECLARED_KEYS: &[(Field, Presence, &str)] = &[
     (Field::LeverInertia, Presence::Estimable, "I_g (est)"),
     (Field::TireStiffness, Presence::Required, "k_w"),
     (Field::HingeFriction, Presence::Estimable, "k_f (est)"),
+    (
+        Field::DamperScale,
+        Presence::Neutral,
+        "dscl: every force of the table times this",
+    ),
     (Field::SlowForceScale, Presence::Optional, "k_sd (est)"),
     (
         Field::CreepStiffness,
@@ -719,6 +743,10 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
                 Some(ctx.estimable_param(field, given, default)?)
             }
             Presence::Optional => given.map(|v| ctx.check_param(field, v)).transpose()?,
+            Presence::Neutral => Some(match given {
+                Some(v) => ctx.check_param(field, v)?,
+                None => get(&reference, field),
+            }),
         };
         if let Some(value) = value {
             set(&mut parameters, field, value);
@@ -933,10 +961,8 @@ impl Ctx<'_> {
                 ),
             ));
         }
-        Ok(DamperTable {
-            velocity_m_s: velocity,
-            force_n: force,
-        })
+        // The scale is a declared key (`DECLARED_KEYS`), read after the table.
+        Ok(DamperTable::new(velocity, force))
     }
 
     /// An area law that is not positive anywhere over the reference bellow's stroke
@@ -1210,10 +1236,13 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
         (
             "damper",
             "+ = extension (rebound)",
-            vec![
+            [
                 ("velocity_m_s", format!("{:?}", p.damper.velocity_m_s), ""),
                 ("force_n", format!("{:?}", p.damper.force_n), ""),
-            ],
+            ]
+            .into_iter()
+            .chain(declared_entries(p, "damper"))
+            .collect(),
         ),
         ("bellow", "", bellow_entries),
         ("valve", "", valve_entries),
@@ -1286,10 +1315,12 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
     s
 }
 
-/// `key = value  # comment` lines, the comments aligned.
+/// `key = value  # comment` lines, the comments aligned (over the lines that have one: a
+/// long table without a comment does not push the others' far out).
 fn write_entries(s: &mut String, entries: Vec<TomlEntry>) {
     let width = entries
         .iter()
+        .filter(|(_, _, c)| !c.is_empty())
         .map(|(k, v, _)| k.len() + v.len() + 3)
         .max()
         .unwrap_or(0);
@@ -1465,6 +1496,32 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         ))
         .unwrap_err();
         assert!(err.to_string().contains("increase strictly"), "{err}");
+    }
+
+    #[test]
+    fn damper_scale_defaults_to_one_silently_is_range_checked_and_round_trips() {
+        let loaded = parse(SPEC_EXAMPLE).unwrap();
+        assert_eq!(loaded.parameters.damper.scale, 1.0);
+        assert!(
+            loaded
+                .defaulted
+                .iter()
+                .all(|d| !d.key.starts_with("damper")),
+            "{:?}",
+            loaded.defaulted
+        );
+        let scaled = SPEC_EXAMPLE.replace("13000.0]\n", "13000.0]\nscale = 1.2\n");
+        assert_ne!(
+            scaled, SPEC_EXAMPLE,
+            "the example's damper table ends differently"
+        );
+        let loaded = parse(&scaled).unwrap();
+        assert_eq!(loaded.parameters.damper.scale, 1.2);
+        let text = truck_to_toml(&loaded.parameters);
+        assert_eq!(parse(&text).unwrap().parameters, loaded.parameters);
+        let err = parse(&scaled.replace("scale = 1.2", "scale = -1.0")).unwrap_err();
+        assert!(err.to_string().contains("damper.scale"), "{err}");
+        assert_eq!(err.location.line, find_key_line(&scaled, "damper", "scale"));
     }
 
     #[test]

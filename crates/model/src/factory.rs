@@ -3,8 +3,8 @@
 //! The registry of *every* model (these plus the virtual truck's structure) is
 //! `airsus_truck::models`; it is what the commands, the study and the report read.
 
-use airsus_data::TruckParameters;
 use airsus_data::error::nearest_name;
+use airsus_data::{Run, TruckParameters};
 
 use crate::m1::Model1;
 use crate::m2::Model2;
@@ -19,6 +19,47 @@ const AREA: [&str; 5] = ["p0", "p1", "p2", "p3", "p4"];
 /// built-in study (m2, data-set 4: −48.7 → 11.8 %).
 const FLOW: [&str; 3] = ["rflow1", "rflow2", "a0"];
 
+/// Road-run parameters: the damper table's scale. Only a road strokes the damper fast enough
+/// to tell it (a load step moves the body at mm/s); on the virtual truck's variants the true
+/// damper differs from the file's table by a factor 0.8-1.25.
+const ROAD: [&str; 1] = ["dscl"];
+
+/// What a set of estimation runs excites, and so which parameters its data can determine
+/// beyond a model's default set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Excitation {
+    /// A run has valve action ([`Run::valve_action`]).
+    pub valve: bool,
+    /// A run has road action ([`Run::road_action`]).
+    pub road: bool,
+}
+
+impl Excitation {
+    /// Everything excited: every set freed.
+    pub const ALL: Self = Self {
+        valve: true,
+        road: true,
+    };
+
+    /// What `runs` excite.
+    pub fn of<'a>(runs: impl IntoIterator<Item = &'a Run>) -> Self {
+        runs.into_iter().fold(Self::default(), |e, run| Self {
+            valve: e.valve || run.valve_action(),
+            road: e.road || run.road_action(),
+        })
+    }
+
+    /// Words for a message: "valve action and road action", or "" when nothing is excited.
+    pub fn describe(self) -> String {
+        match (self.valve, self.road) {
+            (true, true) => "valve action and road input".to_owned(),
+            (true, false) => "valve action".to_owned(),
+            (false, true) => "road input".to_owned(),
+            (false, false) => String::new(),
+        }
+    }
+}
+
 /// One registered model: its name, a line saying what it is, how to build it from a truck
 /// file's parameters, and what a grey-box fit frees by default.
 #[derive(Debug, Clone, Copy)]
@@ -32,21 +73,26 @@ pub struct ModelEntry {
     /// Freed as well when the estimation runs have valve action: only then can the data
     /// determine them (SPEC §4).
     pub valve_free: &'static [&'static str],
+    /// Freed as well when the estimation runs have road input.
+    pub road_free: &'static [&'static str],
 }
 
 impl ModelEntry {
-    /// The parameters a grey-box fit frees by default on runs with or without valve action,
-    /// for `model` (built by this entry). The sets name the thesis' laws; a name the model
+    /// The parameters a grey-box fit frees by default on runs that excite `excitation`, for
+    /// `model` (built by this entry). The sets name the thesis' laws; a name the model
     /// lacks becomes the parameter that plays its part under the model's law (`rflow1` → `c1`
     /// under an orifice valve law).
     pub fn free_parameters(
         &self,
-        valve_action: bool,
+        excitation: Excitation,
         model: &dyn SuspensionModel,
     ) -> Vec<&'static str> {
         let mut free = self.default_free.to_vec();
-        if valve_action {
+        if excitation.valve {
             free.extend_from_slice(self.valve_free);
+        }
+        if excitation.road {
+            free.extend_from_slice(self.road_free);
         }
         let has = |name: &str| model.parameter_info().iter().any(|i| i.name == name);
         let mut resolved: Vec<&'static str> = Vec::with_capacity(free.len());
@@ -71,6 +117,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         build: |truck| Ok(Box::new(Model1::new(truck))),
         default_free: &[AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "kf"],
         valve_free: &FLOW,
+        road_free: &ROAD,
     },
     ModelEntry {
         name: "m2",
@@ -78,6 +125,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         build: |truck| Ok(Box::new(Model2::new(truck))),
         default_free: &[AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "ig"],
         valve_free: &FLOW,
+        road_free: &ROAD,
     },
     ModelEntry {
         name: "m2x",
@@ -87,6 +135,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
             AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "ig", "ksd",
         ],
         valve_free: &FLOW,
+        road_free: &ROAD,
     },
     ModelEntry {
         name: "m2xh",
@@ -96,6 +145,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
             AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "ig", "ksd", "tsd",
         ],
         valve_free: &FLOW,
+        road_free: &ROAD,
     },
     ModelEntry {
         name: "m3",
@@ -103,6 +153,8 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         build: |truck| Ok(Box::new(Model3::new(truck)?)),
         default_free: &["a1", "kscl"],
         valve_free: &FLOW,
+        // Model 3's height is a linear block: it has no damper and ignores the road.
+        road_free: &[],
     },
 ];
 

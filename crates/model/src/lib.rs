@@ -27,7 +27,7 @@ pub mod params;
 pub mod submodels;
 
 pub use corner::MIN_SPRUNG_MASS_KG;
-pub use factory::{ModelEntry, THESIS_MODELS, build_model, find_model};
+pub use factory::{Excitation, ModelEntry, THESIS_MODELS, build_model, find_model};
 pub use linear_block::LinearBlock;
 pub use m1::Model1;
 pub use m2::Model2;

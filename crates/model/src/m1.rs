@@ -63,6 +63,7 @@ const FIELDS: &[Field] = &[
     Field::LeverCompliance,
     Field::FillResistance,
     Field::ExhaustResistance,
+    Field::DamperScale,
 ];
 
 /// Model 1 (QCM 1). Build with [`Model1::new`] or `build_model("m1", ..)`.

@@ -9,7 +9,7 @@ use airsus_estimate::{
     StartMethod, StopReason, ease_logged_load, estimate_with_starts, ramp_logged_load,
     resolve_start, solver_for_ramp,
 };
-use airsus_model::SuspensionModel;
+use airsus_model::{Excitation, SuspensionModel};
 use airsus_report::results::{ModelResult, OutputFit, ParameterEstimate, ResidualSummary, RunFit};
 use airsus_sim::{
     InitialState, InputSeries, SimulationProblem, SimulationResponse, SolverOptions, simulate,
@@ -257,15 +257,11 @@ pub fn fit_and_validate(
         .filter_map(|n| input.run(n))
         .map(|r| &r.run)
         .collect();
-    let valve_action = protocol
-        .estimation
-        .iter()
-        .filter_map(|n| input.run(n))
-        .any(|r| r.valve_action());
     // The registry's default set (thesis "Estimation 2"), plus the valve-action parameters when the
-    // estimation runs have valve action.
+    // estimation runs have valve action and the road parameters when they have road input.
+    let excitation = Excitation::of(estimation.iter().copied());
     let free = model_entry(model_name)
-        .map(|entry| entry.free_parameters(valve_action, &*nominal))
+        .map(|entry| entry.free_parameters(excitation, &*nominal))
         .unwrap_or_default();
     result.free = free.iter().map(|s| (*s).to_owned()).collect();
     let mut problem = GreyboxProblem::new(&*nominal, &estimation, &free)

@@ -5,7 +5,8 @@
 
 use airsus_data::TruckParameters;
 use airsus_model::{
-    ModelEntry, ModelError, ParameterInfo, StateInfo, SuspensionModel, THESIS_MODELS, find_model,
+    Excitation, ModelEntry, ModelError, ParameterInfo, StateInfo, SuspensionModel, THESIS_MODELS,
+    find_model,
 };
 
 use crate::model::TruckModel;
@@ -19,6 +20,7 @@ pub const TRUCK_MODEL: ModelEntry = ModelEntry {
     // (instead of the linear resistances) and the gas volume's scale.
     default_free: &["p0", "p1", "p2", "p3", "p4", "m2", "ig", "kc", "tc"],
     valve_free: &["c1", "c2", "a0"],
+    road_free: &["dscl"],
 };
 
 /// Every registered model, in report order: the thesis models, then `truck`.
@@ -47,16 +49,17 @@ pub fn all_model_names() -> Vec<(&'static str, &'static str)> {
 }
 
 /// What a grey-box fit of `model` frees by default on `runs`: the registry's set, plus the
-/// valve-action parameters (flow law, gas volume scale) when a run has valve action, under
-/// the model's laws. The flag says whether they were added.
+/// valve-action parameters (flow law, gas volume scale) when a run has valve action and the
+/// road parameters when a run has road input, under the model's laws. The excitation says
+/// which were added.
 pub fn default_free(
     model: &dyn SuspensionModel,
     runs: &[&airsus_data::Run],
-) -> Result<(Vec<&'static str>, bool), ModelError> {
-    let valve_action = runs.iter().any(|r| r.valve_action());
+) -> Result<(Vec<&'static str>, Excitation), ModelError> {
+    let excitation = Excitation::of(runs.iter().copied());
     Ok((
-        model_entry(model.name())?.free_parameters(valve_action, model),
-        valve_action,
+        model_entry(model.name())?.free_parameters(excitation, model),
+        excitation,
     ))
 }
 
@@ -80,6 +83,7 @@ pub struct ModelDescription {
     pub summary: &'static str,
     pub default_free: &'static [&'static str],
     pub valve_free: &'static [&'static str],
+    pub road_free: &'static [&'static str],
     pub parameters: Vec<ParameterDescription>,
     pub states: Vec<StateInfo>,
 }
@@ -115,6 +119,7 @@ pub fn describe_models() -> Result<Vec<ModelDescription>, ModelError> {
                 summary: entry.summary,
                 default_free: entry.default_free,
                 valve_free: entry.valve_free,
+                road_free: entry.road_free,
                 parameters,
                 states: model.states().to_vec(),
             })
@@ -135,7 +140,12 @@ mod tests {
             // Every name in the registry's sets is one the model has, or plays the part of
             // one it has under its laws (`rflow1` for the truck structure's orifice: `c1`);
             // `free_parameters` drops a name with neither, so check the raw sets.
-            for &name in entry.default_free.iter().chain(entry.valve_free) {
+            for &name in entry
+                .default_free
+                .iter()
+                .chain(entry.valve_free)
+                .chain(entry.road_free)
+            {
                 assert!(
                     airsus_model::params::same_part_names(name)
                         .iter()
@@ -144,7 +154,7 @@ mod tests {
                     entry.name
                 );
             }
-            for name in entry.free_parameters(true, &*model) {
+            for name in entry.free_parameters(Excitation::ALL, &*model) {
                 model
                     .parameter(name)
                     .unwrap_or_else(|e| panic!("{}: {e}", entry.name));

@@ -85,7 +85,13 @@ fn model_2_under_the_orifice_and_pressure_area_laws_is_the_truck_under_them() {
     // The registry's valve-action set names the thesis' resistances; under the orifice
     // law they become the conductances.
     let entry = airsus_truck::models::model_entry("m2").unwrap();
-    let free = entry.free_parameters(true, &*m2);
+    let free = entry.free_parameters(
+        airsus_model::Excitation {
+            valve: true,
+            road: false,
+        },
+        &*m2,
+    );
     assert!(free.contains(&"c1") && free.contains(&"c2") && !free.contains(&"rflow1"));
     // The law's pressure dependence moves the equilibrium: the same height needs less
     // pressure than under the plain quartic.

@@ -24,7 +24,8 @@ use crate::runs::{RunSource, RunSpec};
 use crate::truck::NativeTruck;
 
 /// Every model airsus builds by name (the registry, as `airsus models --json`):
-/// `[{"name", "description", "parameters", "units", "states", "roles", "default_free"}, ...]`,
+/// `[{"name", "description", "parameters", "units", "states", "roles", "default_free",
+/// "valve_free", "road_free"}, ...]`,
 /// built with the reference truck.
 #[pyfunction]
 pub fn models(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
@@ -52,6 +53,8 @@ pub fn models(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
                 .collect::<Vec<_>>(),
         )?;
         entry.set_item("default_free", model.default_free.to_vec())?;
+        entry.set_item("valve_free", model.valve_free.to_vec())?;
+        entry.set_item("road_free", model.road_free.to_vec())?;
         out.push(entry);
     }
     Ok(out)

@@ -380,8 +380,9 @@ def models() -> pd.DataFrame:
     ``units`` (of those parameters), ``states`` (state names with SI units, in
     state-vector order), ``roles`` (each state's role: ``position``, ``angle``, ``velocity``,
     ``bellow_air``, ``supply_air``, ``gas_temperature``, ``force``, ``filter``,
-    ``reference``) and ``default_free`` (what a grey-box fit frees by default). The same
-    registry as ``airsus models --json``.
+    ``reference``), ``default_free`` (what a grey-box fit frees by default), ``valve_free``
+    (freed as well when a run has valve action) and ``road_free`` (when a run has road
+    input). The same registry as ``airsus models --json``.
     """
     return pd.DataFrame(_native.models())
 
@@ -620,9 +621,10 @@ def greybox(
             :func:`read_run`), else ``run1``, ``run2``, ...
         free: the short names to estimate, a list or a comma-separated string (``p0``..``p4``,
             ``a0``, ``a1``, ``m2``, ``ig``, ``kf``, ``kw``, ``kscl``, ``rflow1``, ``rflow2``,
-            ``ksd``; ``tsd`` for ``m2xh``). ``None``: the model's default set (the
-            ``default_free`` column of :func:`models`), plus the flow parameters and the gas
-            volume's scale ``a0`` when a run has valve action.
+            ``ksd``; ``tsd`` for ``m2xh``; ``dscl``, the damper table's scale). ``None``: the
+            model's default set (the ``default_free`` column of :func:`models`), plus the flow
+            parameters and the gas volume's scale ``a0`` (``valve_free``) when a run has valve
+            action, and ``road_free`` (the damper table's scale) when a run has road input.
         bounds: ``{name: (lower, upper)}`` narrowing a freed parameter's admissible range.
         max_iterations: Levenberg-Marquardt iterations per fit round (default 100).
         tolerance: relative tolerance on loss decrease and scaled step (default 1e-8).

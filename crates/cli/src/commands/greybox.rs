@@ -223,14 +223,15 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     let run_refs: Vec<&_> = runs.iter().collect();
 
     let free_names: Vec<String> = if args.free.is_empty() {
-        let (names, valve_action) = default_free(&*model, &run_refs)?;
+        let (names, excitation) = default_free(&*model, &run_refs)?;
+        let excited = excitation.describe();
         eprintln!(
             "freeing {}'s default set{}: {}",
             args.model,
-            if valve_action {
-                " with the valve-action parameters (the runs have valve action)"
+            if excited.is_empty() {
+                String::new()
             } else {
-                ""
+                format!(" with the parameters {excited} determines (the runs have it)")
             },
             names.join(",")
         );

@@ -39,6 +39,7 @@ pub fn run(args: &ModelsArgs) -> anyhow::Result<()> {
                     })).collect::<Vec<_>>(),
                     "default_free": m.default_free,
                     "valve_free": m.valve_free,
+                    "road_free": m.road_free,
                 })
             })
             .collect();
@@ -48,9 +49,14 @@ pub fn run(args: &ModelsArgs) -> anyhow::Result<()> {
     for m in &models {
         println!("{:<6} {}", m.name, m.summary);
         println!(
-            "       free by default: {}; with valve action also {}",
+            "       free by default: {}; with valve action also {}{}",
             m.default_free.join(","),
-            m.valve_free.join(",")
+            m.valve_free.join(","),
+            if m.road_free.is_empty() {
+                String::new()
+            } else {
+                format!("; with road input also {}", m.road_free.join(","))
+            }
         );
         println!(
             "       states: {}",

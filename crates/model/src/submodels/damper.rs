@@ -19,13 +19,13 @@ pub struct Damper {
 }
 
 impl Damper {
-    /// Builds the table. `airsus-data` guarantees at least two points with strictly increasing
+    /// Builds the table, its forces times the table's scale. `airsus-data` guarantees at least two points with strictly increasing
     /// velocities; a table violating that (built in code) degrades to zero force rather than
     /// panicking.
     pub fn new(table: &DamperTable) -> Self {
         let n = table.velocity_m_s.len().min(table.force_n.len());
         let velocity_m_s = table.velocity_m_s[..n].to_vec();
-        let force_n = table.force_n[..n].to_vec();
+        let force_n: Vec<f64> = table.force_n[..n].iter().map(|f| f * table.scale).collect();
         let slope_n_s_per_m = (0..n.saturating_sub(1))
             .map(|i| {
                 let dv = velocity_m_s[i + 1] - velocity_m_s[i];
@@ -45,10 +45,7 @@ impl Damper {
 
     /// A damper that produces no force (for energy-conservation tests and "damper off").
     pub fn zero() -> Self {
-        Self::new(&DamperTable {
-            velocity_m_s: vec![-1.0, 1.0],
-            force_n: vec![0.0, 0.0],
-        })
+        Self::new(&DamperTable::new(vec![-1.0, 1.0], vec![0.0, 0.0]))
     }
 
     /// Force, N, at extension velocity `velocity_m_s`, m/s.
@@ -131,10 +128,10 @@ mod tests {
     use super::*;
 
     fn reference() -> Damper {
-        Damper::new(&DamperTable {
-            velocity_m_s: vec![-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0],
-            force_n: vec![-6000.0, -4000.0, -1500.0, 0.0, 3000.0, 9000.0, 13000.0],
-        })
+        Damper::new(&DamperTable::new(
+            vec![-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0],
+            vec![-6000.0, -4000.0, -1500.0, 0.0, 3000.0, 9000.0, 13000.0],
+        ))
     }
 
     #[test]
@@ -184,12 +181,27 @@ mod tests {
     }
 
     #[test]
+    fn the_scale_multiplies_every_force_corners_and_ends_included() {
+        let d = reference();
+        let mut table = DamperTable::new(
+            vec![-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0],
+            vec![-6000.0, -4000.0, -1500.0, 0.0, 3000.0, 9000.0, 13000.0],
+        );
+        table.scale = 1.25;
+        let scaled = Damper::new(&table);
+        for v in [-2.0, -0.3, -0.1, -1e-3, 0.0, 2e-3, 0.1, 0.3, 1.5] {
+            let (f, g) = (d.force_n(v), scaled.force_n(v));
+            assert!(
+                (g - 1.25 * f).abs() < 1e-9 * f.abs().max(1.0),
+                "v {v}: {g} vs {f}"
+            );
+        }
+    }
+
+    #[test]
     fn zero_table_and_degenerate_table_give_no_force() {
         assert_eq!(Damper::zero().force_n(3.0), 0.0);
-        let d = Damper::new(&DamperTable {
-            velocity_m_s: vec![0.0],
-            force_n: vec![1.0],
-        });
+        let d = Damper::new(&DamperTable::new(vec![0.0], vec![1.0]));
         assert_eq!(d.force_n(1.0), 0.0);
     }
 }

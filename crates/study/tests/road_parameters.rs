@@ -1,0 +1,105 @@
+//! The damper table's scale, estimated from a road run (#13 item 2): a truck whose damper is
+//! stronger than the table its file carries, as a real truck's damper differs from the data
+//! sheet's. The run comes from a variant of the virtual truck; the `truck` structure fitted
+//! to it starts from the variant's truth except for the damper, which is the reference
+//! truck's table, so only what the road tells about the damper can bring the fit back.
+
+use airsus_data::{Run, TruckParameters};
+use airsus_estimate::{GreyboxOptions, GreyboxProblem, NoProgress, estimate};
+use airsus_model::{Excitation, InitialCondition, InputSample, SuspensionModel};
+use airsus_sim::{InitialState, InputSeries, SimulationProblem, simulate};
+use airsus_truck::experiments::{START_SENSOR_HEIGHT_M, run_experiment};
+use airsus_truck::model::TruckModel;
+use airsus_truck::models::{build_any_model, default_free};
+use airsus_truck::scenario::{road_1, road_2};
+use airsus_truck::truth::VirtualTruck;
+
+/// The state `truck` starts `run` in: at rest at the start height, its wall friction preloaded
+/// by `wall_friction_n` as the generator did (how the truck got there). An equilibrium without
+/// the preload costs the truth itself 18 points of road 1's height.
+fn true_start(truck: &TruckParameters, run: &Run, wall_friction_n: f64) -> InitialState {
+    let u = InputSample {
+        wheel_load_kg: run.inputs.wheel_load_kg[0],
+        valve: run.inputs.valve[0],
+        supply_gauge_pa: run.inputs.supply_gauge_pa[0],
+        road_height_m: run.inputs.road_height_m[0],
+    };
+    let height = InitialCondition::SensorHeight {
+        height_m: START_SENSOR_HEIGHT_M,
+    };
+    let x0 = TruckModel::from_truck_parameters(truck)
+        .equilibrium_with_friction(&u, &height, wall_friction_n)
+        .unwrap();
+    InitialState::State(x0)
+}
+
+/// NRMSE (%) of height and pressure of `model`'s simulation of `run` from `start` against
+/// its measurements.
+fn scores(model: &dyn SuspensionModel, run: &Run, start: &InitialState) -> [f64; 2] {
+    let inputs = InputSeries::from_run(run).unwrap();
+    let sim = simulate(&SimulationProblem::new(model, inputs, start.clone())).unwrap();
+    let out = run.outputs.as_ref().unwrap();
+    [
+        airsus_validate::nrmse_percent(&out.sensor_height_m, &sim.sensor_height_m).unwrap(),
+        airsus_validate::nrmse_percent(&out.bellow_gauge_pa, &sim.bellow_gauge_pa).unwrap(),
+    ]
+}
+
+#[test]
+fn a_road_run_determines_the_damper_scale_of_a_truck_whose_damper_differs_from_its_table() {
+    let mut truck = VirtualTruck::variant(2);
+    let reference = TruckParameters::reference();
+    let true_scale = truck.physical.damper.force_n[0] / reference.damper.force_n[0];
+    assert!(
+        (true_scale - 1.0).abs() > 0.1,
+        "variant 2's damper is {true_scale:.3} times the reference table: pick another"
+    );
+    let m2 = truck.physical.mass.unsprung_kg;
+    let friction = truck.effect_parameters.friction_force_n;
+    let road1 = run_experiment(&truck, &road_1(m2, 1), -friction, 7).unwrap();
+    let road2 = run_experiment(&truck, &road_2(m2, 1).unwrap(), friction, 8).unwrap();
+
+    // The default set on a road run frees the scale; on a standing run it does not.
+    truck.resolve_laws();
+    let mut file = truck.physical.clone();
+    file.damper = reference.damper.clone();
+    let model = build_any_model("truck", &file).unwrap();
+    let (free, excitation) = default_free(&*model, &[&road1.logged]).unwrap();
+    assert!(excitation.road && free.contains(&"dscl"), "{free:?}");
+    let mut level = road1.logged.clone();
+    level.inputs.road_height_m.fill(0.0);
+    let standing = default_free(&*model, &[&level]).unwrap();
+    assert_eq!(standing.1, Excitation::default());
+    assert!(!standing.0.contains(&"dscl"));
+
+    // The damper takes no force at rest: the start does not depend on its scale.
+    let start1 = true_start(&file, &road1.logged, -friction);
+    let start2 = true_start(&file, &road2.logged, friction);
+    let mut problem = GreyboxProblem::new(&*model, &[&road1.logged], &["dscl"]);
+    problem.start_states = vec![Some(start1)];
+    let fit = estimate(&problem, &GreyboxOptions::default(), &mut NoProgress).unwrap();
+    let scale = fit.parameter("dscl").unwrap().estimate;
+    // Measured: 1.1954 estimated, 1.1948 true.
+    assert!(
+        (scale / true_scale - 1.0).abs() < 0.01,
+        "damper scale {scale:.4}, true {true_scale:.4}"
+    );
+
+    // On the held-out ISO road the estimated scale brings the fit to the truth's. Measured
+    // (height, pressure): 83.1, 84.3 % with the file's table; 96.7, 98.5 % estimated and true.
+    let mut fitted = model.box_clone();
+    fitted.set_parameter("dscl", scale).unwrap();
+    let before = scores(&*model, &road2.logged, &start2);
+    let after = scores(&*fitted, &road2.logged, &start2);
+    let truth = build_any_model("truck", &truck.physical).unwrap();
+    let ceiling = scores(&*truth, &road2.logged, &start2);
+    for (i, output) in ["height", "pressure"].iter().enumerate() {
+        assert!(
+            after[i] > ceiling[i] - 0.2 && after[i] > before[i] + 5.0,
+            "road 2 {output}: {:.1} % with the file's table, {:.1} % estimated, truth {:.1} %",
+            before[i],
+            after[i],
+            ceiling[i]
+        );
+    }
+}
