@@ -63,7 +63,8 @@ pub struct GreyboxArgs {
     pub model: String,
     /// Parameters to estimate, comma-separated short names (`airsus models` lists each
     /// model's). The others stay fixed. Default: the model's default set (thesis "Estimation
-    /// 2"), plus the flow parameters and the gas volume's scale when a run has valve action.
+    /// 2"), plus the flow parameters and the gas volume's scale when a run has valve action,
+    /// and the damper table's scale when a run has road input.
     #[arg(long, value_delimiter = ',')]
     pub free: Vec<String>,
     /// Truck parameter file with the nominal (start) values.
