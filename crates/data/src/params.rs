@@ -87,6 +87,8 @@ impl ParameterInfo {
 pub enum Field {
     EffectiveArea(usize),
     CrossSection(usize),
+    /// `vd`: the dead volume of the area-integral volume law.
+    DeadVolume,
     Unsprung,
     LeverInertia,
     HingeFriction,
@@ -120,6 +122,7 @@ impl Field {
         match self {
             Self::EffectiveArea(i) => ("bellow", "effective_area_poly_m2", Some(i)),
             Self::CrossSection(i) => ("bellow", "cross_section_m2", Some(i)),
+            Self::DeadVolume => ("bellow.gas_volume", "dead_volume_m3", None),
             Self::Unsprung => ("mass", "unsprung_kg", None),
             Self::LeverInertia => ("mass", "lever_inertia_kg_m2", None),
             Self::HingeFriction => ("bellow", "hinge_friction_n_s_per_m", None),
@@ -148,7 +151,7 @@ impl Field {
     pub fn law_family(self) -> Option<LawFamily> {
         match self {
             Self::EffectiveArea(_) | Self::AreaPressureGrowth => Some(LawFamily::EffectiveArea),
-            Self::CrossSection(_) => Some(LawFamily::GasVolume),
+            Self::CrossSection(_) | Self::DeadVolume => Some(LawFamily::GasVolume),
             Self::FillResistance
             | Self::ExhaustResistance
             | Self::FillConductance
@@ -284,6 +287,15 @@ pub const CATALOG: &[Param] = &[
         5.0,
     )
     .needing("valve action at different heights"),
+    param(
+        Field::DeadVolume,
+        "vd",
+        "m³",
+        "dead volume of the area-integral volume law V = vd + the integral of A_eff",
+        0.0,
+        1.0,
+    )
+    .needing("valve action: the gas volume's scale shows only when air flows in or out"),
     param(
         Field::Unsprung,
         "m2",
@@ -509,7 +521,10 @@ pub fn same_part_names(name: &'static str) -> Vec<&'static str> {
         return vec![name];
     };
     let mut names = vec![name];
-    for channel in crate::laws::VALVE_CHANNELS {
+    for channel in crate::laws::VALVE_CHANNELS
+        .iter()
+        .chain(&crate::laws::VOLUME_SCALES)
+    {
         if channel.contains(&param.field) {
             names.extend(
                 channel

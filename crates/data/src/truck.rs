@@ -277,7 +277,7 @@ impl TruckParameters {
                 effective_area: EffectiveAreaLaw::polynomial([
                     -0.0289, 0.8362, -3.0698, 4.9616, -2.9941,
                 ]),
-                gas_volume: GasVolumeLaw::cross_section([0.250, -0.0310]),
+                gas_volume: GasVolumeLaw::cross_section(*GasVolumeLaw::REFERENCE_CROSS_SECTION_M2),
                 hinge_friction_n_s_per_m: 0.1,
             },
             valve: ValveFlowLaw::LinearResistance {
@@ -655,7 +655,7 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
                 "bellow",
                 "cross_section_m2",
                 cross,
-                *reference.bellow.gas_volume.coefficients_m2(),
+                *GasVolumeLaw::REFERENCE_CROSS_SECTION_M2,
             )?;
             for (i, &value) in cross.iter().enumerate() {
                 ctx.check_param(Field::CrossSection(i), value)?;
@@ -984,11 +984,17 @@ impl Ctx<'_> {
                 "the effective area is not positive anywhere between 0.2 and 0.45 m bellow height (thesis Table 5.2 misprints p1 = 0.08362; the correct value is 0.8362)".to_owned(),
             ));
         }
-        if heights.clone().all(|h| volume.cross_section_m2(h) <= 0.0) {
+        if heights
+            .clone()
+            .all(|h| volume.cross_section_m2(area, h) <= 0.0)
+        {
             return Err(self.invalid(
                 volume_section,
                 volume_key,
-                format!("{:?}", volume.coefficients_m2()),
+                match volume.coefficients_m2() {
+                    Some(c) => format!("{c:?}"),
+                    None => format!("{volume:?}"),
+                },
                 "the cross-section A0 + A1 h is not positive anywhere between 0.2 and 0.45 m"
                     .to_owned(),
             ));
@@ -1164,13 +1170,17 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
                 .collect(),
         )),
     }
-    match p.bellow.gas_volume.tagged_entries() {
-        None => bellow_entries.push((
+    match (
+        p.bellow.gas_volume.tagged_entries(),
+        p.bellow.gas_volume.coefficients_m2(),
+    ) {
+        (None, Some(coefficients)) => bellow_entries.push((
             "cross_section_m2",
-            format!("{:?}", p.bellow.gas_volume.coefficients_m2()),
+            format!("{coefficients:?}"),
             "A0, A1 (est)",
         )),
-        Some(entries) => law_tables.push((
+        (None, None) => {}
+        (Some(entries), _) => law_tables.push((
             "bellow.gas_volume",
             "gas-volume law",
             std::iter::once(law_header(p.bellow.gas_volume.tag()))
@@ -1579,6 +1589,60 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
     }
 
     #[test]
+    fn the_area_integral_volume_law_loads_checks_its_dead_volume_and_round_trips() {
+        let law = |body: &str| {
+            with_laws(&format!(
+                "[bellow]\nhinge_friction_n_s_per_m = 0.1\n\
+                 effective_area_poly_m2 = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941]\n\
+                 [bellow.gas_volume]\nlaw = \"area_integral\"\n{body}"
+            ))
+        };
+        let loaded = parse(&law("dead_volume_m3 = 0.05\n")).unwrap();
+        let p = &loaded.parameters;
+        assert_eq!(
+            p.bellow.gas_volume,
+            GasVolumeLaw::AreaIntegral {
+                dead_volume_m3: 0.05,
+                bellows: 2
+            }
+        );
+        assert_eq!(get(p, Field::DeadVolume), 0.05);
+        assert!(get(p, Field::CrossSection(0)).is_nan());
+        let written = truck_to_toml(p);
+        assert!(
+            written.contains("law = \"area_integral\"") && !written.contains("cross_section_m2"),
+            "{written}"
+        );
+        assert_eq!(&parse(&written).unwrap().parameters, p);
+        // A dead volume below zero, a missing one, or the other law's key: each an error that
+        // names the key.
+        let err = parse(&law("dead_volume_m3 = -0.01\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("dead_volume_m3"), "{err}");
+        let err = parse(&law("")).unwrap_err().to_string();
+        assert!(err.contains("dead_volume_m3"), "{err}");
+        let err = parse(&law("dead_volume_m3 = 0.05\nbellows = 2.5\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("bellows") && err.contains("whole number"),
+            "{err}"
+        );
+        let four = parse(&law("dead_volume_m3 = 0.05\nbellows = 4\n")).unwrap();
+        assert!(matches!(
+            four.parameters.bellow.gas_volume,
+            GasVolumeLaw::AreaIntegral { bellows: 4, .. }
+        ));
+        let err = parse(&law(
+            "dead_volume_m3 = 0.05\ncoefficients_m2 = [0.25, -0.03]\n",
+        ))
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("coefficients_m2"), "{err}");
+    }
+
+    #[test]
     fn laws_load_from_tagged_tables_and_round_trip() {
         let text = with_laws(
             "[bellow]\nhinge_friction_n_s_per_m = 0.1\n\
@@ -1598,7 +1662,7 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
                 growth_per_100kpa: 0.004
             }
         );
-        assert_eq!(p.bellow.gas_volume.coefficients_m2(), &[0.262, -0.04]);
+        assert_eq!(p.bellow.gas_volume.coefficients_m2(), Some(&[0.262, -0.04]));
         assert_eq!(p.valve.tag(), "orifice");
         assert_eq!(p.effects.friction_force_n, Some(150.0));
         assert_eq!(p.effects.creep_stiffness_n_per_m, None);

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use airsus_data::params::{CATALOG, Field, get, set};
 use airsus_data::truck::parse_truck;
-use airsus_data::{EffectiveAreaLaw, TruckParameters, ValveFlowLaw, truck_to_toml};
+use airsus_data::{EffectiveAreaLaw, GasVolumeLaw, TruckParameters, ValveFlowLaw, truck_to_toml};
 
 fn reference_with_optional_keys() -> TruckParameters {
     let mut truck = TruckParameters::reference();
@@ -23,6 +23,10 @@ fn reference_with_other_laws() -> TruckParameters {
     truck.bellow.effective_area = EffectiveAreaLaw::PressurePolynomial {
         coefficients_m2: *truck.bellow.effective_area.coefficients_m2(),
         growth_per_100kpa: 0.004,
+    };
+    truck.bellow.gas_volume = GasVolumeLaw::AreaIntegral {
+        dead_volume_m3: 0.05,
+        bellows: 2,
     };
     truck.valve = ValveFlowLaw::Orifice {
         fill_conductance_m3_s_pa: 5e-9,

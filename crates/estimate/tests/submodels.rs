@@ -33,7 +33,7 @@ fn cross_section_shape_from_a_closed_valve_run() {
     );
     // Start from a wrong shape: the fit must find a1/a0 = −0.031/0.250 again.
     let mut start = truck.clone();
-    *start.bellow.gas_volume.coefficients_m2_mut() = [0.250, -0.06];
+    start.bellow.gas_volume = airsus_data::GasVolumeLaw::cross_section([0.250, -0.06]);
     let fit = fit_cross_section(&est, &[&val], &start, &CrossSectionOptions::default()).unwrap();
     let ratio = -0.031 / 0.250;
     assert!(fit.converged);
@@ -64,8 +64,18 @@ fn cross_section_shape_from_a_closed_valve_run() {
     fit.write_to(&mut t);
     assert_eq!(
         t.bellow.gas_volume.coefficients_m2(),
-        &[fit.a0_m2, fit.a1_m]
+        Some(&[fit.a0_m2, fit.a1_m])
     );
+    // A truck under the area-integral law has no cross-section to fit: refused, by name.
+    let mut integral = truck.clone();
+    integral.bellow.gas_volume = airsus_data::GasVolumeLaw::AreaIntegral {
+        dead_volume_m3: 0.05,
+        bellows: 2,
+    };
+    let err = fit_cross_section(&est, &[&val], &integral, &CrossSectionOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("`area_integral`"), "{err}");
 }
 
 #[test]

@@ -107,7 +107,7 @@ impl Corner {
             amount_mol,
             1.0,
             self.rt_j_mol,
-            self.volume.volume_m3(bellow_height_m),
+            self.volume.volume_m3(&self.area, bellow_height_m),
         )
     }
 
@@ -275,7 +275,7 @@ impl Corner {
             }
         };
         let p_abs = gauge_pa + self.ambient_pa;
-        let volume = self.volume.volume_m3(bellow_height_m);
+        let volume = self.volume.volume_m3(&self.area, bellow_height_m);
         Ok(Equilibrium {
             bellow_height_m,
             amount_mol: air_amount_mol(p_abs, volume, 1.0, self.rt_j_mol),

@@ -28,7 +28,11 @@ fn bellow_from_sensor(truck: &TruckParameters, sensor_m: f64, load_kg: f64) -> f
 }
 
 fn volume(truck: &TruckParameters, h: f64) -> f64 {
-    let a = *truck.bellow.gas_volume.coefficients_m2();
+    let a = *truck
+        .bellow
+        .gas_volume
+        .coefficients_m2()
+        .expect("the reference truck's volume law is the thesis'");
     h * (a[0] + a[1] * h)
 }
 

@@ -299,7 +299,11 @@ pub fn pressure_height_chart(input: &StudyInput, truck: &TruckParameters) -> Opt
             style: SeriesStyle::Dots,
             color: i,
         });
-        let pv = (out.bellow_gauge_pa[0] + ambient) * truck.bellow.gas_volume.volume_m3(h_b[0]);
+        let pv = (out.bellow_gauge_pa[0] + ambient)
+            * truck
+                .bellow
+                .gas_volume
+                .volume_m3(&truck.bellow.effective_area, h_b[0]);
         let (lo, hi) = h_b
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
@@ -313,7 +317,14 @@ pub fn pressure_height_chart(input: &StudyInput, truck: &TruckParameters) -> Opt
             x: grid.iter().map(|h| h * 1e3).collect(),
             y: grid
                 .iter()
-                .map(|&h| (pv / truck.bellow.gas_volume.volume_m3(h) - ambient) * 1e-3)
+                .map(|&h| {
+                    (pv / truck
+                        .bellow
+                        .gas_volume
+                        .volume_m3(&truck.bellow.effective_area, h)
+                        - ambient)
+                        * 1e-3
+                })
                 .collect(),
             style: SeriesStyle::Line,
             color: i,

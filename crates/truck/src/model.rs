@@ -244,7 +244,7 @@ impl TruckModel {
         }
         let tire_compression = u.wheel_load_kg * c.g / c.tire;
         let axle = u.road_height_m - tire_compression;
-        let n = (gauge_pa + c.ambient_pa) * c.volume.volume_m3(h_b) / c.rt;
+        let n = (gauge_pa + c.ambient_pa) * c.volume.volume_m3(&c.area, h_b) / c.rt;
         let supply_abs = u.supply_gauge_pa + c.ambient_pa;
         Ok(vec![
             axle + c.h0_m + c.l1_m * sin_a,
@@ -367,7 +367,7 @@ impl SuspensionModel for TruckModel {
         let h_b = c.h0_m + c.l12_m * sin_a;
         let h_b_dot = c.l12_m * cos_a * alpha_dot;
         let temperature = self.gas_temperature_k(x);
-        let volume = c.volume.volume_m3(h_b);
+        let volume = c.volume.volume_m3(&c.area, h_b);
         let p_abs = x[4] * c.gas_constant * temperature / volume;
         let p_gauge = p_abs - c.ambient_pa;
         let creep_force = c.e.creep_stiffness_n_per_m * (x[6] - h_b);
@@ -420,7 +420,7 @@ impl SuspensionModel for TruckModel {
         dx[4] = into_bellow;
 
         dx[5] = if fx.heat_exchange {
-            let dv_dh = c.volume.volume_slope_m2(h_b);
+            let dv_dh = c.volume.volume_slope_m2(&c.area, h_b);
             gas_temperature_rate(
                 &GasEnergyBalance {
                     amount_mol: x[4],
@@ -480,7 +480,8 @@ impl SuspensionModel for TruckModel {
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample {
         let c = &self.c;
         let h_b = self.bellow_height_m(x);
-        let p_abs = x[4] * c.gas_constant * self.gas_temperature_k(x) / c.volume.volume_m3(h_b);
+        let p_abs =
+            x[4] * c.gas_constant * self.gas_temperature_k(x) / c.volume.volume_m3(&c.area, h_b);
         OutputSample {
             sensor_height_m: sensor_height_m(
                 c.h0_m,

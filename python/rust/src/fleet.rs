@@ -141,7 +141,10 @@ pub fn gas_amount_mol<'py>(
             match law.wheel_load_kg(sensor_m, gauge_pa) {
                 Ok(load) if t_k > 0.0 => {
                     let bellow_m = law.bellow_height_m(sensor_m, load);
-                    let volume = params.bellow.gas_volume.volume_m3(bellow_m);
+                    let volume = params
+                        .bellow
+                        .gas_volume
+                        .volume_m3(&params.bellow.effective_area, bellow_m);
                     (gauge_pa + env.ambient_pressure_pa) * volume / (env.gas_constant_j_mol_k * t_k)
                 }
                 _ => f64::NAN,

@@ -63,7 +63,7 @@ impl ValveModel {
         }
         let p_target = (load - law.unsprung_kg) * law.gravity_m_s2 / (law.lever_gain * area_target);
         let amount = |gauge: f64, h: f64| {
-            (gauge + self.ambient_pa) * self.volume.volume_m3(h) / self.rt_j_mol
+            (gauge + self.ambient_pa) * self.volume.volume_m3(&law.area, h) / self.rt_j_mol
         };
         let dn = amount(p_target, h_target) - amount(reading.bellow_gauge_pa, h_now);
         let p_mean_abs = 0.5 * (p_target + reading.bellow_gauge_pa) + self.ambient_pa;

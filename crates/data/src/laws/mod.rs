@@ -44,7 +44,7 @@ pub use valve::{
     AIR_MOLAR_MASS_KG_MOL, ISO6358_REFERENCE_DENSITY_KG_M3, ISO6358_REFERENCE_TEMPERATURE_K,
     LAMINAR_PRESSURE_RATIO, VALVE_CHANNELS, ValveFlowLaw, iso6358_molar_flow,
 };
-pub use volume::{GasVolumeLaw, MIN_VOLUME_M3};
+pub use volume::{DEFAULT_BELLOWS, GasVolumeLaw, MIN_VOLUME_M3, VOLUME_SCALES};
 
 use std::path::Path;
 

@@ -96,7 +96,8 @@ pub struct CrossSectionFit {
 impl CrossSectionFit {
     /// Writes `A0`, `A1` into a truck.
     pub fn write_to(&self, truck: &mut TruckParameters) {
-        // The fit is of the thesis' law (eq 5.1), the only gas-volume law so far.
+        // The fit is of the thesis' law (eq 5.1); `fit_cross_section` refuses a truck under
+        // another.
         truck.bellow.gas_volume = GasVolumeLaw::cross_section([self.a0_m2, self.a1_m]);
     }
 }
@@ -199,7 +200,12 @@ pub fn fit_cross_section(
             ),
         });
     }
-    let nominal = *truck.bellow.gas_volume.coefficients_m2();
+    let Some(&nominal) = truck.bellow.gas_volume.coefficients_m2() else {
+        return Err(EstimateError::InvalidOption(format!(
+            "the truck's gas-volume law is `{}`: the cross-section fit (thesis 5.2.1) fits the thesis' law `cross_section`; under the area integral the volume's shape is the effective area's, and only its dead volume `vd` is left to a grey-box fit with valve action",
+            truck.bellow.gas_volume.tag()
+        )));
+    };
     let mut c = nominal[1] / nominal[0];
     let Some((mut big_c, mut rss)) = best_constant(&h, &p, c) else {
         return Err(EstimateError::InsufficientData {
@@ -320,7 +326,8 @@ pub fn fit_cross_section(
     }
     // Sanity: the fitted law must give a positive cross-section over the run.
     let fitted = GasVolumeLaw::cross_section([a0, c * a0]);
-    if !(fitted.cross_section_m2(h_min) > 0.0 && fitted.cross_section_m2(h_max) > 0.0) {
+    let area = &truck.bellow.effective_area;
+    if !(fitted.cross_section_m2(area, h_min) > 0.0 && fitted.cross_section_m2(area, h_max) > 0.0) {
         return Err(EstimateError::InsufficientData {
             fit: FIT,
             reason: format!("the fitted shape c = {c} 1/m gives a non-positive cross-section"),
