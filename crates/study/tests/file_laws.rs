@@ -1,0 +1,60 @@
+//! The study's submodel stage keeps the laws a truck file chose. It used to write the thesis'
+//! linear valve resistances over an ISO 6358 orifice law (and the `truck` structure then
+//! started from its built-in conductances, whatever the file said), and its cross-section fit
+//! over any gas-volume law.
+
+use airsus_data::{GasVolumeLaw, ValveFlowLaw};
+use airsus_study::load_study;
+use airsus_study::submodels::fit_submodels;
+
+#[test]
+fn the_submodel_stage_keeps_an_orifice_valve_and_an_area_integral_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let generated = airsus_truck::experiments::generate(dir.path(), 1, &mut |_| {}).unwrap();
+    let mut input = load_study(&generated.study_valve).unwrap();
+    let orifice = ValveFlowLaw::Orifice {
+        fill_conductance_m3_s_pa: 5.5e-9,
+        exhaust_conductance_m3_s_pa: 1.3e-8,
+        critical_pressure_ratio: 0.35,
+    };
+    let volume = GasVolumeLaw::AreaIntegral {
+        dead_volume_m3: 0.05,
+        bellows: 2,
+    };
+    input.truck.valve = orifice;
+    input.truck.bellow.gas_volume = volume.clone();
+    let estimation: Vec<String> = ["data-set 1", "data-set 3"].map(str::to_owned).to_vec();
+    let (start, fits) = fit_submodels(&input, &estimation);
+    assert_eq!(start.valve, orifice);
+    assert_eq!(start.bellow.gas_volume, volume);
+
+    // The discharges' resistances are still reported, beside the law they do not replace.
+    for name in ["fill_valve", "exhaust_valve"] {
+        let fit = fits.get(name).unwrap();
+        assert!(fit.error.is_none(), "{name}: {:?}", fit.error);
+        assert!(!fit.parameters.is_empty(), "{name}");
+        assert!(
+            fit.notes
+                .iter()
+                .any(|n| n.contains("reported, not written") && n.contains("`orifice`")),
+            "{name}: {:?}",
+            fit.notes
+        );
+    }
+    let cross = fits.get("cross_section").unwrap();
+    assert!(
+        cross
+            .error
+            .as_deref()
+            .is_some_and(|e| e.contains("`area_integral`")),
+        "{cross:?}"
+    );
+
+    // The reference file (the thesis' laws) still gets both fits written.
+    let input = load_study(&generated.study_valve).unwrap();
+    let (start, fits) = fit_submodels(&input, &estimation);
+    assert_eq!(start.valve.tag(), "linear_resistance");
+    assert_ne!(start.valve, input.truck.valve);
+    assert!(fits.get("fill_valve").unwrap().notes.len() == 1);
+    assert_ne!(start.bellow.gas_volume, input.truck.bellow.gas_volume);
+}
