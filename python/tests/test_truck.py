@@ -27,6 +27,8 @@ SPEC_NAMES = [
     "rflow2",
     "ksd",
 ]
+# Ours after the SPEC's: the area-integral volume law's dead volume, the damper table's scale.
+NAMES = [*SPEC_NAMES, "vd", "dscl"]
 
 
 def test_the_reference_truck_has_the_spec_values() -> None:
@@ -35,7 +37,7 @@ def test_the_reference_truck_has_the_spec_values() -> None:
     assert truck["p1"] == 0.8362, "the corrected effective-area coefficient"
     assert truck["kw"] == 1.8e6
     assert truck["rflow1"] == 2.5e6
-    assert truck.keys() == SPEC_NAMES
+    assert truck.keys() == NAMES
     assert "kscl" in truck and "l3" not in truck
 
 
@@ -57,7 +59,7 @@ def test_parameters_are_set_by_short_name_within_their_range() -> None:
 def test_parameters_table() -> None:
     table = airsus.Truck.builtin().parameters()
     assert list(table.columns) == ["name", "unit", "value", "min", "max", "description"]
-    assert table["name"].tolist() == SPEC_NAMES
+    assert table["name"].tolist() == NAMES
     row = table.set_index("name").loc["m2"]
     assert (row["unit"], row["value"], row["min"], row["max"]) == ("kg", 520.0, 10.0, 3000.0)
 
@@ -88,3 +90,17 @@ def test_a_truck_file_error_names_the_line(tmp_path: Path) -> None:
 def test_the_builtin_truck_is_the_commands(cli) -> None:
     printed = cli("params", "--builtin").stdout
     assert airsus.Truck.builtin().to_toml() == printed
+
+
+def test_a_truck_under_the_area_integral_volume_law(tmp_path: Path) -> None:
+    text = airsus.Truck.builtin().to_toml()
+    text = re.sub(r"cross_section_m2 = \[[^\]]*\][^\n]*\n", "", text)
+    text += '\n[bellow.gas_volume]\nlaw = "area_integral"\ndead_volume_m3 = 0.05\n'
+    truck = airsus.Truck.from_toml(text)
+    assert truck["vd"] == 0.05 and truck["dscl"] == 1.0
+    with pytest.raises(airsus.AirsusError, match="its gas-volume law `area_integral`"):
+        truck["a0"]
+    assert "vd=0.05" in repr(truck) and "a0=" not in repr(truck)
+    assert "a0=0.25" in repr(airsus.Truck.builtin())
+    table = truck.parameters().set_index("name")["value"]
+    assert math.isnan(table["a0"]) and table["vd"] == 0.05

@@ -187,7 +187,9 @@ pub const LEVER_MODEL_FIELDS: &[Field] = &[
     Field::LeverCompliance,
     Field::FillResistance,
     Field::ExhaustResistance,
-    // Last, so that the thesis' parameters keep their places (FMU value references).
+    // Last, so that Model 1's and Model 2's parameters keep their places (an FMU's value
+    // references; the models built on them shift theirs by one, and an FMU's configuration
+    // names parameters, not references).
     Field::DamperScale,
 ];
 

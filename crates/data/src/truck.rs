@@ -667,9 +667,10 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
         Some(_) => ("bellow.effective_area", "coefficients_m2"),
         None => ("bellow", "effective_area_poly_m2"),
     };
-    let volume_key = match bellow_file.gas_volume {
-        Some(_) => ("bellow.gas_volume", "coefficients_m2"),
-        None => ("bellow", "cross_section_m2"),
+    let volume_key = match (&bellow_file.gas_volume, &gas_volume) {
+        (Some(_), GasVolumeLaw::AreaIntegral { .. }) => ("bellow.gas_volume", "dead_volume_m3"),
+        (Some(_), _) => ("bellow.gas_volume", "coefficients_m2"),
+        (None, _) => ("bellow", "cross_section_m2"),
     };
     ctx.check_areas(&effective_area, area_key, &gas_volume, volume_key)?;
     let bellow = BellowParameters {
@@ -995,8 +996,15 @@ impl Ctx<'_> {
                     Some(c) => format!("{c:?}"),
                     None => format!("{volume:?}"),
                 },
-                "the cross-section A0 + A1 h is not positive anywhere between 0.2 and 0.45 m"
-                    .to_owned(),
+                match volume {
+                    GasVolumeLaw::CrossSection { .. } => {
+                        "the cross-section A0 + A1 h is not positive anywhere between 0.2 and 0.45 m"
+                    }
+                    GasVolumeLaw::AreaIntegral { .. } => {
+                        "the gas volume (dead volume plus the swept effective area) is not positive anywhere between 0.2 and 0.45 m"
+                    }
+                }
+                .to_owned(),
             ));
         }
         Ok(())
@@ -1170,6 +1178,8 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
                 .collect(),
         )),
     }
+    // The thesis' law in the SPEC's form; any other as its tagged table (never nothing: a
+    // law without entries still writes its tag).
     match (
         p.bellow.gas_volume.tagged_entries(),
         p.bellow.gas_volume.coefficients_m2(),
@@ -1179,12 +1189,11 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
             format!("{coefficients:?}"),
             "A0, A1 (est)",
         )),
-        (None, None) => {}
-        (Some(entries), _) => law_tables.push((
+        (entries, _) => law_tables.push((
             "bellow.gas_volume",
             "gas-volume law",
             std::iter::once(law_header(p.bellow.gas_volume.tag()))
-                .chain(entries)
+                .chain(entries.into_iter().flatten())
                 .collect(),
         )),
     }

@@ -30,7 +30,7 @@ const ROAD: [&str; 1] = ["dscl"];
 pub struct Excitation {
     /// A run has valve action ([`Run::valve_action`]).
     pub valve: bool,
-    /// A run has road action ([`Run::road_action`]).
+    /// A run has road input ([`Run::road_action`]).
     pub road: bool,
 }
 
@@ -49,7 +49,7 @@ impl Excitation {
         })
     }
 
-    /// Words for a message: "valve action and road action", or "" when nothing is excited.
+    /// Words for a message: "valve action and road input", or "" when nothing is excited.
     pub fn describe(self) -> String {
         match (self.valve, self.road) {
             (true, true) => "valve action and road input".to_owned(),

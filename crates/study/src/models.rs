@@ -40,7 +40,8 @@ fn bounds(model: &dyn SuspensionModel, name: &str) -> Option<(f64, f64)> {
     let (lo, hi) = match (model.name(), name) {
         (_, "m2") => (0.6, 1.6),
         (_, "ig") => (0.25, 4.0),
-        ("truck", "a0") => (0.5, 2.0),
+        // The volume's scale under either law; a dead volume of 0 has no scale to bound by.
+        ("truck", "a0" | "vd") if nominal > 0.0 => (0.5, 2.0),
         (_, "c1" | "c2" | "rflow1" | "rflow2") => (1.0 / 3.0, 3.0),
         _ => return None,
     };

@@ -17,7 +17,8 @@ pub const TRUCK_MODEL: ModelEntry = ModelEntry {
     summary: "Virtual-truck structure: Model 2 + creep, wall friction, gas heat exchange, ISO 6358 valve, supply line",
     build: |truck| Ok(Box::new(TruckModel::from_truck_parameters(truck))),
     // Model 2's set plus the creep element; with valve action the ISO 6358 conductances
-    // (instead of the linear resistances) and the gas volume's scale.
+    // (instead of the linear resistances) and the gas volume's scale; with road input the
+    // damper table's scale.
     default_free: &["p0", "p1", "p2", "p3", "p4", "m2", "ig", "kc", "tc"],
     valve_free: &["c1", "c2", "a0"],
     road_free: &["dscl"],

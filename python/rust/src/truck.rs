@@ -14,9 +14,9 @@ use crate::error::OrPy;
 
 /// The SPEC §5 short names, fixed so that scripts keep working. `ksd` is the slow-force scale
 /// of Model 2 extended (`slow_dynamics.force_scale_n_per_m`), its SPEC meaning.
-pub const TRUCK_NAMES: [&str; 15] = [
+pub const TRUCK_NAMES: [&str; 17] = [
     "p0", "p1", "p2", "p3", "p4", "a0", "a1", "m2", "ig", "kf", "kw", "kscl", "rflow1", "rflow2",
-    "ksd",
+    "ksd", "vd", "dscl",
 ];
 
 /// The catalogue entry of a SPEC short name (the first entry of that name: for `ksd`, the
@@ -112,9 +112,10 @@ impl NativeTruck {
         let value = params::get(&self.params, param.field);
         if value.is_nan() && param.field.law_family().is_some() {
             return Err(crate::error::to_py(anyhow::anyhow!(
-                "truck parameter `{name}` belongs to another law than this truck's (its valve law is `{}`, its effective-area law `{}`)",
+                "truck parameter `{name}` belongs to another law than this truck's (its valve law is `{}`, its effective-area law `{}`, its gas-volume law `{}`)",
                 self.params.valve.tag(),
-                self.params.bellow.effective_area.tag()
+                self.params.bellow.effective_area.tag(),
+                self.params.bellow.gas_volume.tag()
             )));
         }
         Ok(value)
@@ -135,9 +136,10 @@ impl NativeTruck {
         }
         if !params::set(&mut self.params, param.field, value) {
             return Err(crate::error::to_py(anyhow::anyhow!(
-                "truck parameter `{name}` belongs to another law than this truck's (its valve law is `{}`, its effective-area law `{}`)",
+                "truck parameter `{name}` belongs to another law than this truck's (its valve law is `{}`, its effective-area law `{}`, its gas-volume law `{}`)",
                 self.params.valve.tag(),
-                self.params.bellow.effective_area.tag()
+                self.params.bellow.effective_area.tag(),
+                self.params.bellow.gas_volume.tag()
             )));
         }
         Ok(())

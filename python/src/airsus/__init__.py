@@ -273,9 +273,12 @@ class Truck:
         truck.parameters()     # DataFrame: name, unit, value, min, max, description
 
     The names are ``p0``..``p4`` (effective area), ``a0``, ``a1`` (gas-volume
-    cross-section), ``m2``, ``ig``, ``kf``, ``kw``, ``kscl``, ``rflow1``, ``rflow2`` and
-    ``ksd`` (slow-force scale of Model 2 extended; NaN when the file has none). Every other
-    key of the file is kept as loaded and written back by :meth:`save`.
+    cross-section), ``m2``, ``ig``, ``kf``, ``kw``, ``kscl``, ``rflow1``, ``rflow2``,
+    ``ksd`` (slow-force scale of Model 2 extended; NaN when the file has none), ``vd`` (dead
+    volume of the ``area_integral`` volume law) and ``dscl`` (the damper table's scale). A
+    name of a law the truck does not have (``a0`` under the area integral, ``vd`` under the
+    thesis' law) reads as an error, and as NaN in :meth:`parameters`. Every other key of the
+    file is kept as loaded and written back by :meth:`save`.
     """
 
     __slots__ = ("_native",)
@@ -363,7 +366,13 @@ class Truck:
     __hash__ = None  # type: ignore[assignment]  # mutable
 
     def __repr__(self) -> str:
-        values = ", ".join(f"{name}={self[name]:.6g}" for name in ("m2", "kw", "p1", "a0"))
+        # The volume's scale under the truck's law: `a0` (thesis) or `vd` (area integral).
+        shown = self.parameters().set_index("name")["value"]
+        values = ", ".join(
+            f"{name}={shown[name]:.6g}"
+            for name in ("m2", "kw", "p1", "a0", "vd")
+            if not np.isnan(shown[name])
+        )
         return f"Truck({values}, ...)"
 
 

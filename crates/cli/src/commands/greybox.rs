@@ -232,7 +232,7 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
             if excited.is_empty() {
                 String::new()
             } else {
-                format!(" with the parameters {excited} determines (the runs have it)")
+                format!(" with what {excited} determines (the runs have {excited})")
             },
             names.join(",")
         );
