@@ -989,23 +989,17 @@ impl Ctx<'_> {
             .clone()
             .all(|h| volume.cross_section_m2(area, h) <= 0.0)
         {
-            return Err(self.invalid(
-                volume_section,
-                volume_key,
-                match volume.coefficients_m2() {
-                    Some(c) => format!("{c:?}"),
-                    None => format!("{volume:?}"),
-                },
-                match volume {
-                    GasVolumeLaw::CrossSection { .. } => {
-                        "the cross-section A0 + A1 h is not positive anywhere between 0.2 and 0.45 m"
-                    }
-                    GasVolumeLaw::AreaIntegral { .. } => {
-                        "the gas volume (dead volume plus the swept effective area) is not positive anywhere between 0.2 and 0.45 m"
-                    }
-                }
-                .to_owned(),
-            ));
+            let (given, reason) = match volume {
+                GasVolumeLaw::CrossSection { coefficients_m2 } => (
+                    format!("{coefficients_m2:?}"),
+                    "the cross-section A0 + A1 h is not positive anywhere between 0.2 and 0.45 m",
+                ),
+                GasVolumeLaw::AreaIntegral { dead_volume_m3, .. } => (
+                    format!("{dead_volume_m3:?}"),
+                    "the gas volume (dead volume plus the swept effective area) is not positive anywhere between 0.2 and 0.45 m",
+                ),
+            };
+            return Err(self.invalid(volume_section, volume_key, given, reason.to_owned()));
         }
         Ok(())
     }

@@ -34,9 +34,9 @@ pub enum GasVolumeLaw {
     /// inside that range only (above about 0.78 m the quartic turns negative and the volume
     /// would shrink as the bellow extends; a volume sweeping the held area there changed the
     /// simulated runs, which visit 0.049 m at least in the equilibrium search, and is left
-    /// for a test of its own). For scale: the thesis'
-    /// fitted law (Table 5.1) has `dV/dh = 0.24 m²` at 0.25 m where two bellows of its
-    /// effective area sweep 0.1 m²: a truck file's laws need not agree with each other.
+    /// for a test of its own). For scale: the thesis' fitted law (Table 5.1) has `dV/dh =
+    /// 0.24 m²` at 0.25 m where two bellows of its effective area sweep 0.1 m²: a truck
+    /// file's laws need not agree with each other.
     AreaIntegral { dead_volume_m3: f64, bellows: u32 },
 }
 

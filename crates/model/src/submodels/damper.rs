@@ -19,9 +19,9 @@ pub struct Damper {
 }
 
 impl Damper {
-    /// Builds the table, its forces times the table's scale. `airsus-data` guarantees at least two points with strictly increasing
-    /// velocities; a table violating that (built in code) degrades to zero force rather than
-    /// panicking.
+    /// Builds the table, its forces times the table's scale. `airsus-data` guarantees at least
+    /// two points with strictly increasing velocities; a table violating that (built in code)
+    /// degrades to zero force rather than panicking.
     pub fn new(table: &DamperTable) -> Self {
         let n = table.velocity_m_s.len().min(table.force_n.len());
         let velocity_m_s = table.velocity_m_s[..n].to_vec();
