@@ -104,3 +104,26 @@ def test_a_truck_under_the_area_integral_volume_law(tmp_path: Path) -> None:
     assert "a0=0.25" in repr(airsus.Truck.builtin())
     table = truck.parameters().set_index("name")["value"]
     assert math.isnan(table["a0"]) and table["vd"] == 0.05
+
+
+def test_a_truck_under_a_spline_effective_area(tmp_path: Path) -> None:
+    text = airsus.Truck.builtin().to_toml()
+    text = re.sub(r"effective_area_poly_m2 = \[[^\]]*\][^\n]*\n", "", text)
+    text += (
+        '\n[bellow.effective_area]\nlaw = "spline"\n'
+        "heights_m = [0.22, 0.3, 0.4]\nareas_m2 = [0.056, 0.054, 0.048]\n"
+    )
+    truck = airsus.Truck.from_toml(text)
+    assert truck["s1"] == 0.054
+    truck["s1"] = 0.055
+    assert truck["s1"] == 0.055
+    with pytest.raises(airsus.AirsusError, match="its effective-area law `spline`"):
+        truck["p1"]
+    with pytest.raises(airsus.AirsusError, match="effective-area law `spline`"):
+        truck["s5"]
+    table = truck.parameters().set_index("name")["value"]
+    assert list(table.index[-3:]) == ["s0", "s1", "s2"]
+    assert math.isnan(table["p1"]) and table["s2"] == 0.048
+    assert "p1=" not in repr(truck)
+    # What the file says survives a round trip through the text.
+    assert airsus.Truck.from_toml(truck.to_toml())["s1"] == 0.055

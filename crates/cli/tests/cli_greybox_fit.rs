@@ -379,3 +379,58 @@ fn greybox_takes_a_force_map_into_the_loss_and_refuses_a_bad_one() {
     assert!(!out.status.success());
     assert!(stderr.contains("no_map.csv"), "{stderr}");
 }
+
+#[test]
+fn fit_effective_area_writes_a_spline_and_refits_a_spline_file_as_one() {
+    let dir = generated();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let (printed, _) = ok(&[
+        "fit",
+        "effective-area",
+        "--force-map",
+        &p("force_map.csv"),
+        "--law",
+        "spline",
+        "--out",
+        &p("spline.toml"),
+    ]);
+    assert!(printed.contains("monotone spline"), "{printed}");
+    assert!(printed.contains("s9"), "{printed}");
+    let spline = airsus_data::read_truck(std::path::Path::new(&p("spline.toml")))
+        .unwrap()
+        .parameters;
+    let knots = spline.bellow.effective_area.knots().expect("a spline law");
+    // One knot per height of the lab's map (220-400 mm in 20 mm steps).
+    assert_eq!(knots.knots_x().len(), 10);
+    assert!((knots.knots_x()[0] - 0.22).abs() < 1e-9);
+    // The virtual truck's areas: 0.05-0.056 m² over the stroke.
+    assert!(knots.values().iter().all(|a| (0.045..0.06).contains(a)));
+
+    // A spline file is refitted as a spline without --law; the quartic fit refuses to write
+    // into it.
+    let (again, _) = ok(&[
+        "fit",
+        "effective-area",
+        "--truck",
+        &p("spline.toml"),
+        "--force-map",
+        &p("force_map.csv"),
+    ]);
+    assert!(again.contains("monotone spline"), "{again}");
+    let refused = airsus(&[
+        "fit",
+        "effective-area",
+        "--truck",
+        &p("spline.toml"),
+        "--force-map",
+        &p("force_map.csv"),
+        "--law",
+        "polynomial",
+        "--out",
+        &p("quartic.toml"),
+    ]);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success(), "{stderr}");
+    assert!(stderr.contains("law \"spline\""), "{stderr}");
+    assert!(!dir.path().join("quartic.toml").exists());
+}

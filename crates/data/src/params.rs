@@ -103,6 +103,8 @@ pub enum Field {
     CreepTimeConstant,
     /// `κ` of the pressure-dependent effective area.
     AreaPressureGrowth,
+    /// `s0, s1, ..`: a spline effective area's knot areas (fewer than [`MAX_AREA_KNOTS`]).
+    AreaKnot(usize),
     /// The orifice valve law's sonic conductances and critical ratio.
     FillConductance,
     ExhaustConductance,
@@ -135,6 +137,7 @@ impl Field {
             Self::CreepStiffness => ("slow_dynamics", "creep_stiffness_n_per_m", None),
             Self::CreepTimeConstant => ("slow_dynamics", "creep_time_constant_s", None),
             Self::AreaPressureGrowth => ("bellow.effective_area", "growth_per_100kpa", None),
+            Self::AreaKnot(i) => ("bellow.effective_area", "areas_m2", Some(i)),
             Self::FillConductance => ("valve", "fill_conductance_m3_s_pa", None),
             Self::ExhaustConductance => ("valve", "exhaust_conductance_m3_s_pa", None),
             Self::CriticalPressureRatio => ("valve", "critical_pressure_ratio", None),
@@ -150,7 +153,9 @@ impl Field {
     /// The law family whose law carries this value, if any.
     pub fn law_family(self) -> Option<LawFamily> {
         match self {
-            Self::EffectiveArea(_) | Self::AreaPressureGrowth => Some(LawFamily::EffectiveArea),
+            Self::EffectiveArea(_) | Self::AreaKnot(_) | Self::AreaPressureGrowth => {
+                Some(LawFamily::EffectiveArea)
+            }
             Self::CrossSection(_) | Self::DeadVolume => Some(LawFamily::GasVolume),
             Self::FillResistance
             | Self::ExhaustResistance
@@ -169,6 +174,10 @@ impl Field {
             .expect("every field is declared in CATALOG (tested)")
     }
 }
+
+/// The most knots a spline effective area has (`s0`..`s15`): a force map's heights (thesis
+/// Fig 5.8 has 11, the virtual truck's lab 10), each of which is declared in [`CATALOG`].
+pub const MAX_AREA_KNOTS: usize = 16;
 
 /// The SPEC parameters of every model on Model 2's lever (QCM 2 and the models built on it),
 /// with the thesis' laws; [`law_fields`] puts the truck's own laws' parameters in their place.
@@ -221,6 +230,19 @@ const fn param(
         info: ParameterInfo::new(name, unit, description, (lower, upper), Some(field)),
         field,
     }
+}
+
+/// One knot area of the spline effective-area law.
+const fn knot(i: usize, name: &'static str) -> Param {
+    param(
+        Field::AreaKnot(i),
+        name,
+        "m²",
+        "effective area at a knot height of the spline law (monotone cubic between knots)",
+        1e-4,
+        1.0,
+    )
+    .needing("the bellow force map at the knot's height, or loads that hold the bellow there")
 }
 
 /// All SPEC §5 names plus the creep element's (`m2xh`). `ksd` appears twice with different
@@ -406,6 +428,22 @@ pub const CATALOG: &[Param] = &[
         0.1,
     )
     .needing("loads over a range of pressures"),
+    knot(0, "s0"),
+    knot(1, "s1"),
+    knot(2, "s2"),
+    knot(3, "s3"),
+    knot(4, "s4"),
+    knot(5, "s5"),
+    knot(6, "s6"),
+    knot(7, "s7"),
+    knot(8, "s8"),
+    knot(9, "s9"),
+    knot(10, "s10"),
+    knot(11, "s11"),
+    knot(12, "s12"),
+    knot(13, "s13"),
+    knot(14, "s14"),
+    knot(15, "s15"),
     param(
         Field::FillConductance,
         "c1",

@@ -57,6 +57,10 @@ pub struct Geometry {
     pub lever_compliance_m_per_n: f64,
 }
 
+/// The reference truck's effective area, `p0..p4` of eq 5.4 (thesis Table 5.2 with the
+/// corrected `p1 = 0.8362`).
+pub const REFERENCE_AREA_POLY_M2: [f64; 5] = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941];
+
 impl Geometry {
     /// Lever gain `k_l = (l1 + l2) / l1` (thesis 3.1.1).
     pub fn lever_gain(&self) -> f64 {
@@ -274,9 +278,7 @@ impl TruckParameters {
                 vec![-6000.0, -4000.0, -1500.0, 0.0, 3000.0, 9000.0, 13000.0],
             ),
             bellow: BellowParameters {
-                effective_area: EffectiveAreaLaw::polynomial([
-                    -0.0289, 0.8362, -3.0698, 4.9616, -2.9941,
-                ]),
+                effective_area: EffectiveAreaLaw::polynomial(REFERENCE_AREA_POLY_M2),
                 gas_volume: GasVolumeLaw::cross_section(*GasVolumeLaw::REFERENCE_CROSS_SECTION_M2),
                 hinge_friction_n_s_per_m: 0.1,
             },
@@ -637,7 +639,7 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
                 "bellow",
                 "effective_area_poly_m2",
                 poly,
-                *reference.bellow.effective_area.coefficients_m2(),
+                REFERENCE_AREA_POLY_M2,
             )?;
             for (i, &value) in poly.iter().enumerate() {
                 ctx.check_param(Field::EffectiveArea(i), value)?;
@@ -981,7 +983,10 @@ impl Ctx<'_> {
             return Err(self.invalid(
                 section,
                 key,
-                format!("{:?}", area.coefficients_m2()),
+                match area.coefficients_m2() {
+                    Some(c) => format!("{c:?}"),
+                    None => format!("law {:?}", area.tag()),
+                },
                 "the effective area is not positive anywhere between 0.2 and 0.45 m bellow height (thesis Table 5.2 misprints p1 = 0.08362; the correct value is 0.8362)".to_owned(),
             ));
         }
@@ -1158,17 +1163,20 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
     let mut bellow_entries: Vec<TomlEntry> = Vec::new();
     let mut law_tables: Vec<TomlSection> = Vec::new();
     let law_header = |tag: &'static str| ("law", format!("{tag:?}"), "");
-    match p.bellow.effective_area.tagged_entries() {
-        None => bellow_entries.push((
+    match (
+        p.bellow.effective_area.tagged_entries(),
+        p.bellow.effective_area.coefficients_m2(),
+    ) {
+        (None, Some(coefficients)) => bellow_entries.push((
             "effective_area_poly_m2",
-            format!("{:?}", p.bellow.effective_area.coefficients_m2()),
+            format!("{coefficients:?}"),
             "p0..p4 (est)",
         )),
-        Some(entries) => law_tables.push((
+        (entries, _) => law_tables.push((
             "bellow.effective_area",
             "effective-area law",
             std::iter::once(law_header(p.bellow.effective_area.tag()))
-                .chain(entries)
+                .chain(entries.into_iter().flatten())
                 .collect(),
         )),
     }
@@ -1761,6 +1769,94 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         );
         let err = parse(&twice).unwrap_err().to_string();
         assert!(err.contains("give it once"), "{err}");
+    }
+
+    #[test]
+    fn a_spline_area_loads_round_trips_and_names_bad_knots() {
+        let spline = |body: &str| {
+            with_laws(&format!(
+                "[bellow.effective_area]\nlaw = \"spline\"\n{body}"
+            ))
+        };
+        let text = spline(
+            "heights_m = [0.22, 0.26, 0.3, 0.34, 0.4]\n\
+             areas_m2 = [0.056, 0.0555, 0.054, 0.05, 0.045]\ngrowth_per_100kpa = 0.004\n",
+        );
+        let loaded = parse(&text).unwrap();
+        let area = &loaded.parameters.bellow.effective_area;
+        assert_eq!(area.tag(), "spline");
+        assert_eq!(area.coefficients_m2(), None);
+        assert_eq!(area.growth_per_100kpa(), 0.004);
+        // Through its knots, and stretched by the pressure.
+        assert!((area.area_m2(0.3, 0.0) - 0.054).abs() < 1e-15);
+        assert!((area.area_m2(0.3, 2e5) - 0.054 * 1.008).abs() < 1e-15);
+        // Its parameters are the knot areas and the growth, in order.
+        assert_eq!(
+            area.fields(),
+            vec![
+                Field::AreaKnot(0),
+                Field::AreaKnot(1),
+                Field::AreaKnot(2),
+                Field::AreaKnot(3),
+                Field::AreaKnot(4),
+                Field::AreaPressureGrowth
+            ]
+        );
+        assert_eq!(Field::AreaKnot(3).param().info.name, "s3");
+        let written = truck_to_toml(&loaded.parameters);
+        assert!(written.contains("law = \"spline\""), "{written}");
+        assert!(
+            written.contains("heights_m = [0.22, 0.26, 0.3, 0.34, 0.4]"),
+            "{written}"
+        );
+        assert_eq!(&parse(&written).unwrap().parameters, &loaded.parameters);
+        // Without a growth the area does not depend on the pressure, and none is written.
+        let plain = parse(&spline(
+            "heights_m = [0.22, 0.3]\nareas_m2 = [0.056, 0.054]\n",
+        ))
+        .unwrap()
+        .parameters;
+        assert!(!plain.bellow.effective_area.depends_on_pressure());
+        assert!(!truck_to_toml(&plain).contains("growth_per_100kpa"));
+
+        // Bad knots: named, with the key's line.
+        for (body, key, says) in [
+            (
+                "heights_m = [0.22, 0.3, 0.3]\nareas_m2 = [0.056, 0.054, 0.05]\n",
+                "heights_m",
+                "increase strictly",
+            ),
+            (
+                "heights_m = [0.22, 0.3]\nareas_m2 = [0.056, 0.054, 0.05]\n",
+                "areas_m2",
+                "2 knot positions but 3 values",
+            ),
+            (
+                "heights_m = [0.22, 0.3]\nareas_m2 = [0.056, 5.4]\n",
+                "areas_m2",
+                "areas_m2[1]",
+            ),
+            (
+                "heights_m = [0.22, 0.3]\n",
+                "[bellow.effective_area]",
+                "missing key `bellow.effective_area.areas_m2`",
+            ),
+            (
+                "heights_m = []\nareas_m2 = []\n",
+                "heights_m",
+                "1 to 16 numbers",
+            ),
+            (
+                "heights_m = [0.22, 0.3]\nareas_m2 = [0.056, \"x\"]\n",
+                "areas_m2",
+                "entry 1 is not a number",
+            ),
+        ] {
+            let text = spline(body);
+            let err = parse(&text).unwrap_err().to_string();
+            assert!(err.starts_with(&at_line(&text, key)), "{body}: {err}");
+            assert!(err.contains(says), "{body}: {err}");
+        }
     }
 
     #[test]

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use airsus_data::params::{CATALOG, Field, get, set};
+use airsus_data::params::{CATALOG, Field, MAX_AREA_KNOTS, get, set};
 use airsus_data::truck::parse_truck;
 use airsus_data::{EffectiveAreaLaw, GasVolumeLaw, TruckParameters, ValveFlowLaw, truck_to_toml};
 
@@ -21,7 +21,7 @@ fn reference_with_optional_keys() -> TruckParameters {
 fn reference_with_other_laws() -> TruckParameters {
     let mut truck = reference_with_optional_keys();
     truck.bellow.effective_area = EffectiveAreaLaw::PressurePolynomial {
-        coefficients_m2: *truck.bellow.effective_area.coefficients_m2(),
+        coefficients_m2: *truck.bellow.effective_area.coefficients_m2().unwrap(),
         growth_per_100kpa: 0.004,
     };
     truck.bellow.gas_volume = GasVolumeLaw::AreaIntegral {
@@ -46,10 +46,26 @@ fn reference_with_other_laws() -> TruckParameters {
     truck
 }
 
+/// The reference with a spline effective area of the most knots a spline has.
+fn reference_with_a_spline() -> TruckParameters {
+    let mut truck = reference_with_optional_keys();
+    let heights: Vec<f64> = (0..MAX_AREA_KNOTS).map(|i| 0.2 + 0.02 * i as f64).collect();
+    let areas = heights
+        .iter()
+        .map(|&h| truck.bellow.effective_area.area_m2(h, 0.0))
+        .collect();
+    truck.bellow.effective_area = EffectiveAreaLaw::spline(heights, areas, Some(0.004)).unwrap();
+    truck
+}
+
 #[test]
 fn every_declared_parameter_is_range_checked_at_load_with_its_declared_bounds() {
     let path = Path::new("truck.toml");
-    let trucks = [reference_with_optional_keys(), reference_with_other_laws()];
+    let trucks = [
+        reference_with_optional_keys(),
+        reference_with_other_laws(),
+        reference_with_a_spline(),
+    ];
     for truck in &trucks {
         let text = truck_to_toml(truck);
         let loaded = parse_truck(&text, path).expect("the reference truck loads");
@@ -61,7 +77,7 @@ fn every_declared_parameter_is_range_checked_at_load_with_its_declared_bounds() 
         let reference = trucks
             .iter()
             .find(|t| !get(t, param.field).is_nan())
-            .unwrap_or_else(|| panic!("`{}` has a home in neither truck", param.info.name));
+            .unwrap_or_else(|| panic!("`{}` has a home in no truck", param.info.name));
         let info = &param.info;
         let (section, key, index) = param.field.location();
         let shown = match index {

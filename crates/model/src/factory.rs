@@ -97,16 +97,37 @@ impl ModelEntry {
         let has = |name: &str| model.parameter_info().iter().any(|i| i.name == name);
         let mut resolved: Vec<&'static str> = Vec::with_capacity(free.len());
         for name in free {
-            if let Some(name) = crate::params::same_part_names(name)
+            match crate::params::same_part_names(name)
                 .into_iter()
                 .find(|n| has(n))
-                && !resolved.contains(&name)
             {
-                resolved.push(name);
+                Some(name) if !resolved.contains(&name) => resolved.push(name),
+                Some(_) => {}
+                // The quartic's coefficients name the effective area: under another area
+                // law (a spline) its own parameters, every knot, take their part.
+                None if is_area_parameter(name) => {
+                    for info in model.parameter_info() {
+                        if is_area_parameter(info.name) && !resolved.contains(&info.name) {
+                            resolved.push(info.name);
+                        }
+                    }
+                }
+                None => {}
             }
         }
         resolved
     }
+}
+
+/// Whether `name` is a parameter of an effective-area law (`p0`.., `s0`..; not `kap`, the
+/// stretch with pressure, which no default set frees).
+fn is_area_parameter(name: &str) -> bool {
+    matches!(
+        crate::params::spec_field(name),
+        Some(
+            airsus_data::params::Field::EffectiveArea(_) | airsus_data::params::Field::AreaKnot(_)
+        )
+    )
 }
 
 /// The thesis models, in report order.

@@ -102,7 +102,10 @@ fn parameters_write_back_into_a_truck_file() {
     model.write_parameters(&mut out);
     assert_eq!(out.mass.unsprung_kg, 480.0);
     assert_eq!(out.slow_dynamics.force_scale, Some(5.0e4));
-    assert_eq!(out.bellow.effective_area.coefficients_m2()[1], 0.84);
+    assert_eq!(
+        out.bellow.effective_area.coefficients_m2().unwrap()[1],
+        0.84
+    );
     assert!(truck_to_toml(&out).contains("force_scale_n_per_m = 50000.0"));
     // Rebuilt from the written truck, the model has the estimated values.
     let again = build_model("m2x", &out).unwrap();

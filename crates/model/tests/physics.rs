@@ -12,7 +12,11 @@ const MODELS: &[&str] = &["m1", "m2", "m2x", "m2xh", "m3"];
 
 /// `A_eff` written out again here (not the crate's function): eq 5.4.
 fn area(truck: &TruckParameters, h: f64) -> f64 {
-    let p = *truck.bellow.effective_area.coefficients_m2();
+    let p = *truck
+        .bellow
+        .effective_area
+        .coefficients_m2()
+        .expect("the reference truck's area law is the thesis'");
     p[0] + p[1] * h + p[2] * h * h + p[3] * h.powi(3) + p[4] * h.powi(4)
 }
 

@@ -11,7 +11,8 @@
 use airsus_data::{Role, TruckParameters};
 use airsus_estimate::submodel::{
     CrossSectionOptions, DischargeData as FitDischarge, EffectiveAreaOptions, SlowDynamicsOptions,
-    ValveFitOptions, fit_cross_section, fit_effective_area, fit_slow_dynamics, fit_valve,
+    ValveFitOptions, fit_cross_section, fit_effective_area, fit_effective_area_spline,
+    fit_slow_dynamics, fit_valve,
 };
 use airsus_ident::linear::{IdData, OeOrders, PemOptions, oe};
 use airsus_report::results::{NamedValue, SubmodelFit, SubmodelResults};
@@ -48,11 +49,46 @@ pub fn fit_submodels(
     let mut truck = input.truck.clone();
     let mut fits = Vec::new();
 
-    // Effective area (5.2.2): needs the force map.
+    // Effective area (5.2.2): needs the force map. The fit of the truck file's law: the
+    // thesis' quartic, or a spline through the map's heights for a file whose law is one.
     const AREA: &str = "A_eff(h) = p0 + p1 h + ... + p4 h^4 from the force map (5.2.2)";
+    const SPLINE: &str = "A_eff(h) monotone spline through the force map's heights (5.2.2)";
+    let options = EffectiveAreaOptions::for_truck(&truck);
+    let spline = truck.bellow.effective_area.knots().is_some();
+    let description = if spline { SPLINE } else { AREA };
     match &input.force_map {
-        None => fits.push(failed("effective_area", AREA, "the study has no force map".to_owned())),
-        Some(map) => match fit_effective_area(map, &EffectiveAreaOptions::default()) {
+        None => fits.push(failed(
+            "effective_area",
+            description,
+            "the study has no force map".to_owned(),
+        )),
+        Some(map) if spline => match fit_effective_area_spline(map, &options)
+            .and_then(|fit| fit.write_to(&mut truck).map(|()| fit))
+        {
+            Err(e) => fits.push(failed("effective_area", SPLINE, e.to_string())),
+            Ok(fit) => fits.push(SubmodelFit {
+                name: "effective_area".to_owned(),
+                description: SPLINE.to_owned(),
+                parameters: fit
+                    .areas_m2
+                    .iter()
+                    .zip(&fit.areas_std_m2)
+                    .enumerate()
+                    .map(|(i, (v, s))| value(&format!("s{i}"), "m^2", *v, s.is_finite().then_some(*s)))
+                    .collect(),
+                nrmse_estimation_percent: Some(fit.force_nrmse_percent),
+                nrmse_validation_percent: None,
+                notes: vec![format!(
+                    "{} points at {} heights, {} knots at {:?} m; the NRMSE is of the force; the grey-box fits refine the knot areas",
+                    fit.points,
+                    fit.map_heights,
+                    fit.heights_m.len(),
+                    fit.heights_m
+                )],
+                error: None,
+            }),
+        },
+        Some(map) => match fit_effective_area(map, &options) {
             Err(e) => fits.push(failed("effective_area", AREA, e.to_string())),
             Ok(fit) => match fit.write_to(&mut truck) {
                 Err(e) => fits.push(failed("effective_area", AREA, e.to_string())),

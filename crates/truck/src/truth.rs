@@ -147,17 +147,17 @@ impl VirtualTruck {
         let mut physical = TruckParameters::reference();
         physical.mass.unsprung_kg = 560.0;
         physical.mass.lever_inertia_kg_m2 = 170.0;
-        let p = *physical.bellow.effective_area.coefficients_m2();
+        let p = airsus_data::REFERENCE_AREA_POLY_M2;
         // 3 % larger, and tilted about 0.3 m by -0.01 m²/m: the area falls a little more
         // with height than the lab fit says.
         let (scale, tilt, pivot_m) = (1.03, -0.01, 0.3);
-        *physical.bellow.effective_area.coefficients_m2_mut() = [
+        physical.bellow.effective_area = EffectiveAreaLaw::polynomial([
             p[0] * scale - tilt * pivot_m,
             p[1] * scale + tilt,
             p[2] * scale,
             p[3] * scale,
             p[4] * scale,
-        ];
+        ]);
         physical.bellow.gas_volume = GasVolumeLaw::cross_section(TRUE_CROSS_SECTION_M2);
         physical.bellow.hinge_friction_n_s_per_m = 0.0;
         Self {
@@ -192,7 +192,14 @@ impl VirtualTruck {
 
         // Effective area: scale, tilt and curvature about 0.3 m, redrawn until plausible
         // over the whole stroke (a few draws at most; the fallback keeps the reference).
-        let p = *nominal.physical.bellow.effective_area.coefficients_m2();
+        // The reference's law is a quartic (above); a truck built otherwise keeps its area.
+        let p = nominal
+            .physical
+            .bellow
+            .effective_area
+            .coefficients_m2()
+            .copied()
+            .unwrap_or_default();
         for _ in 0..20 {
             let (scale, tilt, bend, pivot) = (
                 uniform(0.94, 1.07),
@@ -214,7 +221,9 @@ impl VirtualTruck {
                 (0.040..0.070).contains(&a)
             });
             if plausible {
-                *physical.bellow.effective_area.coefficients_m2_mut() = candidate;
+                if let Some(c) = physical.bellow.effective_area.coefficients_m2_mut() {
+                    *c = candidate;
+                }
                 break;
             }
         }

@@ -68,7 +68,7 @@ fn with_every_effect_off_the_truck_is_model_2() {
 fn model_2_under_the_orifice_and_pressure_area_laws_is_the_truck_under_them() {
     let mut physical = TruckParameters::reference();
     physical.bellow.effective_area = EffectiveAreaLaw::PressurePolynomial {
-        coefficients_m2: *physical.bellow.effective_area.coefficients_m2(),
+        coefficients_m2: *physical.bellow.effective_area.coefficients_m2().unwrap(),
         growth_per_100kpa: 0.006,
     };
     physical.valve = ValveFlowLaw::Orifice {

@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 use airsus_data::error::nearest_name;
 use airsus_data::truck::parse_truck;
 use airsus_data::{TruckParameters, read_truck, truck_to_toml, write_truck};
-use airsus_model::params::{self, CATALOG, Param};
+use airsus_model::params::{self, CATALOG, Field, Param};
 
 use crate::error::OrPy;
 
@@ -22,8 +22,8 @@ pub const TRUCK_NAMES: [&str; 17] = [
 /// The catalogue entry of a SPEC short name (the first entry of that name: for `ksd`, the
 /// slow-force scale, as `airsus_model::params::spec_field` resolves it).
 fn lookup(name: &str) -> anyhow::Result<&'static Param> {
-    if TRUCK_NAMES.contains(&name)
-        && let Some(param) = CATALOG.iter().find(|p| p.info.name == name)
+    if let Some(param) = CATALOG.iter().find(|p| p.info.name == name)
+        && (TRUCK_NAMES.contains(&name) || matches!(param.field, Field::AreaKnot(_)))
     {
         return Ok(param);
     }
@@ -31,7 +31,7 @@ fn lookup(name: &str) -> anyhow::Result<&'static Param> {
         .map(|s| format!(" (did you mean `{s}`?)"))
         .unwrap_or_default();
     bail!(
-        "the truck has no parameter `{name}`{suggestion}; its parameters are: {}",
+        "the truck has no parameter `{name}`{suggestion}; its parameters are: {} (and s0, s1, .. for a spline effective area's knots)",
         TRUCK_NAMES.join(", ")
     )
 }
@@ -151,10 +151,21 @@ impl NativeTruck {
         TRUCK_NAMES.to_vec()
     }
 
-    /// One row per short name: `(name, unit, description, value, lower, upper)`.
+    /// One row per short name: `(name, unit, description, value, lower, upper)`; a spline
+    /// effective area's knots (`s0`, ..) follow.
     fn table(&self) -> Vec<ParameterRow> {
+        let knots: Vec<&'static str> = self
+            .params
+            .bellow
+            .effective_area
+            .fields()
+            .into_iter()
+            .filter(|f| matches!(f, Field::AreaKnot(_)))
+            .map(|f| f.param().info.name)
+            .collect();
         TRUCK_NAMES
             .iter()
+            .chain(&knots)
             .filter_map(|name| lookup(name).ok())
             .map(|p| {
                 (

@@ -3,7 +3,8 @@
 //! `--truck` or the reference truck).
 //!
 //! * `cross-section` — `A(h) = A0 + A1 h` from a closed-valve run (eq 5.1–5.3, Table 5.1);
-//! * `effective-area` — 4th-degree `A_eff(h)` from a bellow force map (eq 3.16/5.4);
+//! * `effective-area` — 4th-degree `A_eff(h)` (eq 3.16/5.4) or a monotone spline from a bellow
+//!   force map;
 //! * `valve` — `R_flow1`, `R_flow2` from tank discharges (eq 3.19/5.5/5.6, Table 5.3), from a
 //!   study file or from `--discharge` files with their metadata;
 //! * `slow-dynamics` — the OE block of Model 2 extended from one load step (5.2.4).
@@ -17,8 +18,8 @@ use airsus_data::{
 };
 use airsus_estimate::submodel::{
     CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions,
-    SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area, fit_slow_dynamics,
-    fit_valve,
+    SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area,
+    fit_effective_area_spline, fit_slow_dynamics, fit_valve,
 };
 use airsus_ident::linear::OeOrders;
 use anyhow::{Context, bail};
@@ -58,7 +59,9 @@ pub enum FitCommand {
         #[arg(long, requires = "known_volume_l")]
         at_height_mm: Option<f64>,
     },
-    /// Effective area: per-height least squares of F = p A_eff, then a polynomial.
+    /// Effective area: per-height least squares of F = p A_eff, then the quartic (thesis
+    /// 5.2.2) or a monotone spline through the heights. A truck whose law stretches the area
+    /// with pressure (`kap`) gets the areas at zero pressure.
     EffectiveArea {
         /// Bellow force map (CSV: bellow_height_mm, pressure_kpa, force_n).
         #[arg(long)]
@@ -66,6 +69,10 @@ pub enum FitCommand {
         /// Polynomial degree (the truck file holds degree 4).
         #[arg(long, default_value_t = 4)]
         degree: usize,
+        /// The law to fit: `polynomial` (eq 5.4) or `spline` (one knot per map height, at most
+        /// 16). Default: the --truck file's law (a spline for a spline, else the quartic).
+        #[arg(long, value_enum)]
+        law: Option<AreaLawArg>,
     },
     /// Valve flow resistances from tank discharges, via the ideal gas law and a
     /// Savitzky–Golay derivative of the tank pressure.
@@ -135,6 +142,12 @@ impl FitCommand {
             Self::SlowDynamics { run, .. } => vec![run],
         }
     }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum AreaLawArg {
+    Polynomial,
+    Spline,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -255,31 +268,72 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             }
             fit.write_to(&mut truck);
         }
-        FitCommand::EffectiveArea { force_map, degree } => {
+        FitCommand::EffectiveArea {
+            force_map,
+            degree,
+            law,
+        } => {
             let map = read_force_map(force_map)?;
             let options = EffectiveAreaOptions {
                 degree: *degree,
-                ..EffectiveAreaOptions::default()
+                ..EffectiveAreaOptions::for_truck(&truck)
             };
-            let fit = fit_effective_area(&map, &options)?;
-            if args.json {
-                print_json(&fit)?;
+            let law = law.unwrap_or(if truck.bellow.effective_area.knots().is_some() {
+                AreaLawArg::Spline
             } else {
-                println!(
-                    "Effective area A_eff(h) = sum p_i h^i (thesis eq 3.16/5.4), {} points at {} heights",
-                    fit.points,
-                    fit.per_height.len()
-                );
-                for (i, (p, s)) in fit.poly.iter().zip(&fit.poly_std).enumerate() {
-                    println!("  p{i} = {p:>12.5} ± {s:.5}");
+                AreaLawArg::Polynomial
+            });
+            if law == AreaLawArg::Spline {
+                let fit = fit_effective_area_spline(&map, &options)?;
+                if args.json {
+                    print_json(&fit)?;
+                } else {
+                    println!(
+                        "Effective area A_eff(h), monotone spline (eq 3.16), {} points at {} heights, {} knots",
+                        fit.points,
+                        fit.map_heights,
+                        fit.heights_m.len()
+                    );
+                    for (i, ((h, a), s)) in fit
+                        .heights_m
+                        .iter()
+                        .zip(&fit.areas_m2)
+                        .zip(&fit.areas_std_m2)
+                        .enumerate()
+                    {
+                        println!("  s{i:<2} at {:>6.1} mm = {a:.6} ± {s:.6} m²", h * 1e3);
+                    }
+                    if let Some(kap) = fit.growth_per_100kpa {
+                        println!(
+                            "  areas at zero pressure; kap = {kap} per 100 kPa from the truck"
+                        );
+                    }
+                    println!("  NRMSE: force {:.2} %", fit.force_nrmse_percent);
                 }
-                println!(
-                    "  NRMSE: area vs per-height LS {:.2} %, force {:.2} %",
-                    fit.area_nrmse_percent, fit.force_nrmse_percent
-                );
-            }
-            if args.out.is_some() {
-                fit.write_to(&mut truck)?;
+                if args.out.is_some() {
+                    fit.write_to(&mut truck)?;
+                }
+            } else {
+                let fit = fit_effective_area(&map, &options)?;
+                if args.json {
+                    print_json(&fit)?;
+                } else {
+                    println!(
+                        "Effective area A_eff(h) = sum p_i h^i (thesis eq 3.16/5.4), {} points at {} heights",
+                        fit.points,
+                        fit.per_height.len()
+                    );
+                    for (i, (p, s)) in fit.poly.iter().zip(&fit.poly_std).enumerate() {
+                        println!("  p{i} = {p:>12.5} ± {s:.5}");
+                    }
+                    println!(
+                        "  NRMSE: area vs per-height LS {:.2} %, force {:.2} %",
+                        fit.area_nrmse_percent, fit.force_nrmse_percent
+                    );
+                }
+                if args.out.is_some() {
+                    fit.write_to(&mut truck)?;
+                }
             }
         }
         FitCommand::Valve {

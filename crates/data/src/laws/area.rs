@@ -1,8 +1,9 @@
 //! Effective-area laws of the bellow: `F_ab = p_g A_eff` (thesis eq 3.16).
 
+use super::spline::MonotoneSpline;
 use super::{LawDeclaration, LawTable, TaggedEntries, toml_number};
 use crate::error::DataError;
-use crate::params::Field;
+use crate::params::{Field, MAX_AREA_KNOTS};
 
 /// Effective area `A_eff(h) = p0 + p1 h + p2 h² + p3 h³ + p4 h⁴`, m² (thesis eq 5.4), `h` the
 /// bellow height in m, `poly = [p0, p1, p2, p3, p4]`.
@@ -39,6 +40,16 @@ pub enum EffectiveAreaLaw {
         coefficients_m2: [f64; 5],
         growth_per_100kpa: f64,
     },
+    /// A monotone, shape-preserving cubic through knots `(h_k, A_k)` ([`MonotoneSpline`]),
+    /// held at its end values outside them, optionally stretched by the gauge pressure as
+    /// [`Self::PressurePolynomial`] is (`growth_per_100kpa`). The knot heights are fixed (where
+    /// the force map was measured); the knot areas `s0, s1, ..` are the law's parameters. For
+    /// a bellow whose area bends where a quartic cannot follow (a rolling lobe near the ends
+    /// of its stroke) and a law that cannot run away between or beyond its knots.
+    Spline {
+        knots: MonotoneSpline,
+        growth_per_100kpa: Option<f64>,
+    },
 }
 
 /// The effective-area laws a truck file can name.
@@ -52,6 +63,11 @@ pub const AREA_LAWS: &[LawDeclaration] = &[
         tag: "polynomial_pressure",
         description: "quartic in height times (1 + κ p / 100 kPa), the wall stretch of thesis 6.1",
         keys: &["law", "coefficients_m2", "growth_per_100kpa"],
+    },
+    LawDeclaration {
+        tag: "spline",
+        description: "monotone cubic through knot areas at fixed heights, optionally times (1 + κ p / 100 kPa)",
+        keys: &["law", "heights_m", "areas_m2", "growth_per_100kpa"],
     },
 ];
 
@@ -68,25 +84,77 @@ impl EffectiveAreaLaw {
         match self {
             Self::Polynomial { .. } => "polynomial",
             Self::PressurePolynomial { .. } => "polynomial_pressure",
+            Self::Spline { .. } => "spline",
         }
     }
 
-    /// The quartic every law here is built on.
-    pub fn coefficients_m2(&self) -> &[f64; 5] {
+    /// A spline law through `heights_m` and `areas_m2` (see [`Self::Spline`]); an error says
+    /// why the knots make none.
+    pub fn spline(
+        heights_m: Vec<f64>,
+        areas_m2: Vec<f64>,
+        growth_per_100kpa: Option<f64>,
+    ) -> Result<Self, String> {
+        if heights_m.len() > MAX_AREA_KNOTS {
+            return Err(format!(
+                "{} knots; a spline area law has at most {MAX_AREA_KNOTS}",
+                heights_m.len()
+            ));
+        }
+        let knots = MonotoneSpline::new(heights_m, areas_m2).map_err(|e| e.to_string())?;
+        Ok(Self::Spline {
+            knots,
+            growth_per_100kpa,
+        })
+    }
+
+    /// The quartic of a polynomial law; `None` for a spline.
+    pub fn coefficients_m2(&self) -> Option<&[f64; 5]> {
         match self {
             Self::Polynomial { coefficients_m2 }
             | Self::PressurePolynomial {
                 coefficients_m2, ..
-            } => coefficients_m2,
+            } => Some(coefficients_m2),
+            Self::Spline { .. } => None,
         }
     }
 
-    pub fn coefficients_m2_mut(&mut self) -> &mut [f64; 5] {
+    pub fn coefficients_m2_mut(&mut self) -> Option<&mut [f64; 5]> {
         match self {
             Self::Polynomial { coefficients_m2 }
             | Self::PressurePolynomial {
                 coefficients_m2, ..
-            } => coefficients_m2,
+            } => Some(coefficients_m2),
+            Self::Spline { .. } => None,
+        }
+    }
+
+    /// The knots of a spline law; `None` for a polynomial.
+    pub fn knots(&self) -> Option<&MonotoneSpline> {
+        match self {
+            Self::Spline { knots, .. } => Some(knots),
+            _ => None,
+        }
+    }
+
+    /// `∫_0^h A_eff(h', p = 0) dh'`, m³ per bellow: the volume an area-integral gas volume
+    /// sweeps. The quartic is integrated as it stands from zero height (where it is an
+    /// extrapolation; a dead volume takes up the difference); a spline is held at its first
+    /// knot's area below it.
+    pub fn integral_m3(&self, height_m: f64) -> f64 {
+        match self {
+            Self::Polynomial { coefficients_m2 }
+            | Self::PressurePolynomial {
+                coefficients_m2, ..
+            } => {
+                coefficients_m2
+                    .iter()
+                    .enumerate()
+                    .rev()
+                    .fold(0.0, |acc, (i, p)| acc * height_m + p / (i + 1) as f64)
+                    * height_m
+            }
+            Self::Spline { knots, .. } => knots.integral_from_zero(height_m),
         }
     }
 
@@ -97,23 +165,40 @@ impl EffectiveAreaLaw {
             Self::PressurePolynomial {
                 growth_per_100kpa, ..
             } => *growth_per_100kpa,
+            Self::Spline {
+                growth_per_100kpa, ..
+            } => growth_per_100kpa.unwrap_or(0.0),
         }
     }
 
     /// Whether the area depends on the pressure.
     pub fn depends_on_pressure(&self) -> bool {
-        matches!(self, Self::PressurePolynomial { .. })
+        matches!(
+            self,
+            Self::PressurePolynomial { .. }
+                | Self::Spline {
+                    growth_per_100kpa: Some(_),
+                    ..
+                }
+        )
     }
 
     /// Effective area at bellow height `height_m` and gauge pressure `gauge_pa`, m², as the
     /// law says, also outside the stroke it was fitted over.
     pub fn area_m2(&self, height_m: f64, gauge_pa: f64) -> f64 {
-        let base = polynomial_area_m2(self.coefficients_m2(), height_m);
         match self {
-            Self::Polynomial { .. } => base,
+            Self::Polynomial { coefficients_m2 } => polynomial_area_m2(coefficients_m2, height_m),
             Self::PressurePolynomial {
-                growth_per_100kpa, ..
-            } => base * (1.0 + growth_per_100kpa * gauge_pa / 1e5),
+                coefficients_m2,
+                growth_per_100kpa,
+            } => {
+                polynomial_area_m2(coefficients_m2, height_m)
+                    * (1.0 + growth_per_100kpa * gauge_pa / 1e5)
+            }
+            Self::Spline {
+                knots,
+                growth_per_100kpa,
+            } => knots.value(height_m) * (1.0 + growth_per_100kpa.unwrap_or(0.0) * gauge_pa / 1e5),
         }
     }
 
@@ -154,7 +239,10 @@ impl EffectiveAreaLaw {
 
     /// The law's parameters, in catalogue order.
     pub fn fields(&self) -> Vec<Field> {
-        let mut fields: Vec<Field> = (0..5).map(Field::EffectiveArea).collect();
+        let mut fields: Vec<Field> = match self {
+            Self::Spline { knots, .. } => (0..knots.values().len()).map(Field::AreaKnot).collect(),
+            _ => (0..5).map(Field::EffectiveArea).collect(),
+        };
         if self.depends_on_pressure() {
             fields.push(Field::AreaPressureGrowth);
         }
@@ -164,13 +252,20 @@ impl EffectiveAreaLaw {
     /// The value of one of the law's parameters; `None` if the law has no such parameter.
     pub fn get(&self, field: Field) -> Option<f64> {
         match (field, self) {
-            (Field::EffectiveArea(i), _) => self.coefficients_m2().get(i).copied(),
+            (Field::EffectiveArea(i), _) => self.coefficients_m2()?.get(i).copied(),
+            (Field::AreaKnot(i), Self::Spline { knots, .. }) => knots.values().get(i).copied(),
             (
                 Field::AreaPressureGrowth,
                 Self::PressurePolynomial {
                     growth_per_100kpa, ..
                 },
             ) => Some(*growth_per_100kpa),
+            (
+                Field::AreaPressureGrowth,
+                Self::Spline {
+                    growth_per_100kpa, ..
+                },
+            ) => *growth_per_100kpa,
             _ => None,
         }
     }
@@ -178,10 +273,17 @@ impl EffectiveAreaLaw {
     /// Sets one of the law's parameters; `false` if the law has no such parameter.
     pub fn set(&mut self, field: Field, value: f64) -> bool {
         match field {
-            Field::EffectiveArea(i) if i < 5 => {
-                self.coefficients_m2_mut()[i] = value;
-                true
-            }
+            Field::EffectiveArea(i) if i < 5 => match self.coefficients_m2_mut() {
+                Some(c) => {
+                    c[i] = value;
+                    true
+                }
+                None => false,
+            },
+            Field::AreaKnot(i) => match self {
+                Self::Spline { knots, .. } => knots.set_value(i, value),
+                _ => false,
+            },
             Field::AreaPressureGrowth => match self {
                 Self::PressurePolynomial {
                     growth_per_100kpa, ..
@@ -189,7 +291,14 @@ impl EffectiveAreaLaw {
                     *growth_per_100kpa = value;
                     true
                 }
-                Self::Polynomial { .. } => false,
+                Self::Spline {
+                    growth_per_100kpa: Some(growth),
+                    ..
+                } => {
+                    *growth = value;
+                    true
+                }
+                _ => false,
             },
             _ => false,
         }
@@ -200,6 +309,9 @@ impl EffectiveAreaLaw {
         let tag = t.tag()?.unwrap_or("polynomial");
         let decl = t.declaration(tag, AREA_LAWS)?;
         t.check_keys(decl.keys, tag)?;
+        if tag == "spline" {
+            return Self::spline_from_table(t);
+        }
         let coefficients_m2 = t.array::<5>("coefficients_m2", Field::EffectiveArea)?;
         Ok(match tag {
             "polynomial_pressure" => Self::PressurePolynomial {
@@ -207,6 +319,27 @@ impl EffectiveAreaLaw {
                 growth_per_100kpa: t.number("growth_per_100kpa", Field::AreaPressureGrowth)?,
             },
             _ => Self::Polynomial { coefficients_m2 },
+        })
+    }
+
+    fn spline_from_table(t: &LawTable) -> Result<Self, DataError> {
+        let heights_m = t.vector("heights_m", MAX_AREA_KNOTS, |_| None)?;
+        let areas_m2 = t.vector("areas_m2", MAX_AREA_KNOTS, |i| Some(Field::AreaKnot(i)))?;
+        let growth_per_100kpa = match t.optional_number("growth_per_100kpa")? {
+            Some(_) => Some(t.number("growth_per_100kpa", Field::AreaPressureGrowth)?),
+            None => None,
+        };
+        let key = if heights_m.len() == areas_m2.len() {
+            "heights_m"
+        } else {
+            "areas_m2"
+        };
+        Self::spline(heights_m, areas_m2, growth_per_100kpa).map_err(|reason| {
+            t.invalid(
+                key,
+                "[..]",
+                format!("{reason} (heights in m, strictly increasing, one area per height)"),
+            )
         })
     }
 
@@ -230,6 +363,31 @@ impl EffectiveAreaLaw {
                     "kap: area growth per 100 kPa (est)",
                 ),
             ]),
+            Self::Spline {
+                knots,
+                growth_per_100kpa,
+            } => {
+                let mut entries = vec![
+                    (
+                        "heights_m",
+                        format!("{:?}", knots.knots_x()),
+                        "knot bellow heights (fixed)",
+                    ),
+                    (
+                        "areas_m2",
+                        format!("{:?}", knots.values()),
+                        "s0..: knot effective areas (est)",
+                    ),
+                ];
+                if let Some(growth) = growth_per_100kpa {
+                    entries.push((
+                        "growth_per_100kpa",
+                        toml_number(*growth),
+                        "kap: area growth per 100 kPa (est)",
+                    ));
+                }
+                Some(entries)
+            }
         }
     }
 }
@@ -274,7 +432,7 @@ mod tests {
         assert_eq!(law.get(Field::AreaPressureGrowth), None);
         assert!(!law.set(Field::AreaPressureGrowth, 0.1));
         assert!(law.set(Field::EffectiveArea(1), 0.9));
-        assert_eq!(law.coefficients_m2()[1], 0.9);
+        assert_eq!(law.coefficients_m2().unwrap()[1], 0.9);
         let law = EffectiveAreaLaw::PressurePolynomial {
             coefficients_m2: REF,
             growth_per_100kpa: 0.004,

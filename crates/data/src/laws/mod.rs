@@ -30,16 +30,17 @@
 //! Adding a law: a variant in its family's file here (its parameters, evaluation, tag and
 //! keys), its parameters' declarations in [`crate::params::CATALOG`], and its fit in
 //! `airsus-estimate`. The models, the reader, the writer and the estimator pick it up, as
-//! long as the law keeps its family's shape (every effective-area law here is built on the
-//! quartic, [`EffectiveAreaLaw::coefficients_m2`]; ARCHITECTURE.md says what a spline needs).
+//! long as the law keeps its family's shape.
 
 mod area;
+mod spline;
 mod valve;
 mod volume;
 
 pub use area::{
     EFFECTIVE_AREA_RANGE_M, EffectiveAreaLaw, polynomial_area_m2, polynomial_area_slope_m,
 };
+pub use spline::{MonotoneSpline, SplineError};
 pub use valve::{
     AIR_MOLAR_MASS_KG_MOL, ISO6358_REFERENCE_DENSITY_KG_M3, ISO6358_REFERENCE_TEMPERATURE_K,
     LAMINAR_PRESSURE_RATIO, VALVE_CHANNELS, ValveFlowLaw, iso6358_molar_flow,
@@ -186,26 +187,64 @@ impl LawTable<'_> {
         key: &str,
         field: impl Fn(usize) -> Field,
     ) -> Result<[f64; N], DataError> {
+        let values = self.numbers(key, &format!("an array of {N} numbers"), N..=N, |i| {
+            Some(field(i))
+        })?;
+        values.try_into().map_err(|v: Vec<f64>| {
+            self.invalid(
+                key,
+                format!("[{} values]", v.len()),
+                format!("expected exactly {N} values"),
+            )
+        })
+    }
+
+    /// An array of 1 to `max` numbers, each checked against its field's range where
+    /// `field(i)` names one.
+    pub fn vector(
+        &self,
+        key: &str,
+        max: usize,
+        field: impl Fn(usize) -> Option<Field>,
+    ) -> Result<Vec<f64>, DataError> {
+        self.numbers(
+            key,
+            &format!("an array of 1 to {max} numbers"),
+            1..=max,
+            field,
+        )
+    }
+
+    /// The numbers of the array `key` (`expected` says what it should be), each checked
+    /// against its field's range where `field(i)` names one. An array whose length is outside
+    /// `lengths` is refused, except that [`Self::array`] reports a wrong length itself.
+    fn numbers(
+        &self,
+        key: &str,
+        expected: &str,
+        lengths: std::ops::RangeInclusive<usize>,
+        field: impl Fn(usize) -> Option<Field>,
+    ) -> Result<Vec<f64>, DataError> {
         let Some(value) = self.table.get(key) else {
             return Err(DataError::new(
                 self.location(self.section),
                 DataErrorKind::MissingKey {
                     key: format!("{}.{key}", self.section),
-                    expected: format!("an array of {N} numbers"),
+                    expected: expected.to_owned(),
                 },
             ));
         };
         let items = value
             .as_array()
-            .ok_or_else(|| self.invalid(key, value, format!("expected an array of {N} numbers")))?;
-        if items.len() != N {
+            .ok_or_else(|| self.invalid(key, value, format!("expected {expected}")))?;
+        if !lengths.contains(&items.len()) {
             return Err(self.invalid(
                 key,
                 format!("[{} values]", items.len()),
-                format!("expected exactly {N} values"),
+                format!("expected {expected}"),
             ));
         }
-        let mut out = [0.0; N];
+        let mut out = Vec::with_capacity(items.len());
         for (i, item) in items.iter().enumerate() {
             let v = match item {
                 toml::Value::Float(f) => *f,
@@ -214,7 +253,10 @@ impl LawTable<'_> {
                     return Err(self.invalid(key, other, format!("entry {i} is not a number")));
                 }
             };
-            out[i] = self.check(key, Some(i), field(i), v)?;
+            out.push(match field(i) {
+                Some(field) => self.check(key, Some(i), field, v)?,
+                None => v,
+            });
         }
         Ok(out)
     }

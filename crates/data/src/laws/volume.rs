@@ -111,12 +111,7 @@ impl GasVolumeLaw {
                 dead_volume_m3,
                 bellows,
             } => {
-                // ∫₀ʰ Σ pᵢ sⁱ ds = Σ pᵢ hⁱ⁺¹/(i+1), by Horner.
-                let p = area.coefficients_m2();
-                let swept = (0..5)
-                    .rev()
-                    .fold(0.0, |acc, i| acc * height_m + p[i] / (i + 1) as f64)
-                    * height_m;
+                let swept = area.integral_m3(height_m);
                 dead_volume_m3 + f64::from(*bellows) * swept
             }
         };
@@ -241,7 +236,7 @@ mod tests {
             bellows: 2,
         };
         // Two bellows of ∫₀^0.3 (p0 + p1 s + ... + p4 s⁴) ds each, term by term.
-        let p = AREA.coefficients_m2();
+        let p = *AREA.coefficients_m2().unwrap();
         let h: f64 = 0.3;
         let swept = p[0] * h
             + p[1] * h.powi(2) / 2.0
@@ -252,7 +247,7 @@ mod tests {
         // dV/dh is the effective area at every height of the stroke, and at zero gauge
         // pressure under the pressure-stretched law.
         let stretched = EffectiveAreaLaw::PressurePolynomial {
-            coefficients_m2: *p,
+            coefficients_m2: p,
             growth_per_100kpa: 0.004,
         };
         for k in 0..=25 {

@@ -14,7 +14,8 @@
 //! is measured with the bellow moved vertically; the truck's lever moves it on an arc — the
 //! thesis refines `p0..p4` by grey-box estimation for that reason.
 
-use airsus_data::{ForceMap, TruckParameters};
+use airsus_data::params::MAX_AREA_KNOTS;
+use airsus_data::{EffectiveAreaLaw, ForceMap, TruckParameters};
 use airsus_validate::nrmse_percent;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -29,6 +30,11 @@ pub struct EffectiveAreaOptions {
     pub degree: usize,
     /// Heights closer than this are one height, m.
     pub height_tolerance_m: f64,
+    /// The law's growth of the area with pressure, `κ` per 100 kPa, when the truck's law has
+    /// one (`polynomial_pressure`, a spline with `growth_per_100kpa`): the fitted areas are
+    /// then those at zero gauge pressure, `F = p A(h) (1 + κ p / 100 kPa)`, so that the law
+    /// written back does not count the stretch twice. `None`: `F = p A(h)` (thesis 5.2.2).
+    pub growth_per_100kpa: Option<f64>,
 }
 
 impl Default for EffectiveAreaOptions {
@@ -36,6 +42,18 @@ impl Default for EffectiveAreaOptions {
         Self {
             degree: 4,
             height_tolerance_m: 1e-4,
+            growth_per_100kpa: None,
+        }
+    }
+}
+
+impl EffectiveAreaOptions {
+    /// The defaults, with the growth of `truck`'s area law if it has one.
+    pub fn for_truck(truck: &TruckParameters) -> Self {
+        let area = &truck.bellow.effective_area;
+        Self {
+            growth_per_100kpa: area.depends_on_pressure().then(|| area.growth_per_100kpa()),
+            ..Self::default()
         }
     }
 }
@@ -69,20 +87,46 @@ impl EffectiveAreaFit {
             ))
         })?;
         // The fit is of the quartic (eq 5.4): it replaces the law's quartic; a pressure growth
-        // the truck's law has (`kap`) is kept, not dropped unsaid.
-        *truck.bellow.effective_area.coefficients_m2_mut() = poly;
+        // the truck's law has (`kap`) is kept, not dropped unsaid (fit with
+        // `EffectiveAreaOptions::for_truck`, so that the quartic is the area at zero pressure). A truck under a law without
+        // a quartic keeps its law: the fit of that law is asked for by name.
+        let law = truck.bellow.effective_area.tag();
+        let coefficients = truck
+            .bellow
+            .effective_area
+            .coefficients_m2_mut()
+            .ok_or_else(|| {
+                EstimateError::InvalidOption(format!(
+                    "the truck's effective area follows law \"{law}\", which has no quartic to replace; fit that law instead (the spline fit of the force map)"
+                ))
+            })?;
+        *coefficients = poly;
         Ok(())
     }
 }
 
-fn binomial(n: usize, k: usize) -> f64 {
-    (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
+/// One height of the force map: the least-squares area of `F = p A` over its pressures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct HeightArea {
+    height_m: f64,
+    area_m2: f64,
+    /// From the scatter of the height's forces about `p A`; NaN for a single point.
+    area_std_m2: f64,
+    points: usize,
+    /// `Σ p²` over the group: the area's weight when groups are merged.
+    weight: f64,
 }
 
-pub fn fit_effective_area(
+/// Step 1 of both fits: the map's points grouped by height (within `tolerance_m`), each
+/// group's area by least squares through the origin, in increasing height.
+fn per_height_areas(
     map: &ForceMap,
-    options: &EffectiveAreaOptions,
-) -> Result<EffectiveAreaFit, EstimateError> {
+    tolerance_m: f64,
+    growth_per_100kpa: Option<f64>,
+) -> Result<Vec<HeightArea>, EstimateError> {
+    let kappa = growth_per_100kpa.unwrap_or(0.0) / 1e5;
+    // The regressor of the area: F = A q.
+    let q = |k: usize| map.bellow_gauge_pa[k] * (1.0 + kappa * map.bellow_gauge_pa[k]);
     let bad = |reason: String| EstimateError::InsufficientData { fit: FIT, reason };
     let n = map.len();
     if map.bellow_gauge_pa.len() != n || map.force_n.len() != n {
@@ -104,24 +148,57 @@ pub fn fit_effective_area(
         )));
     }
     order.sort_by(|&a, &b| map.bellow_height_m[a].total_cmp(&map.bellow_height_m[b]));
-    let mut per_height: Vec<(f64, f64, usize)> = Vec::new();
+    let mut per_height: Vec<HeightArea> = Vec::new();
     let mut i = 0;
     while i < order.len() {
         let h_first = map.bellow_height_m[order[i]];
         let mut j = i;
         let (mut fp, mut pp, mut hs) = (0.0, 0.0, 0.0);
-        while j < order.len()
-            && map.bellow_height_m[order[j]] - h_first <= options.height_tolerance_m
-        {
+        while j < order.len() && map.bellow_height_m[order[j]] - h_first <= tolerance_m {
             let k = order[j];
-            fp += map.force_n[k] * map.bellow_gauge_pa[k];
-            pp += map.bellow_gauge_pa[k].powi(2);
+            fp += map.force_n[k] * q(k);
+            pp += q(k).powi(2);
             hs += map.bellow_height_m[k];
             j += 1;
         }
-        per_height.push((hs / (j - i) as f64, fp / pp, j - i));
+        let area = fp / pp;
+        // The area's standard deviation from the group's own scatter about F = p A.
+        let residual: f64 = order[i..j]
+            .iter()
+            .map(|&k| (map.force_n[k] - q(k) * area).powi(2))
+            .sum();
+        let std = if j - i > 1 {
+            (residual / (j - i - 1) as f64 / pp).sqrt()
+        } else {
+            f64::NAN
+        };
+        per_height.push(HeightArea {
+            height_m: hs / (j - i) as f64,
+            area_m2: area,
+            area_std_m2: std,
+            points: j - i,
+            weight: pp,
+        });
         i = j;
     }
+    Ok(per_height)
+}
+
+fn binomial(n: usize, k: usize) -> f64 {
+    (0..k).fold(1.0, |acc, i| acc * (n - i) as f64 / (i + 1) as f64)
+}
+
+pub fn fit_effective_area(
+    map: &ForceMap,
+    options: &EffectiveAreaOptions,
+) -> Result<EffectiveAreaFit, EstimateError> {
+    let bad = |reason: String| EstimateError::InsufficientData { fit: FIT, reason };
+    let n = map.len();
+    let per_height: Vec<(f64, f64, usize)> =
+        per_height_areas(map, options.height_tolerance_m, options.growth_per_100kpa)?
+            .iter()
+            .map(|g| (g.height_m, g.area_m2, g.points))
+            .collect();
     let d = options.degree;
     let m = per_height.len();
     if m < d + 2 {
@@ -175,8 +252,12 @@ pub fn fit_effective_area(
     };
     let areas: Vec<f64> = fit.per_height.iter().map(|x| x.1).collect();
     let area_fit: Vec<f64> = fit.per_height.iter().map(|x| fit.area_m2(x.0)).collect();
+    let kappa = options.growth_per_100kpa.unwrap_or(0.0) / 1e5;
     let force_fit: Vec<f64> = (0..n)
-        .map(|k| map.bellow_gauge_pa[k] * fit.area_m2(map.bellow_height_m[k]))
+        .map(|k| {
+            let p = map.bellow_gauge_pa[k];
+            p * fit.area_m2(map.bellow_height_m[k]) * (1.0 + kappa * p)
+        })
         .collect();
     let nrmse = |a: &[f64], b: &[f64]| {
         nrmse_percent(a, b).map_err(|e| EstimateError::InsufficientData {
@@ -189,4 +270,119 @@ pub fn fit_effective_area(
         force_nrmse_percent: nrmse(&map.force_n, &force_fit)?,
         ..fit
     })
+}
+
+/// The effective area as a monotone spline (the truck file's law `spline`) through the force
+/// map's per-height areas: one knot per measured height, its area the least-squares area of
+/// step 1. Where the map has more heights than a spline has knots ([`MAX_AREA_KNOTS`]),
+/// neighbouring heights are merged into equal-count groups (their areas averaged with the
+/// weights `Σ p²` of step 1, their heights by point count).
+///
+/// Unlike the quartic, the spline follows the map's own shape (no fitted curve between the
+/// heights to miss a bend), never overshoots it between heights, and holds its end areas
+/// beyond the measured stroke instead of extrapolating.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SplineAreaFit {
+    /// Knot bellow heights, m, increasing.
+    pub heights_m: Vec<f64>,
+    /// Knot areas `s0, s1, ..`, m².
+    pub areas_m2: Vec<f64>,
+    /// Their standard deviations from each height's scatter, m² (NaN for a single point).
+    pub areas_std_m2: Vec<f64>,
+    /// NRMSE of the predicted force `p A_eff(h, p)` against the measured forces, percent.
+    pub force_nrmse_percent: f64,
+    /// The growth with pressure the areas were fitted under ([`EffectiveAreaOptions`]).
+    pub growth_per_100kpa: Option<f64>,
+    /// The map's distinct heights (more than the knots where groups were merged).
+    pub map_heights: usize,
+    pub points: usize,
+}
+
+impl SplineAreaFit {
+    /// The spline law of this fit, stretched by `growth_per_100kpa` when given.
+    pub fn law(&self, growth_per_100kpa: Option<f64>) -> Result<EffectiveAreaLaw, EstimateError> {
+        EffectiveAreaLaw::spline(
+            self.heights_m.clone(),
+            self.areas_m2.clone(),
+            growth_per_100kpa,
+        )
+        .map_err(|reason| EstimateError::InsufficientData { fit: FIT, reason })
+    }
+
+    /// The area at bellow height `h` and zero gauge pressure, m² (the spline through the
+    /// knots).
+    pub fn area_m2(&self, h: f64) -> f64 {
+        self.law(None).map_or(f64::NAN, |law| law.area_m2(h, 0.0))
+    }
+
+    /// Makes the truck's effective area this spline, with the growth it was fitted under
+    /// (fit with [`EffectiveAreaOptions::for_truck`] to keep the truck's).
+    pub fn write_to(&self, truck: &mut TruckParameters) -> Result<(), EstimateError> {
+        truck.bellow.effective_area = self.law(self.growth_per_100kpa)?;
+        Ok(())
+    }
+}
+
+pub fn fit_effective_area_spline(
+    map: &ForceMap,
+    options: &EffectiveAreaOptions,
+) -> Result<SplineAreaFit, EstimateError> {
+    let groups = per_height_areas(map, options.height_tolerance_m, options.growth_per_100kpa)?;
+    let map_heights = groups.len();
+    if map_heights < 2 {
+        return Err(EstimateError::InsufficientData {
+            fit: FIT,
+            reason: format!("{map_heights} distinct height(s); a spline needs at least 2"),
+        });
+    }
+    let knots: Vec<HeightArea> = if map_heights <= MAX_AREA_KNOTS {
+        groups
+    } else {
+        (0..MAX_AREA_KNOTS)
+            .map(|b| {
+                let merged = &groups
+                    [b * map_heights / MAX_AREA_KNOTS..(b + 1) * map_heights / MAX_AREA_KNOTS];
+                let weight: f64 = merged.iter().map(|g| g.weight).sum();
+                let points: usize = merged.iter().map(|g| g.points).sum();
+                HeightArea {
+                    height_m: merged
+                        .iter()
+                        .map(|g| g.height_m * g.points as f64)
+                        .sum::<f64>()
+                        / points as f64,
+                    area_m2: merged.iter().map(|g| g.area_m2 * g.weight).sum::<f64>() / weight,
+                    area_std_m2: merged
+                        .iter()
+                        .map(|g| (g.area_std_m2 * g.weight).powi(2))
+                        .sum::<f64>()
+                        .sqrt()
+                        / weight,
+                    points,
+                    weight,
+                }
+            })
+            .collect()
+    };
+    let mut fit = SplineAreaFit {
+        heights_m: knots.iter().map(|g| g.height_m).collect(),
+        areas_m2: knots.iter().map(|g| g.area_m2).collect(),
+        areas_std_m2: knots.iter().map(|g| g.area_std_m2).collect(),
+        force_nrmse_percent: f64::NAN,
+        growth_per_100kpa: options.growth_per_100kpa,
+        map_heights,
+        points: map.len(),
+    };
+    let law = fit.law(fit.growth_per_100kpa)?;
+    let force_fit: Vec<f64> = (0..map.len())
+        .map(|k| {
+            let p = map.bellow_gauge_pa[k];
+            p * law.area_m2(map.bellow_height_m[k], p)
+        })
+        .collect();
+    fit.force_nrmse_percent =
+        nrmse_percent(&map.force_n, &force_fit).map_err(|e| EstimateError::InsufficientData {
+            fit: FIT,
+            reason: format!("NRMSE: {e}"),
+        })?;
+    Ok(fit)
 }
