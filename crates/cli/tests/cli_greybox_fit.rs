@@ -434,3 +434,24 @@ fn fit_effective_area_writes_a_spline_and_refits_a_spline_file_as_one() {
     assert!(stderr.contains("law \"spline\""), "{stderr}");
     assert!(!dir.path().join("quartic.toml").exists());
 }
+
+#[test]
+fn fit_wall_friction_reads_the_maps_hysteresis_into_the_truck_file() {
+    let dir = generated();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let (printed, _) = ok(&[
+        "fit",
+        "wall-friction",
+        "--force-map",
+        &p("force_map.csv"),
+        "--out",
+        &p("walled.toml"),
+    ]);
+    assert!(printed.contains("70 up/down pairs"), "{printed}");
+    let truck = airsus_data::read_truck(std::path::Path::new(&p("walled.toml")))
+        .unwrap()
+        .parameters;
+    // The built-in virtual truck's wall slides at 120 N.
+    let fc = truck.effects.friction_force_n.unwrap();
+    assert!((fc - 120.0).abs() < 15.0, "{fc}");
+}

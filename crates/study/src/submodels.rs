@@ -1,7 +1,8 @@
 //! Stage 1: the submodel fits of thesis 5.2, each seeding the start values of the grey-box
 //! fits (thesis Table 5.9) — effective area from the force map, cross-section shape from a
 //! closed-valve estimation run, flow resistances from the tank discharges, the slow-dynamics
-//! OE model from a load step, and Model 3's OE height model re-identified from the estimation
+//! OE model from a load step, the wall friction from the force map's hysteresis (the `truck`
+//! structure's `fc`), and Model 3's OE height model re-identified from the estimation
 //! run (the thesis did the same with the System Identification Toolbox; its printed Table 5.7
 //! fixes the poles but not the static gain).
 //!
@@ -12,7 +13,7 @@ use airsus_data::{Role, TruckParameters};
 use airsus_estimate::submodel::{
     CrossSectionOptions, DischargeData as FitDischarge, EffectiveAreaOptions, SlowDynamicsOptions,
     ValveFitOptions, fit_cross_section, fit_effective_area, fit_effective_area_spline,
-    fit_slow_dynamics, fit_valve,
+    fit_slow_dynamics, fit_valve, fit_wall_friction,
 };
 use airsus_ident::linear::{IdData, OeOrders, PemOptions, oe};
 use airsus_report::results::{NamedValue, SubmodelFit, SubmodelResults};
@@ -112,6 +113,57 @@ pub fn fit_submodels(
                 }),
             },
         },
+    }
+
+    // Wall friction: the force map's hysteresis between its up and down sweeps (the `truck`
+    // structure's `fc`; the other models have no wall friction).
+    const WALL: &str = "wall friction F_c = (F_down - F_up) / 2 from the force map's sweeps";
+    if let Some(map) = &input.force_map {
+        match fit_wall_friction(map, options.height_tolerance_m) {
+            Err(e) => fits.push(failed("wall_friction", WALL, e.to_string())),
+            Ok(fit) => {
+                // The truck structure's start value (the file's, or the built-in one) is
+                // kept where the lab reading agrees with it within three standard deviations:
+                // a reading is replaced only by one that contradicts it. (On the built-in
+                // virtual truck, whose wall the built-in value describes exactly, the map
+                // reads 116.6 ± 7.6 N for 120 N; writing it cost data-set 4's pressure a point.)
+                let field = airsus_data::params::Field::WallFrictionForce;
+                let start = airsus_data::params::get(&truck, field);
+                // A file without `[effects] friction_force_n`: the structure's built-in value.
+                let start = if start.is_nan() {
+                    airsus_truck::truth::EffectParameters::default().friction_force_n
+                } else {
+                    start
+                };
+                let agrees = (fit.friction_force_n - start).abs() <= 3.0 * fit.friction_force_std_n;
+                let written =
+                    !agrees && airsus_data::params::set(&mut truck, field, fit.friction_force_n);
+                fits.push(SubmodelFit {
+                    name: "wall_friction".to_owned(),
+                    description: WALL.to_owned(),
+                    parameters: vec![value(
+                        "fc",
+                        "N",
+                        fit.friction_force_n,
+                        Some(fit.friction_force_std_n),
+                    )],
+                    nrmse_estimation_percent: None,
+                    nrmse_validation_percent: None,
+                    notes: vec![format!(
+                        "{} up/down pairs at one height and pressure; {}",
+                        fit.pairs,
+                        if written {
+                            format!("the truck structure starts from it, not from {start} N")
+                        } else if agrees {
+                            format!("agrees with the truck structure's {start} N, which is kept")
+                        } else {
+                            "not written: the truck file has no place for it".to_owned()
+                        }
+                    )],
+                    error: None,
+                });
+            }
+        }
     }
 
     let closed: Vec<&crate::input::StudyRunData> =

@@ -5,6 +5,7 @@
 //! * `cross-section` — `A(h) = A0 + A1 h` from a closed-valve run (eq 5.1–5.3, Table 5.1);
 //! * `effective-area` — 4th-degree `A_eff(h)` (eq 3.16/5.4) or a monotone spline from a bellow
 //!   force map;
+//! * `wall-friction` — the `truck` structure's `fc` from a force map's up/down hysteresis;
 //! * `valve` — `R_flow1`, `R_flow2` from tank discharges (eq 3.19/5.5/5.6, Table 5.3), from a
 //!   study file or from `--discharge` files with their metadata;
 //! * `slow-dynamics` — the OE block of Model 2 extended from one load step (5.2.4).
@@ -19,7 +20,7 @@ use airsus_data::{
 use airsus_estimate::submodel::{
     CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions,
     SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area,
-    fit_effective_area_spline, fit_slow_dynamics, fit_valve,
+    fit_effective_area_spline, fit_slow_dynamics, fit_valve, fit_wall_friction,
 };
 use airsus_ident::linear::OeOrders;
 use anyhow::{Context, bail};
@@ -73,6 +74,15 @@ pub enum FitCommand {
         /// 16). Default: the --truck file's law (a spline for a spline, else the quartic).
         #[arg(long, value_enum)]
         law: Option<AreaLawArg>,
+    },
+    /// Wall friction `fc` (the `truck` structure's `[effects] friction_force_n`) from the
+    /// hysteresis of a force map measured in up and down sweeps: half the difference of the
+    /// downward and upward forces at one height and pressure.
+    WallFriction {
+        /// Bellow force map (CSV: bellow_height_mm, pressure_kpa, force_n), rows in the order
+        /// measured.
+        #[arg(long)]
+        force_map: PathBuf,
     },
     /// Valve flow resistances from tank discharges, via the ideal gas law and a
     /// Savitzky–Golay derivative of the tank pressure.
@@ -131,7 +141,9 @@ impl FitCommand {
             } => std::iter::once(run.as_path())
                 .chain(validation.iter().map(PathBuf::as_path))
                 .collect(),
-            Self::EffectiveArea { force_map, .. } => vec![force_map],
+            Self::EffectiveArea { force_map, .. } | Self::WallFriction { force_map } => {
+                vec![force_map]
+            }
             Self::Valve {
                 study, discharge, ..
             } => study
@@ -335,6 +347,23 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                     fit.write_to(&mut truck)?;
                 }
             }
+        }
+        FitCommand::WallFriction { force_map } => {
+            let map = read_force_map(force_map)?;
+            let fit = fit_wall_friction(&map, EffectiveAreaOptions::default().height_tolerance_m)?;
+            if args.json {
+                print_json(&fit)?;
+            } else {
+                println!(
+                    "Wall friction from the force map's sweeps: fc = {:.1} ± {:.1} N ({} up/down pairs)",
+                    fit.friction_force_n, fit.friction_force_std_n, fit.pairs
+                );
+            }
+            airsus_data::params::set(
+                &mut truck,
+                airsus_data::params::Field::WallFrictionForce,
+                fit.friction_force_n,
+            );
         }
         FitCommand::Valve {
             study,

@@ -5,6 +5,7 @@
 //! |---|---|---|---|
 //! | gas-volume cross-section `A(h) = A0 + A1 h` | closed-valve load-step run | eq 5.1–5.3, Table 5.1 | [`fit_cross_section`] |
 //! | effective area `A_eff(h)`, 4th-degree polynomial | bellow force map | eq 3.16, 5.4, Table 5.2 | [`fit_effective_area`] |
+//! | wall friction `F_c` (the `truck` structure's `fc`) | bellow force map, up and down sweeps | — | [`fit_wall_friction`] |
 //! | effective area `A_eff(h)`, monotone spline through the map's heights | bellow force map | eq 3.16 | [`fit_effective_area_spline`] |
 //! | valve flow resistances `R_flow1`, `R_flow2` | tank discharges | eq 3.19, 5.5, 5.6, Table 5.3 | [`fit_valve`] |
 //! | slow dynamics, OE `nb=1 nf=1 nk=2` | one isolated load step | 5.2.4, Tables 5.4/5.5 | [`fit_slow_dynamics`] |
@@ -14,6 +15,7 @@ pub mod derivative;
 mod effective_area;
 mod slow_dynamics;
 mod valve;
+mod wall_friction;
 
 pub use cross_section::{
     CrossSectionFit, CrossSectionOptions, CrossSectionScale, fit_cross_section,
@@ -24,3 +26,4 @@ pub use effective_area::{
 };
 pub use slow_dynamics::{SlowDynamicsFit, SlowDynamicsOptions, fit_slow_dynamics};
 pub use valve::{ChannelFit, DischargeData, DischargeFit, ValveFit, ValveFitOptions, fit_valve};
+pub use wall_friction::{WallFrictionFit, fit_wall_friction};
