@@ -455,3 +455,46 @@ fn fit_wall_friction_reads_the_maps_hysteresis_into_the_truck_file() {
     let fc = truck.effects.friction_force_n.unwrap();
     assert!((fc - 120.0).abs() < 15.0, "{fc}");
 }
+
+#[test]
+fn fit_valve_law_orifice_reads_the_conductances_from_the_discharges() {
+    let dir = generated();
+    let study = dir.path().join("study.toml");
+    let study = study.to_str().unwrap();
+    let (printed, _) = ok(&["fit", "valve", "--study", study, "--law", "orifice"]);
+    assert!(printed.contains("ISO 6358"), "{printed}");
+    // The built-in virtual truck's valve: c1 5e-9, c2 1.2e-8 m3/(s Pa), b 0.4.
+    let value = |label: &str| -> f64 {
+        let line = printed
+            .lines()
+            .find(|l| l.trim_start().starts_with(label))
+            .unwrap_or_else(|| panic!("{printed}"));
+        line.split('=')
+            .nth(1)
+            .unwrap()
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert!((value("c1") / 5e-9 - 1.0).abs() < 0.01, "{printed}");
+    assert!((value("c2") / 1.2e-8 - 1.0).abs() < 0.01, "{printed}");
+    assert!((value("bcr") - 0.4).abs() < 0.01, "{printed}");
+    // Into a truck file under the thesis' resistances it is not written.
+    let out = dir.path().join("orifice.toml");
+    let refused = airsus(&[
+        "fit",
+        "valve",
+        "--study",
+        study,
+        "--law",
+        "orifice",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success(), "{stderr}");
+    assert!(stderr.contains("linear_resistance"), "{stderr}");
+    assert!(!out.exists());
+}

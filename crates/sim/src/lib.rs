@@ -19,6 +19,8 @@
 //! changes: wheel load, road height, valve state always; supply pressure only while the valve
 //! fills (see [`SupplyRelevance`] and the [`solve`] module docs).
 //!
+//! [`tank`] simulates the lab's tank discharge (the rig and the orifice fit share it).
+//!
 //! [`reference`] holds test models with analytic solutions, shared by the tests and benches.
 
 pub mod error;
@@ -26,6 +28,7 @@ pub mod problem;
 pub mod reference;
 pub mod response;
 pub mod solve;
+pub mod tank;
 
 pub use error::{NamedState, SimError, SolverFailure, StateViolation};
 pub use problem::{
@@ -34,3 +37,4 @@ pub use problem::{
 };
 pub use response::{SimulationResponse, SolverStatistics, StateHistory};
 pub use solve::{input_change_matters, simulate, simulate_into};
+pub use tank::{TankDischargeProblem, simulate_tank_discharge};

@@ -1,6 +1,7 @@
 //! Stage 1: the submodel fits of thesis 5.2, each seeding the start values of the grey-box
 //! fits (thesis Table 5.9) — effective area from the force map, cross-section shape from a
-//! closed-valve estimation run, flow resistances from the tank discharges, the slow-dynamics
+//! closed-valve estimation run, flow resistances (and the ISO 6358 orifice, the tank's gas
+//! simulated) from the tank discharges, the slow-dynamics
 //! OE model from a load step, the wall friction from the force map's hysteresis (the `truck`
 //! structure's `fc`), and Model 3's OE height model re-identified from the estimation
 //! run (the thesis did the same with the System Identification Toolbox; its printed Table 5.7
@@ -11,9 +12,9 @@
 
 use airsus_data::{Role, TruckParameters};
 use airsus_estimate::submodel::{
-    CrossSectionOptions, DischargeData as FitDischarge, EffectiveAreaOptions, SlowDynamicsOptions,
-    ValveFitOptions, fit_cross_section, fit_effective_area, fit_effective_area_spline,
-    fit_slow_dynamics, fit_valve, fit_wall_friction,
+    CrossSectionOptions, DischargeData as FitDischarge, EffectiveAreaOptions, OrificeFitOptions,
+    SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area,
+    fit_effective_area_spline, fit_orifice, fit_slow_dynamics, fit_valve, fit_wall_friction,
 };
 use airsus_ident::linear::{IdData, OeOrders, PemOptions, oe};
 use airsus_report::results::{NamedValue, SubmodelFit, SubmodelResults};
@@ -289,6 +290,56 @@ pub fn fit_submodels(
                         }
                     }
                 }
+            }
+        }
+    }
+
+    // The ISO 6358 orifice from the same discharges, the tank's gas simulated with its
+    // cooling: written where the truck file's valve follows the orifice law.
+    const ORIFICE: &str =
+        "c1, c2, bcr (ISO 6358) from tank discharges, the tank's gas simulated with its cooling";
+    if !discharges.is_empty() {
+        match fit_orifice(&discharges, &OrificeFitOptions::for_truck(&truck)) {
+            Err(e) => fits.push(failed("valve_orifice", ORIFICE, e.to_string())),
+            Ok(fit) => {
+                let written = fit.write_to(&mut truck).err();
+                let nrmse = |role: Role| {
+                    let v: Vec<f64> = fit
+                        .discharges
+                        .iter()
+                        .filter(|d| d.role == role)
+                        .map(|d| d.nrmse_percent)
+                        .collect();
+                    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+                };
+                let std = |i: usize| fit.std[i].is_finite().then_some(fit.std[i]);
+                let mut parameters = Vec::new();
+                if let Some(c1) = fit.fill_conductance_m3_s_pa {
+                    parameters.push(value("c1", "m3/(s Pa)", c1, std(0)));
+                }
+                if let Some(c2) = fit.exhaust_conductance_m3_s_pa {
+                    parameters.push(value("c2", "m3/(s Pa)", c2, std(1)));
+                }
+                parameters.push(value("bcr", "1", fit.critical_pressure_ratio, std(2)));
+                parameters.push(value("tau_tank", "s", fit.tank_thermal_time_s, std(3)));
+                fits.push(SubmodelFit {
+                    name: "valve_orifice".to_owned(),
+                    description: ORIFICE.to_owned(),
+                    parameters,
+                    nrmse_estimation_percent: nrmse(Role::Estimation),
+                    nrmse_validation_percent: nrmse(Role::Validation),
+                    notes: vec![
+                        format!(
+                            "the NRMSE is of the tank pressure; residual {:.0} Pa; tau_tank is the rig's tank wall, not the truck's",
+                            fit.residual_rms_pa
+                        ),
+                        match written {
+                            None => "written: the truck file's valve follows the orifice law".to_owned(),
+                            Some(e) => format!("reported, not written: {e}"),
+                        },
+                    ],
+                    error: None,
+                });
             }
         }
     }

@@ -1,7 +1,7 @@
 //! The study's submodel stage keeps the laws a truck file chose. It used to write the thesis'
 //! linear valve resistances over an ISO 6358 orifice law (and the `truck` structure then
 //! started from its built-in conductances, whatever the file said), and its cross-section fit
-//! over any gas-volume law.
+//! over any gas-volume law. An orifice file now gets the orifice the tank discharges give.
 
 use airsus_data::{GasVolumeLaw, ValveFlowLaw};
 use airsus_study::load_study;
@@ -12,7 +12,7 @@ fn the_submodel_stage_keeps_an_orifice_valve_and_an_area_integral_volume() {
     let dir = tempfile::tempdir().unwrap();
     let generated = airsus_truck::experiments::generate(dir.path(), 1, &mut |_| {}).unwrap();
     let mut input = load_study(&generated.study_valve).unwrap();
-    let orifice = ValveFlowLaw::Orifice {
+    input.truck.valve = ValveFlowLaw::Orifice {
         fill_conductance_m3_s_pa: 5.5e-9,
         exhaust_conductance_m3_s_pa: 1.3e-8,
         critical_pressure_ratio: 0.35,
@@ -21,11 +21,31 @@ fn the_submodel_stage_keeps_an_orifice_valve_and_an_area_integral_volume() {
         dead_volume_m3: 0.05,
         bellows: 2,
     };
-    input.truck.valve = orifice;
     input.truck.bellow.gas_volume = volume.clone();
     let estimation: Vec<String> = ["data-set 1", "data-set 3"].map(str::to_owned).to_vec();
     let (start, fits) = fit_submodels(&input, &estimation);
-    assert_eq!(start.valve, orifice);
+    // The orifice law stays, with the values the discharges give (the virtual truck's valve:
+    // 5e-9 and 1.2e-8 m3/(s Pa), b 0.4), from the tank's gas simulated as it cools.
+    let ValveFlowLaw::Orifice {
+        fill_conductance_m3_s_pa: c1,
+        exhaust_conductance_m3_s_pa: c2,
+        critical_pressure_ratio: b,
+    } = start.valve
+    else {
+        panic!("the orifice law was replaced: {:?}", start.valve);
+    };
+    assert!(
+        (c1 / 5e-9 - 1.0).abs() < 0.01
+            && (c2 / 1.2e-8 - 1.0).abs() < 0.01
+            && (b - 0.4).abs() < 0.01,
+        "{:?}",
+        start.valve
+    );
+    let lab = fits.get("valve_orifice").unwrap();
+    assert!(
+        lab.notes.iter().any(|n| n.starts_with("written")),
+        "{lab:?}"
+    );
     assert_eq!(start.bellow.gas_volume, volume);
 
     // The discharges' resistances are still reported, beside the law they do not replace.
@@ -56,5 +76,13 @@ fn the_submodel_stage_keeps_an_orifice_valve_and_an_area_integral_volume() {
     assert_eq!(start.valve.tag(), "linear_resistance");
     assert_ne!(start.valve, input.truck.valve);
     assert!(fits.get("fill_valve").unwrap().notes.len() == 1);
+    // The orifice is reported beside them, not written over the thesis' law.
+    let lab = fits.get("valve_orifice").unwrap();
+    assert!(
+        lab.notes
+            .iter()
+            .any(|n| n.contains("reported, not written")),
+        "{lab:?}"
+    );
     assert_ne!(start.bellow.gas_volume, input.truck.bellow.gas_volume);
 }

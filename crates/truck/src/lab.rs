@@ -2,10 +2,9 @@
 //! and tank discharges through the valve's fill and exhaust channels.
 
 use airsus_data::{Channel, ForceMap, TankDischarge};
-use diffsol::{DenseMatrix, NalgebraMat, OdeBuilder, OdeSolverMethod};
+use airsus_sim::{TankDischargeProblem, simulate_tank_discharge};
 
 use crate::error::TruckError;
-use crate::physics::{GasEnergyBalance, gas_temperature_rate};
 use crate::sensors::{NoiseSource, SensorSpec};
 
 use crate::truth::VirtualTruck;
@@ -89,81 +88,30 @@ pub fn simulate_discharge(
     test: &DischargeTest,
 ) -> Result<Vec<f64>, TruckError> {
     let env = &truck.physical.environment;
-    let e = &truck.effect_parameters;
-    let (r_gas, ambient) = (env.gas_constant_j_mol_k, env.ambient_pressure_pa);
-    let volume = test.tank_volume_m3;
+    let ambient = env.ambient_pressure_pa;
     let valve = truck.valve_law();
     let channel = test.channel;
-    let heat = truck.effects.heat_exchange;
-    let wall = test.temperature_k;
-    let rhs = move |x: &[f64], _p: &[f64], _t: f64, dx: &mut [f64]| {
-        let (n, t) = (x[0].max(0.0), if heat { x[1] } else { wall });
-        let p = n * r_gas * t / volume;
-        let out = match channel {
-            Channel::Fill => valve.fill_flow_mol_s(p, ambient, t),
-            Channel::Exhaust => valve.exhaust_flow_mol_s(p, ambient, t),
-        };
-        dx[0] = -out;
-        dx[1] = if heat {
-            gas_temperature_rate(
-                &GasEnergyBalance {
-                    amount_mol: n,
-                    temperature_k: t,
-                    pressure_pa: p,
-                    volume_rate_m3_s: 0.0,
-                    net_inflow_mol_s: -out,
-                    inflow_temperature_k: t,
-                    wall_temperature_k: wall,
-                    thermal_time_constant_s: e.lab_tank_thermal_time_constant_s,
-                },
-                r_gas,
-            )
-        } else {
-            0.0
-        };
-    };
-    // Tsit45 never asks for the Jacobian; a forward difference keeps the closure honest anyway.
-    let jac = move |x: &[f64], p: &[f64], t: f64, v: &[f64], y: &mut [f64]| {
-        let (mut f0, mut f1) = ([0.0; 2], [0.0; 2]);
-        let eps = 1e-7 * (1.0 + x[0].abs().max(x[1].abs()));
-        let shifted = [x[0] + eps * v[0], x[1] + eps * v[1]];
-        rhs(x, p, t, &mut f0);
-        rhs(&shifted, p, t, &mut f1);
-        for i in 0..2 {
-            y[i] = (f1[i] - f0[i]) / eps;
-        }
-    };
-    let n0 = (test.start_gauge_pa + ambient) * volume / (r_gas * test.temperature_k);
-    let t0 = test.temperature_k;
     let samples = (test.duration_s / test.sample_time_s).round() as usize + 1;
     let times: Vec<f64> = (0..samples)
         .map(|i| i as f64 * test.sample_time_s)
         .collect();
-    let ode = OdeBuilder::<NalgebraMat<f64>>::new()
-        .rtol(1e-8)
-        .atol([1e-9 * n0, 1e-6])
-        .rhs_implicit(rhs, jac)
-        .init(
-            move |_p: &[f64], _t: f64, y: &mut [f64]| y.copy_from_slice(&[n0, t0]),
-            2,
-        )
-        .build()
-        .map_err(|err| TruckError::Discharge(err.to_string()))?;
-    let mut solver = ode
-        .tsit45()
-        .map_err(|err| TruckError::Discharge(err.to_string()))?;
-    let (solution, _) = solver
-        .solve_dense(&times)
-        .map_err(|err| TruckError::Discharge(err.to_string()))?;
-    Ok((0..samples)
-        .map(|k| {
-            let (n, t) = (
-                solution.get_index(0, k),
-                if heat { solution.get_index(1, k) } else { wall },
-            );
-            n * r_gas * t / volume - ambient
-        })
-        .collect())
+    let discharge = TankDischargeProblem {
+        volume_m3: test.tank_volume_m3,
+        room_temperature_k: test.temperature_k,
+        start_gauge_pa: test.start_gauge_pa,
+        times_s: &times,
+        gas_constant_j_mol_k: env.gas_constant_j_mol_k,
+        ambient_pressure_pa: ambient,
+        thermal_time_s: truck
+            .effects
+            .heat_exchange
+            .then_some(truck.effect_parameters.lab_tank_thermal_time_constant_s),
+    };
+    simulate_tank_discharge(&discharge, |p, t| match channel {
+        Channel::Fill => valve.fill_flow_mol_s(p, ambient, t),
+        Channel::Exhaust => valve.exhaust_flow_mol_s(p, ambient, t),
+    })
+    .map_err(TruckError::Discharge)
 }
 
 /// A discharge test as the rig logs it: sensor noise and quantisation on the tank pressure.

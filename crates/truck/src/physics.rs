@@ -17,52 +17,8 @@ pub use airsus_data::laws::{
     AIR_MOLAR_MASS_KG_MOL, ISO6358_REFERENCE_DENSITY_KG_M3, ISO6358_REFERENCE_TEMPERATURE_K,
     LAMINAR_PRESSURE_RATIO, iso6358_molar_flow,
 };
-/// Heat capacity ratio of air.
-pub const AIR_GAMMA: f64 = 1.4;
-
-/// Inputs of [`gas_temperature_rate`], SI units.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct GasEnergyBalance {
-    /// Amount of gas in the volume, mol.
-    pub amount_mol: f64,
-    /// Gas temperature, K.
-    pub temperature_k: f64,
-    /// Absolute pressure, Pa.
-    pub pressure_pa: f64,
-    /// `dV/dt`, m³/s.
-    pub volume_rate_m3_s: f64,
-    /// Net molar flow into the volume, mol/s (negative: out).
-    pub net_inflow_mol_s: f64,
-    /// Temperature of gas flowing in, K.
-    pub inflow_temperature_k: f64,
-    /// Wall (ambient) temperature, K.
-    pub wall_temperature_k: f64,
-    /// Thermal time constant of the heat exchange with the wall, s.
-    pub thermal_time_constant_s: f64,
-}
-
-/// `dT/dt` of an ideal gas in a variable volume with flow and heat exchange (first law for an
-/// open system, constant `c_v`, `c_p = γ c_v`, `R = c_p − c_v`):
-///
-/// `n c_v dT/dt = ṅ_in (c_p T_in − c_v T) − ṅ_out R T − p dV/dt + Q̇`,
-/// `Q̇ = n c_v (T_wall − T)/τ`.
-///
-/// With no flow and `τ → ∞` this is the adiabatic `T V^(γ−1) = const`; with `τ → 0`
-/// isothermal, the thesis' assumption. Outflow leaves at the gas temperature.
-pub fn gas_temperature_rate(b: &GasEnergyBalance, gas_constant: f64) -> f64 {
-    let cv = gas_constant / (AIR_GAMMA - 1.0);
-    let cp = AIR_GAMMA * cv;
-    let t = b.temperature_k;
-    let (inflow, outflow) = if b.net_inflow_mol_s >= 0.0 {
-        (b.net_inflow_mol_s, 0.0)
-    } else {
-        (0.0, -b.net_inflow_mol_s)
-    };
-    let flow_term = inflow * (cp * b.inflow_temperature_k - cv * t) - outflow * gas_constant * t;
-    let work = b.pressure_pa * b.volume_rate_m3_s;
-    let heat = (b.wall_temperature_k - t) / b.thermal_time_constant_s.max(1e-6);
-    (flow_term - work) / (b.amount_mol.max(1e-9) * cv) + heat
-}
+// The gas's energy balance is the model crate's (the estimator's lab fits use it too).
+pub use airsus_model::submodels::{AIR_GAMMA, GasEnergyBalance, gas_temperature_rate};
 
 /// Dahl friction: `dF/dt = σ (v − |v| F / F_c)`. A rate-independent hysteresis force that
 /// approaches `±F_c` when sliding and acts as a spring of stiffness `σ` for small reversals.

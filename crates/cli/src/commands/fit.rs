@@ -18,9 +18,9 @@ use airsus_data::{
     write_truck,
 };
 use airsus_estimate::submodel::{
-    CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions,
-    SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area,
-    fit_effective_area_spline, fit_slow_dynamics, fit_valve, fit_wall_friction,
+    CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions, OrificeFit,
+    OrificeFitOptions, SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area,
+    fit_effective_area_spline, fit_orifice, fit_slow_dynamics, fit_valve, fit_wall_friction,
 };
 use airsus_ident::linear::OeOrders;
 use anyhow::{Context, bail};
@@ -108,6 +108,11 @@ pub enum FitCommand {
         /// Savitzky–Golay half window (window 2m+1 samples).
         #[arg(long, default_value_t = 5)]
         half_window: usize,
+        /// The law to fit: `linear` (the thesis' resistances, isothermal, eq 5.5/5.6) or
+        /// `orifice` (ISO 6358 c1, c2, bcr, the tank's gas simulated with its cooling).
+        /// Default: the --truck file's valve law.
+        #[arg(long, value_enum)]
+        law: Option<ValveLawArg>,
     },
     /// Slow-dynamics OE model (load change → slow height change) from one load step.
     SlowDynamics {
@@ -154,6 +159,12 @@ impl FitCommand {
             Self::SlowDynamics { run, .. } => vec![run],
         }
     }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ValveLawArg {
+    Linear,
+    Orifice,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -373,6 +384,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             temperature_k,
             role,
             half_window,
+            law,
         } => {
             // (name, file, channel, volume m³, temperature, role)
             let mut specs = Vec::new();
@@ -430,6 +442,25 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                     role: *r,
                 })
                 .collect();
+            let law = law.unwrap_or(match truck.valve {
+                airsus_data::ValveFlowLaw::Orifice { .. } => ValveLawArg::Orifice,
+                _ => ValveLawArg::Linear,
+            });
+            if law == ValveLawArg::Orifice {
+                let fit = fit_orifice(&data, &OrificeFitOptions::for_truck(&truck))?;
+                if args.json {
+                    print_json(&fit)?;
+                } else {
+                    print_orifice_fit(&fit);
+                }
+                if let Err(e) = fit.write_to(&mut truck) {
+                    if args.out.is_some() {
+                        return Err(e.into());
+                    }
+                    eprintln!("note: {e}");
+                }
+                return finish(args, &truck);
+            }
             let options = ValveFitOptions {
                 half_window: *half_window,
                 ..ValveFitOptions::for_truck(&truck)
@@ -523,11 +554,57 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             fit.write_to(&mut truck);
         }
     }
+    finish(args, &truck)
+}
+
+/// Writes the updated truck where `--out` asks for it.
+fn finish(args: &FitArgs, truck: &TruckParameters) -> anyhow::Result<()> {
     if let Some(out) = &args.out {
-        write_truck(out, &truck)?;
+        write_truck(out, truck)?;
         if !args.json {
             println!("updated truck written to {}", out.display());
         }
     }
     Ok(())
+}
+
+fn print_orifice_fit(fit: &OrificeFit) {
+    println!(
+        "Valve orifice (ISO 6358), the tank's gas simulated with its cooling; residual {:.0} Pa",
+        fit.residual_rms_pa
+    );
+    let e = |v: f64| {
+        if v.is_finite() {
+            format!("{v:.2e}")
+        } else {
+            "—".to_owned()
+        }
+    };
+    for (label, value, std) in [
+        ("c1 (fill)", fit.fill_conductance_m3_s_pa, fit.std[0]),
+        ("c2 (exhaust)", fit.exhaust_conductance_m3_s_pa, fit.std[1]),
+    ] {
+        match value {
+            Some(v) => println!("  {label:<13} = {v:.4e} ± {} m3/(s Pa)", e(std)),
+            None => println!("  {label:<13}: no estimation discharge, not fitted"),
+        }
+    }
+    println!(
+        "  bcr           = {:.4} ± {}",
+        fit.critical_pressure_ratio,
+        e(fit.std[2])
+    );
+    println!(
+        "  tank wall     = {:.1} ± {} s (the rig's, not the truck's)",
+        fit.tank_thermal_time_s,
+        e(fit.std[3])
+    );
+    for d in &fit.discharges {
+        println!(
+            "    {:<40} {:<10} tank pressure NRMSE {:.2} %",
+            d.name,
+            d.role.as_str(),
+            d.nrmse_percent
+        );
+    }
 }

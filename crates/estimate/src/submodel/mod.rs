@@ -8,11 +8,13 @@
 //! | wall friction `F_c` (the `truck` structure's `fc`) | bellow force map, up and down sweeps | — | [`fit_wall_friction`] |
 //! | effective area `A_eff(h)`, monotone spline through the map's heights | bellow force map | eq 3.16 | [`fit_effective_area_spline`] |
 //! | valve flow resistances `R_flow1`, `R_flow2` | tank discharges | eq 3.19, 5.5, 5.6, Table 5.3 | [`fit_valve`] |
+//! | valve orifice `c1`, `c2`, `bcr` (ISO 6358), the tank's gas simulated with its cooling | tank discharges | (eq 5.5 without the isothermal assumption) | [`fit_orifice`] |
 //! | slow dynamics, OE `nb=1 nf=1 nk=2` | one isolated load step | 5.2.4, Tables 5.4/5.5 | [`fit_slow_dynamics`] |
 
 mod cross_section;
 pub mod derivative;
 mod effective_area;
+mod orifice;
 mod slow_dynamics;
 mod valve;
 mod wall_friction;
@@ -24,6 +26,7 @@ pub use effective_area::{
     EffectiveAreaFit, EffectiveAreaOptions, SplineAreaFit, fit_effective_area,
     fit_effective_area_spline,
 };
+pub use orifice::{OrificeDischargeFit, OrificeFit, OrificeFitOptions, fit_orifice};
 pub use slow_dynamics::{SlowDynamicsFit, SlowDynamicsOptions, fit_slow_dynamics};
 pub use valve::{ChannelFit, DischargeData, DischargeFit, ValveFit, ValveFitOptions, fit_valve};
 pub use wall_friction::{WallFrictionFit, fit_wall_friction};

@@ -20,7 +20,10 @@ pub use bellow::{
 };
 pub use damper::Damper;
 pub use friction::hinge_friction_n;
-pub use gas::{MIN_VOLUME_M3, air_amount_mol, pressure_abs_pa};
+pub use gas::{
+    AIR_GAMMA, GasEnergyBalance, MIN_VOLUME_M3, air_amount_mol, gas_temperature_rate,
+    pressure_abs_pa,
+};
 pub use lever::{
     axle_height_from_bellow_m, bellow_height_from_angle_m, bellow_height_from_axle_m,
     bellow_height_from_sensor_m, lever_gain, sensor_height_m,
