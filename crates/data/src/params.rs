@@ -103,7 +103,7 @@ pub enum Field {
     CreepTimeConstant,
     /// `κ` of the pressure-dependent effective area.
     AreaPressureGrowth,
-    /// `s0, s1, ..`: a spline effective area's knot areas (fewer than [`MAX_AREA_KNOTS`]).
+    /// `s0, s1, ..`: a spline effective area's knot areas (at most [`MAX_AREA_KNOTS`]).
     AreaKnot(usize),
     /// The orifice valve law's sonic conductances and critical ratio.
     FillConductance,

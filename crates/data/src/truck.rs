@@ -1842,6 +1842,11 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
                 "missing key `bellow.effective_area.areas_m2`",
             ),
             (
+                "heights_m = [220.0, 300.0]\nareas_m2 = [0.056, 0.054]\n",
+                "heights_m",
+                "check the unit",
+            ),
+            (
                 "heights_m = []\nareas_m2 = []\n",
                 "heights_m",
                 "1 to 16 numbers",

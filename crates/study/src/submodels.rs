@@ -155,10 +155,8 @@ pub fn fit_submodels(
                         fit.pairs,
                         if written {
                             format!("the truck structure starts from it, not from {start} N")
-                        } else if agrees {
-                            format!("agrees with the truck structure's {start} N, which is kept")
                         } else {
-                            "not written: the truck file has no place for it".to_owned()
+                            format!("agrees with the truck structure's {start} N, which is kept")
                         }
                     )],
                     error: None,

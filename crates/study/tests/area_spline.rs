@@ -159,6 +159,31 @@ fn a_spline_follows_a_bellow_area_the_quartic_cannot() {
         "true law {truth_scores:?}, spline {spline_scores:?}"
     );
 
+    // Under the area-integral volume the dead volume takes up the change of the swept volume,
+    // so that the gas volume at the middle knot is what it was under the quartic.
+    let mut integral = truck.physical.clone();
+    integral.bellow.effective_area = EffectiveAreaLaw::PressurePolynomial {
+        coefficients_m2: quartic.poly.clone().try_into().unwrap(),
+        growth_per_100kpa: kap,
+    };
+    integral.bellow.gas_volume = airsus_data::GasVolumeLaw::AreaIntegral {
+        dead_volume_m3: 0.05,
+        bellows: 2,
+    };
+    let middle = spline.heights_m[spline.heights_m.len() / 2];
+    let volume = |t: &airsus_data::TruckParameters| {
+        t.bellow
+            .gas_volume
+            .volume_m3(&t.bellow.effective_area, middle)
+    };
+    let before = volume(&integral);
+    spline.write_to(&mut integral).unwrap();
+    assert!(
+        (volume(&integral) - before).abs() < 1e-12,
+        "{before} -> {}",
+        volume(&integral)
+    );
+
     // A grey-box fit's default set frees the spline's knots where the thesis frees p0..p4.
     let (free, _) = default_free(&*by_spline, &[&runs[0].logged]).unwrap();
     let knots: Vec<String> = (0..10).map(|i| format!("s{i}")).collect();

@@ -83,6 +83,9 @@ pub enum FitCommand {
         /// measured.
         #[arg(long)]
         force_map: PathBuf,
+        /// Heights closer than this are one height (a move smaller than it is none), mm.
+        #[arg(long, default_value_t = 0.1)]
+        height_tolerance_mm: f64,
     },
     /// Valve flow resistances from tank discharges, via the ideal gas law and a
     /// Savitzky–Golay derivative of the tank pressure.
@@ -146,7 +149,7 @@ impl FitCommand {
             } => std::iter::once(run.as_path())
                 .chain(validation.iter().map(PathBuf::as_path))
                 .collect(),
-            Self::EffectiveArea { force_map, .. } | Self::WallFriction { force_map } => {
+            Self::EffectiveArea { force_map, .. } | Self::WallFriction { force_map, .. } => {
                 vec![force_map]
             }
             Self::Valve {
@@ -359,9 +362,17 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                 }
             }
         }
-        FitCommand::WallFriction { force_map } => {
+        FitCommand::WallFriction {
+            force_map,
+            height_tolerance_mm,
+        } => {
+            if !(height_tolerance_mm.is_finite() && *height_tolerance_mm >= 0.0) {
+                bail!(
+                    "--height-tolerance-mm must be a length of zero or more, got {height_tolerance_mm}"
+                );
+            }
             let map = read_force_map(force_map)?;
-            let fit = fit_wall_friction(&map, EffectiveAreaOptions::default().height_tolerance_m)?;
+            let fit = fit_wall_friction(&map, height_tolerance_mm * 1e-3)?;
             if args.json {
                 print_json(&fit)?;
             } else {

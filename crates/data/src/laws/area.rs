@@ -27,6 +27,10 @@ pub fn polynomial_area_slope_m(poly: &[f64; 5], height_m: f64) -> f64 {
 /// (0.2–0.45 m, thesis Fig 5.8) widened by 0.15 m on each side.
 pub const EFFECTIVE_AREA_RANGE_M: (f64, f64) = (0.05, 0.60);
 
+/// The highest knot height a spline law takes, m: well above any truck bellow's stroke, and
+/// below the same heights written in mm.
+const KNOT_HEIGHT_MAX_M: f64 = 2.0;
+
 /// The effective area of the bellow as a function of its height (and, for some laws, its
 /// gauge pressure).
 #[derive(Debug, Clone, PartialEq)]
@@ -324,6 +328,19 @@ impl EffectiveAreaLaw {
 
     fn spline_from_table(t: &LawTable) -> Result<Self, DataError> {
         let heights_m = t.vector("heights_m", MAX_AREA_KNOTS, |_| None)?;
+        if let Some((i, h)) = heights_m
+            .iter()
+            .enumerate()
+            .find(|(_, h)| !(**h > 0.0 && **h <= KNOT_HEIGHT_MAX_M))
+        {
+            return Err(t.invalid(
+                "heights_m",
+                h,
+                format!(
+                    "knot {i}: a bellow height in m, above 0 and at most {KNOT_HEIGHT_MAX_M} m; check the unit"
+                ),
+            ));
+        }
         let areas_m2 = t.vector("areas_m2", MAX_AREA_KNOTS, |i| Some(Field::AreaKnot(i)))?;
         let growth_per_100kpa = match t.optional_number("growth_per_100kpa")? {
             Some(_) => Some(t.number("growth_per_100kpa", Field::AreaPressureGrowth)?),

@@ -28,7 +28,8 @@ pub enum GasVolumeLaw {
     /// `A_eff` is the truck's own effective-area law at zero gauge pressure (the wall stretch
     /// of [`EffectiveAreaLaw::PressurePolynomial`] changes the area the load sees, not the
     /// volume swept); the integral starts at zero bellow height, where the quartic is outside
-    /// its stroke but is only integrated, never evaluated as a force. Outside the heights
+    /// its stroke but is only integrated, never evaluated as a force (a spline is held at its
+    /// first knot's area below it: [`EffectiveAreaLaw::integral_m3`]). Outside the heights
     /// the models trust the area over (`EFFECTIVE_AREA_RANGE_M`), where the force holds the
     /// area at its end value, the volume still follows the quartic: virtual work holds
     /// inside that range only (above about 0.78 m the quartic turns negative and the volume

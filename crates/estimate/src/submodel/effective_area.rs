@@ -316,9 +316,32 @@ impl SplineAreaFit {
     }
 
     /// Makes the truck's effective area this spline, with the growth it was fitted under
-    /// (fit with [`EffectiveAreaOptions::for_truck`] to keep the truck's).
+    /// (fit with [`EffectiveAreaOptions::for_truck`] to keep the truck's). Under the
+    /// area-integral gas volume the dead volume takes up the change of the integral at the
+    /// middle knot, so that the gas volume there stays what it was (the spline is held at its
+    /// first knot's area below it, where a quartic was integrated as it stands). A knot area
+    /// outside its declared range leaves the truck unchanged, with the error.
     pub fn write_to(&self, truck: &mut TruckParameters) -> Result<(), EstimateError> {
-        truck.bellow.effective_area = self.law(self.growth_per_100kpa)?;
+        for (i, &area) in self.areas_m2.iter().enumerate() {
+            super::check_declared(airsus_data::params::Field::AreaKnot(i), area)?;
+        }
+        let law = self.law(self.growth_per_100kpa)?;
+        if let airsus_data::GasVolumeLaw::AreaIntegral {
+            dead_volume_m3,
+            bellows,
+        } = truck.bellow.gas_volume
+        {
+            let reference_m = self.heights_m[self.heights_m.len() / 2];
+            let swept =
+                |area: &EffectiveAreaLaw| f64::from(bellows) * area.integral_m3(reference_m);
+            let dead = dead_volume_m3 + swept(&truck.bellow.effective_area) - swept(&law);
+            super::check_declared(airsus_data::params::Field::DeadVolume, dead)?;
+            truck.bellow.gas_volume = airsus_data::GasVolumeLaw::AreaIntegral {
+                dead_volume_m3: dead,
+                bellows,
+            };
+        }
+        truck.bellow.effective_area = law;
         Ok(())
     }
 }

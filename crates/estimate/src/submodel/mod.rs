@@ -30,3 +30,20 @@ pub use orifice::{OrificeDischargeFit, OrificeFit, OrificeFitOptions, fit_orific
 pub use slow_dynamics::{SlowDynamicsFit, SlowDynamicsOptions, fit_slow_dynamics};
 pub use valve::{ChannelFit, DischargeData, DischargeFit, ValveFit, ValveFitOptions, fit_valve};
 pub use wall_friction::{WallFrictionFit, fit_wall_friction};
+
+/// `value` against the declared range of `field`: what a fit writes into a truck must load
+/// from the file it is written to.
+fn check_declared(
+    field: airsus_data::params::Field,
+    value: f64,
+) -> Result<(), crate::error::EstimateError> {
+    let info = &field.param().info;
+    if info.admits(value) {
+        Ok(())
+    } else {
+        Err(crate::error::EstimateError::InvalidOption(format!(
+            "the fitted `{}` = {value} lies outside its admissible range {} to {} {}; the truck is left as it was",
+            info.name, info.lower, info.upper, info.unit
+        )))
+    }
+}

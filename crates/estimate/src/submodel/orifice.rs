@@ -106,7 +106,8 @@ pub struct OrificeFit {
 
 impl OrificeFit {
     /// Writes `c1`, `c2` (where estimated) and `bcr` into a truck under the orifice law; a
-    /// truck under another valve law is left unchanged and the error names its law.
+    /// truck under another valve law, or a value outside its declared range, leaves the truck
+    /// unchanged and the error says which.
     pub fn write_to(&self, truck: &mut TruckParameters) -> Result<(), EstimateError> {
         if !matches!(truck.valve, ValveFlowLaw::Orifice { .. }) {
             return Err(EstimateError::InvalidOption(format!(
@@ -122,6 +123,11 @@ impl OrificeFit {
                 Some(self.critical_pressure_ratio),
             ),
         ];
+        for (field, value) in fields {
+            if let Some(value) = value {
+                super::check_declared(field, value)?;
+            }
+        }
         for (field, value) in fields {
             if let Some(value) = value {
                 truck.valve.set(field, value);
@@ -157,9 +163,10 @@ fn simulate(
     })
 }
 
-/// `b` lies in (0.05, 0.95): the solver moves a logit of it, so that no step leaves the range
-/// and the gradient never vanishes at a clamp.
-const RATIO_RANGE: (f64, f64) = (0.05, 0.95);
+/// `b` lies in (0.05, 0.9) (the top is the declared bound of `bcr`, so that what the fit
+/// finds a truck file takes): the solver moves a logit of it, so that no step leaves the
+/// range and the gradient never vanishes at a clamp.
+const RATIO_RANGE: (f64, f64) = (0.05, 0.9);
 
 fn ratio_from(z: f64) -> f64 {
     RATIO_RANGE.0 + (RATIO_RANGE.1 - RATIO_RANGE.0) / (1.0 + (-z).exp())
@@ -314,7 +321,7 @@ pub fn fit_orifice(
             problem.residuals()?;
             let (problem, _) = LevenbergMarquardt::new().minimize(problem);
             let loss = problem.residuals()?.norm_squared();
-            Some((problem, loss))
+            loss.is_finite().then_some((problem, loss))
         })
         .collect();
     let evaluations: usize = ends.iter().map(|(p, _)| p.evaluations.get()).sum();
@@ -341,11 +348,21 @@ pub fn fit_orifice(
             for (column, i) in problem.free_indices().into_iter().enumerate() {
                 std[i] = scale[i] * (sigma2 * inverse[(column, column)]).max(0.0).sqrt();
             }
+            // At a bound of b the transform's slope vanishes and so would its spread: say
+            // nothing rather than a spread of zero.
+            if (b - RATIO_RANGE.0).min(RATIO_RANGE.1 - b) < 1e-3 {
+                std[2] = f64::NAN;
+            }
         }
     }
     let (c1, c2, b, tau) = Problem::values(&problem.z);
     let mut discharges = Vec::with_capacity(data.len());
-    for d in data {
+    // A discharge through a channel no estimation discharge went through is not scored: its
+    // conductance was not fitted.
+    for d in data.iter().filter(|d| match d.channel {
+        Channel::Fill => free[0],
+        Channel::Exhaust => free[1],
+    }) {
         let c = match d.channel {
             Channel::Fill => c1,
             Channel::Exhaust => c2,
@@ -369,4 +386,41 @@ pub fn fit_orifice(
         residual_rms_pa: rms,
         evaluations,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_value_outside_its_declared_range_is_not_written() {
+        let mut truck = TruckParameters::reference();
+        truck.valve = ValveFlowLaw::Orifice {
+            fill_conductance_m3_s_pa: 5e-9,
+            exhaust_conductance_m3_s_pa: 1.2e-8,
+            critical_pressure_ratio: 0.4,
+        };
+        let before = truck.clone();
+        let fit = OrificeFit {
+            fill_conductance_m3_s_pa: Some(6e-9),
+            exhaust_conductance_m3_s_pa: None,
+            critical_pressure_ratio: 0.95,
+            tank_thermal_time_s: 60.0,
+            std: [f64::NAN; 4],
+            discharges: vec![],
+            residual_rms_pa: 100.0,
+            evaluations: 1,
+        };
+        let err = fit.write_to(&mut truck).unwrap_err().to_string();
+        assert!(err.contains("`bcr` = 0.95"), "{err}");
+        assert_eq!(truck, before, "nothing written");
+        let fine = OrificeFit {
+            critical_pressure_ratio: 0.35,
+            ..fit
+        };
+        fine.write_to(&mut truck).unwrap();
+        assert_eq!(truck.valve.get(Field::FillConductance), Some(6e-9));
+        assert_eq!(truck.valve.get(Field::ExhaustConductance), Some(1.2e-8));
+        assert_eq!(truck.valve.get(Field::CriticalPressureRatio), Some(0.35));
+    }
 }
