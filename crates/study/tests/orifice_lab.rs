@@ -2,34 +2,63 @@
 //! its cooling (#12: the valve known from the lab, so that the valve runs need not tell flow
 //! from volume). On the virtual truck and a variant whose valve differs from it.
 
+use airsus_data::{Role, TankDischarge};
 use airsus_estimate::submodel::{DischargeData, OrificeFitOptions, fit_orifice};
 use airsus_truck::experiments::reference_discharges;
+use airsus_truck::lab::DischargeTest;
 use airsus_truck::lab::measure_discharge;
 use airsus_truck::truth::VirtualTruck;
+
+/// The variant's lab discharges with their metadata, as a study lists them.
+fn discharges(truck: &VirtualTruck) -> Vec<(String, DischargeTest, Role, TankDischarge)> {
+    reference_discharges()
+        .into_iter()
+        .enumerate()
+        .map(|(i, (name, test, role))| {
+            let log = measure_discharge(truck, &test, 40 + i as u64).unwrap();
+            (name, test, role, log)
+        })
+        .collect()
+}
+
+fn data(logs: &[(String, DischargeTest, Role, TankDischarge)]) -> Vec<DischargeData<'_>> {
+    logs.iter()
+        .map(|(name, test, role, log)| DischargeData {
+            name: name.clone(),
+            discharge: log,
+            channel: test.channel,
+            tank_volume_m3: test.tank_volume_m3,
+            temperature_k: test.temperature_k,
+            role: *role,
+        })
+        .collect()
+}
+
+#[test]
+fn a_valve_that_is_no_orifice_is_fitted_in_time_and_shows_it() {
+    // Variant 3's valve is a linear resistance. Trial points of the orifice fit there made
+    // the end of a discharge stiff and the fit ran for minutes; on a step budget they fail
+    // and the fit ends, its tank pressures far from the logged ones.
+    let truck = VirtualTruck::variant(3);
+    assert_eq!(truck.valve_law().tag(), "linear_resistance");
+    let logs = discharges(&truck);
+    let fit = fit_orifice(
+        &data(&logs),
+        &OrificeFitOptions::for_truck(&airsus_data::TruckParameters::reference()),
+    )
+    .unwrap();
+    // Measured: 86-87 % on each discharge (an orifice truck's: 99.9 %).
+    for d in &fit.discharges {
+        assert!(d.nrmse_percent < 95.0, "{d:?}");
+    }
+}
 
 #[test]
 fn the_tank_discharges_give_the_valves_orifice() {
     for k in [0, 2] {
         let mut truck = VirtualTruck::variant(k);
-        let logs: Vec<_> = reference_discharges()
-            .into_iter()
-            .enumerate()
-            .map(|(i, (name, test, role))| {
-                let log = measure_discharge(&truck, &test, 40 + i as u64).unwrap();
-                (name, test, role, log)
-            })
-            .collect();
-        let data: Vec<DischargeData> = logs
-            .iter()
-            .map(|(name, test, role, log)| DischargeData {
-                name: name.clone(),
-                discharge: log,
-                channel: test.channel,
-                tank_volume_m3: test.tank_volume_m3,
-                temperature_k: test.temperature_k,
-                role: *role,
-            })
-            .collect();
+        let logs = discharges(&truck);
+        let data = data(&logs);
         truck.resolve_laws();
         let e = &truck.effect_parameters;
         // Started a fifth off in every value.
