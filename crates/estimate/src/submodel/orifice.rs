@@ -186,6 +186,9 @@ struct Problem<'a> {
     free: [bool; 4],
     z: [f64; 4],
     evaluations: std::cell::Cell<usize>,
+    /// The residuals at the last point simulated: the solver asks for them, then for the
+    /// Jacobian (whose base they are) at the same point, and the caller before and after.
+    last: std::cell::RefCell<Option<([f64; 4], Vec<f64>)>>,
 }
 
 impl Problem<'_> {
@@ -195,6 +198,17 @@ impl Problem<'_> {
 
     /// Residuals of the estimation discharges, Pa, or `None` where a simulation failed.
     fn residuals_at(&self, z: &[f64; 4]) -> Option<Vec<f64>> {
+        if let Some((at, residuals)) = self.last.borrow().as_ref()
+            && at == z
+        {
+            return Some(residuals.clone());
+        }
+        let residuals = self.simulate_residuals(z)?;
+        *self.last.borrow_mut() = Some((*z, residuals.clone()));
+        Some(residuals)
+    }
+
+    fn simulate_residuals(&self, z: &[f64; 4]) -> Option<Vec<f64>> {
         self.evaluations.set(self.evaluations.get() + 1);
         let (c1, c2, b, tau) = Self::values(z);
         let mut out = Vec::new();
@@ -248,7 +262,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
             let step = 1e-5 * (1.0 + self.z[i].abs());
             let mut z = self.z;
             z[i] += step;
-            let shifted = self.residuals_at(&z)?;
+            let shifted = self.simulate_residuals(&z)?;
             for (row, (s, b)) in shifted.iter().zip(&base).enumerate() {
                 jacobian[(row, column)] = (s - b) / step;
             }
@@ -317,6 +331,7 @@ pub fn fit_orifice(
                 free,
                 z,
                 evaluations: std::cell::Cell::new(0),
+                last: std::cell::RefCell::new(None),
             };
             problem.residuals()?;
             let (problem, _) = LevenbergMarquardt::new().minimize(problem);
