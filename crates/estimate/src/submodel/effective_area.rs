@@ -88,8 +88,9 @@ impl EffectiveAreaFit {
         })?;
         // The fit is of the quartic (eq 5.4): it replaces the law's quartic; a pressure growth
         // the truck's law has (`kap`) is kept, not dropped unsaid (fit with
-        // `EffectiveAreaOptions::for_truck`, so that the quartic is the area at zero pressure). A truck under a law without
-        // a quartic keeps its law: the fit of that law is asked for by name.
+        // `EffectiveAreaOptions::for_truck`, so that the quartic is the area at zero
+        // pressure). A truck under a law without a quartic keeps its law: the fit of that law
+        // is asked for by name.
         let law = truck.bellow.effective_area.tag();
         let coefficients = truck
             .bellow
@@ -162,7 +163,7 @@ fn per_height_areas(
             j += 1;
         }
         let area = fp / pp;
-        // The area's standard deviation from the group's own scatter about F = p A.
+        // The area's standard deviation from the group's own scatter about F = A q.
         let residual: f64 = order[i..j]
             .iter()
             .map(|&k| (map.force_n[k] - q(k) * area).powi(2))
