@@ -173,9 +173,9 @@ pub fn run_study(
         .unwrap_or_default();
     let (start, submodels) = submodels::fit_submodels(input, &first_estimation);
     let mut charts: Vec<Chart> = [
-        figures::force_map_chart(input, &start),
-        figures::discharge_chart(input, &start),
-        figures::pressure_height_chart(input, &start),
+        figures::force_map_chart(input, &start.truck),
+        figures::discharge_chart(input, &start.truck),
+        figures::pressure_height_chart(input, &start.truck),
     ]
     .into_iter()
     .flatten()

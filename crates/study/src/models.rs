@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use airsus_data::{Run, TruckParameters, ValveState, write_truck};
+use airsus_data::{Run, ValveState, write_truck};
 use airsus_estimate::{
     GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, PrefixOptions, StartChoice,
     StartMethod, StopReason, ease_logged_load, estimate_with_starts, ramp_logged_load,
@@ -231,7 +231,7 @@ pub struct ModelOutcome {
 /// run; writes the estimated truck file to `out_dir/estimated/<protocol>_<model>.toml`.
 pub fn fit_and_validate(
     input: &StudyInput,
-    start: &TruckParameters,
+    start: &crate::submodels::SubmodelStart,
     protocol: &Protocol,
     model_name: &str,
     out_dir: &std::path::Path,
@@ -240,8 +240,17 @@ pub fn fit_and_validate(
     let started = Instant::now();
     let (initial, normalisation) = (options.initial, options.normalisation);
     let mut result = ModelResult::new(model_name);
-    let nominal = match build_any_model(model_name, start) {
-        Ok(m) => m,
+    let nominal = match build_any_model(model_name, &start.truck) {
+        Ok(mut m) => {
+            let set = start.apply_to(&mut *m);
+            if !set.is_empty() {
+                result.notes.push(format!(
+                    "{} start from the lab's orifice fit (the truck file's valve law cannot hold them)",
+                    set.join(", ")
+                ));
+            }
+            m
+        }
         Err(e) => {
             result.error = Some(e.to_string());
             return ModelOutcome {
@@ -403,7 +412,7 @@ pub fn fit_and_validate(
     // with each change eased over its own time.
     let load_ramp_s = Some(felt.longest_s()).filter(|&longest| longest > 0.0);
 
-    let mut truck = start.clone();
+    let mut truck = start.truck.clone();
     estimated.write_parameters(&mut truck);
     let file = format!("estimated/{}_{}.toml", protocol.name, model_name);
     match std::fs::create_dir_all(out_dir.join("estimated"))

@@ -42,13 +42,40 @@ fn failed(name: &str, description: &str, error: String) -> SubmodelFit {
     }
 }
 
+/// What the submodel fits give the grey-box fits to start from.
+#[derive(Debug, Clone)]
+pub struct SubmodelStart {
+    /// The truck file with every fit written into it that its laws take.
+    pub truck: TruckParameters,
+    /// Values of model parameters that the file cannot carry under its laws, by short name:
+    /// the lab's ISO 6358 orifice (`c1`, `c2`, `bcr`) where the file's valve follows the
+    /// thesis' linear resistance. A model that has the parameter starts from the value (the
+    /// `truck` structure, whose valve is an orifice under any file law, would otherwise start
+    /// from its built-in conductances); a model without it never sees it.
+    pub model_values: Vec<(&'static str, f64)>,
+}
+
+impl SubmodelStart {
+    /// Sets every [`Self::model_values`] entry `model` has; the names set.
+    pub fn apply_to(&self, model: &mut dyn airsus_model::SuspensionModel) -> Vec<&'static str> {
+        self.model_values
+            .iter()
+            .filter(|(name, value)| {
+                model.parameter(name).is_ok() && model.set_parameter(name, *value).is_ok()
+            })
+            .map(|(name, _)| *name)
+            .collect()
+    }
+}
+
 /// Runs every submodel fit the study's data allow, writes the results into a copy of the
 /// truck parameters, and returns both.
 pub fn fit_submodels(
     input: &StudyInput,
     estimation_runs: &[String],
-) -> (TruckParameters, SubmodelResults) {
+) -> (SubmodelStart, SubmodelResults) {
     let mut truck = input.truck.clone();
+    let mut model_values = Vec::new();
     let mut fits = Vec::new();
 
     // Effective area (5.2.2): needs the force map. The fit of the truck file's law: the
@@ -320,6 +347,18 @@ pub fn fit_submodels(
                 }
                 parameters.push(value("bcr", "1", fit.critical_pressure_ratio, std(2)));
                 parameters.push(value("tau_tank", "s", fit.tank_thermal_time_s, std(3)));
+                if written.is_some() {
+                    // Not in the file: the start of the models that run an orifice anyway.
+                    model_values.extend(
+                        [
+                            ("c1", fit.fill_conductance_m3_s_pa),
+                            ("c2", fit.exhaust_conductance_m3_s_pa),
+                            ("bcr", Some(fit.critical_pressure_ratio)),
+                        ]
+                        .into_iter()
+                        .filter_map(|(name, v)| Some((name, v?))),
+                    );
+                }
                 fits.push(SubmodelFit {
                     name: "valve_orifice".to_owned(),
                     description: ORIFICE.to_owned(),
@@ -333,7 +372,7 @@ pub fn fit_submodels(
                         ),
                         match written {
                             None => "written: the truck file's valve follows the orifice law".to_owned(),
-                            Some(e) => format!("reported, not written: {e}"),
+                            Some(e) => format!("reported, not written: {e}; the start of the models whose valve is an orifice under any law (the `truck` structure)"),
                         },
                     ],
                     error: None,
@@ -409,7 +448,13 @@ pub fn fit_submodels(
         },
     }
 
-    (truck, SubmodelResults { fits })
+    (
+        SubmodelStart {
+            truck,
+            model_values,
+        },
+        SubmodelResults { fits },
+    )
 }
 
 /// OE from (Δload kg, Δpressure kPa) to Δbellow height mm, written into `truck.model3`.
