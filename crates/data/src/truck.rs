@@ -241,6 +241,12 @@ pub struct TruckParameters {
     pub bellow: BellowParameters,
     /// The valve's flow law: the thesis' linear resistances (eq 3.19) or another.
     pub valve: ValveFlowLaw,
+    /// Whether the file names the thesis' linear law (`[valve] law = "linear_resistance"`);
+    /// false under another law, which a file can only name. The SPEC's form names none: the
+    /// thesis models then take the thesis' resistances and the `truck` structure, whose valve
+    /// is an ISO 6358 orifice unless told otherwise, its orifice. A file that names the linear
+    /// law gives every model, the structure too, the linear law.
+    pub valve_law_named: bool,
     pub slow_dynamics: SlowDynamics,
     /// Model 3's OE block (optional section `[model3]`; default thesis Tables 5.6–5.8).
     pub model3: Model3Oe,
@@ -286,6 +292,7 @@ impl TruckParameters {
                 fill_pa_s_per_mol: 2.5e6,
                 exhaust_pa_s_per_mol: 1.5e6,
             },
+            valve_law_named: false,
             slow_dynamics: SlowDynamics::default(),
             model3: Model3Oe::default(),
             effects: EffectValues::default(),
@@ -724,6 +731,8 @@ pub fn parse_truck(text: &str, path: &Path) -> Result<LoadedTruck, DataError> {
         damper,
         bellow,
         valve,
+        valve_law_named: matches!(valve, ValveFlowLaw::LinearResistance { .. })
+            && file.valve.as_ref().is_some_and(|t| t.contains_key("law")),
         slow_dynamics,
         model3,
         effects: EffectValues::default(),
@@ -1210,18 +1219,23 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
                 fill_pa_s_per_mol,
                 exhaust_pa_s_per_mol,
             },
-        ) => vec![
-            (
-                "fill_resistance_pa_s_per_mol",
-                f(*fill_pa_s_per_mol),
-                "R_flow1 (est)",
-            ),
-            (
-                "exhaust_resistance_pa_s_per_mol",
-                f(*exhaust_pa_s_per_mol),
-                "R_flow2 (est)",
-            ),
-        ],
+        ) => p
+            .valve_law_named
+            .then(|| law_header(p.valve.tag()))
+            .into_iter()
+            .chain([
+                (
+                    "fill_resistance_pa_s_per_mol",
+                    f(*fill_pa_s_per_mol),
+                    "R_flow1 (est)",
+                ),
+                (
+                    "exhaust_resistance_pa_s_per_mol",
+                    f(*exhaust_pa_s_per_mol),
+                    "R_flow2 (est)",
+                ),
+            ])
+            .collect(),
         (None, law) => vec![law_header(law.tag())],
     };
     let mut sections: Vec<TomlSection> = vec![
@@ -1702,6 +1716,12 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         let t = parse(&tagged).unwrap().parameters;
         assert_eq!(t.bellow.effective_area, spec.bellow.effective_area);
         assert_eq!(t.valve, spec.valve);
+        // Named, the linear law is recorded as named (the `truck` structure then runs it) and
+        // written with its name; the SPEC form stays unnamed.
+        assert!(t.valve_law_named && !spec.valve_law_named);
+        let written = truck_to_toml(&t);
+        assert!(written.contains("law = \"linear_resistance\""), "{written}");
+        assert_eq!(parse(&written).unwrap().parameters, t);
     }
 
     #[test]

@@ -75,6 +75,11 @@ pub struct ModelEntry {
     pub valve_free: &'static [&'static str],
     /// Freed as well when the estimation runs have road input.
     pub road_free: &'static [&'static str],
+    /// Whether the model's valve starts from the lab's tank discharges simulated with the
+    /// gas's cooling, in the law they call for where the truck file names none: a model whose
+    /// own gas exchanges heat (the `truck` structure). The thesis models keep the file's law
+    /// and the thesis' isothermal reading of the discharges (5.2.3).
+    pub lab_valve: bool,
 }
 
 impl ModelEntry {
@@ -139,6 +144,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         default_free: &[AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "kf"],
         valve_free: &FLOW,
         road_free: &ROAD,
+        lab_valve: false,
     },
     ModelEntry {
         name: "m2",
@@ -147,6 +153,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         default_free: &[AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "ig"],
         valve_free: &FLOW,
         road_free: &ROAD,
+        lab_valve: false,
     },
     ModelEntry {
         name: "m2x",
@@ -157,6 +164,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         ],
         valve_free: &FLOW,
         road_free: &ROAD,
+        lab_valve: false,
     },
     ModelEntry {
         name: "m2xh",
@@ -167,6 +175,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         ],
         valve_free: &FLOW,
         road_free: &ROAD,
+        lab_valve: false,
     },
     ModelEntry {
         name: "m3",
@@ -176,6 +185,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         valve_free: &FLOW,
         // Model 3's height is a linear block: it has no damper and ignores the road.
         road_free: &[],
+        lab_valve: false,
     },
 ];
 

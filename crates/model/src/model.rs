@@ -264,7 +264,10 @@ pub trait SuspensionModel: BoxClone + Send + Sync + std::fmt::Debug {
                         truck.bellow.effective_area = own.bellow.effective_area.clone();
                     }
                     LawFamily::GasVolume => truck.bellow.gas_volume = own.bellow.gas_volume.clone(),
-                    LawFamily::ValveFlow => truck.valve = own.valve,
+                    LawFamily::ValveFlow => {
+                        truck.valve = own.valve;
+                        truck.valve_law_named = own.valve_law_named;
+                    }
                 }
             }
         }

@@ -240,17 +240,12 @@ pub fn fit_and_validate(
     let started = Instant::now();
     let (initial, normalisation) = (options.initial, options.normalisation);
     let mut result = ModelResult::new(model_name);
-    let nominal = match build_any_model(model_name, &start.truck) {
-        Ok(mut m) => {
-            let set = start.apply_to(&mut *m);
-            if !set.is_empty() {
-                result.notes.push(format!(
-                    "{} start from the lab's orifice fit (the truck file's valve law cannot hold them)",
-                    set.join(", ")
-                ));
-            }
-            m
-        }
+    let start_truck = match model_entry(model_name) {
+        Ok(entry) => start.truck_for(entry),
+        Err(_) => start.truck.clone(),
+    };
+    let nominal = match build_any_model(model_name, &start_truck) {
+        Ok(m) => m,
         Err(e) => {
             result.error = Some(e.to_string());
             return ModelOutcome {
@@ -259,6 +254,12 @@ pub fn fit_and_validate(
             };
         }
     };
+    if start_truck.valve != start.truck.valve {
+        result.notes.push(format!(
+            "the valve starts from the lab's discharges under law `{}` (the tank's gas simulated)",
+            start_truck.valve.tag()
+        ));
+    }
     result.description = nominal.description().to_owned();
 
     let estimation: Vec<&Run> = protocol
@@ -412,7 +413,7 @@ pub fn fit_and_validate(
     // with each change eased over its own time.
     let load_ramp_s = Some(felt.longest_s()).filter(|&longest| longest > 0.0);
 
-    let mut truck = start.truck.clone();
+    let mut truck = start_truck;
     estimated.write_parameters(&mut truck);
     let file = format!("estimated/{}_{}.toml", protocol.name, model_name);
     match std::fs::create_dir_all(out_dir.join("estimated"))

@@ -10,11 +10,13 @@
 //! A fit that cannot be done is recorded with its reason and the pipeline goes on from the
 //! truck file's values.
 
-use airsus_data::{Role, TruckParameters};
+use airsus_data::params::Field;
+use airsus_data::{Role, TruckParameters, ValveFlowLaw};
 use airsus_estimate::submodel::{
-    CrossSectionOptions, DischargeData as FitDischarge, EffectiveAreaOptions, OrificeFitOptions,
-    SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area,
-    fit_effective_area_spline, fit_orifice, fit_slow_dynamics, fit_valve, fit_wall_friction,
+    CrossSectionOptions, DischargeData as FitDischarge, EffectiveAreaOptions, OrificeDischargeFit,
+    OrificeFitOptions, SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area,
+    fit_effective_area_spline, fit_linear_valve, fit_orifice, fit_slow_dynamics, fit_valve,
+    fit_wall_friction,
 };
 use airsus_ident::linear::{IdData, OeOrders, PemOptions, oe};
 use airsus_report::results::{NamedValue, SubmodelFit, SubmodelResults};
@@ -42,29 +44,33 @@ fn failed(name: &str, description: &str, error: String) -> SubmodelFit {
     }
 }
 
+/// The linear law is taken for the lab's valve unless its residual exceeds the orifice's by
+/// more than this factor.
+const LAW_RESIDUAL_MARGIN: f64 = 1.05;
+
 /// What the submodel fits give the grey-box fits to start from.
 #[derive(Debug, Clone)]
 pub struct SubmodelStart {
     /// The truck file with every fit written into it that its laws take.
     pub truck: TruckParameters,
-    /// Values of model parameters that the file cannot carry under its laws, by short name:
-    /// the lab's ISO 6358 orifice (`c1`, `c2`, `bcr`) where the file's valve follows the
-    /// thesis' linear resistance. A model that has the parameter starts from the value (the
-    /// `truck` structure, whose valve is an orifice under any file law, would otherwise start
-    /// from its built-in conductances); a model without it never sees it.
-    pub model_values: Vec<(&'static str, f64)>,
+    /// The valve the lab's discharges call for (law and values, the tank's gas simulated),
+    /// for the models that take theirs from the lab ([`airsus_model::ModelEntry::lab_valve`]):
+    /// the law the file names, or where it names none, the linear law unless the orifice
+    /// explains the discharges clearly better. `None`: no discharge, or the file's own
+    /// (an orifice file has the lab's orifice written into it).
+    pub lab_valve: Option<ValveFlowLaw>,
 }
 
 impl SubmodelStart {
-    /// Sets every [`Self::model_values`] entry `model` has; the names set.
-    pub fn apply_to(&self, model: &mut dyn airsus_model::SuspensionModel) -> Vec<&'static str> {
-        self.model_values
-            .iter()
-            .filter(|(name, value)| {
-                model.parameter(name).is_ok() && model.set_parameter(name, *value).is_ok()
-            })
-            .map(|(name, _)| *name)
-            .collect()
+    /// The start of a model: the truck file, with the lab's valve for a model that takes it.
+    pub fn truck_for(&self, entry: &airsus_model::ModelEntry) -> TruckParameters {
+        let mut truck = self.truck.clone();
+        if let (true, Some(law)) = (entry.lab_valve, self.lab_valve) {
+            truck.valve = law;
+            // A linear law named, so that the structure runs it and its file says so.
+            truck.valve_law_named = matches!(law, ValveFlowLaw::LinearResistance { .. });
+        }
+        truck
     }
 }
 
@@ -75,7 +81,7 @@ pub fn fit_submodels(
     estimation_runs: &[String],
 ) -> (SubmodelStart, SubmodelResults) {
     let mut truck = input.truck.clone();
-    let mut model_values = Vec::new();
+    let mut lab_valve = None;
     let mut fits = Vec::new();
 
     // Effective area (5.2.2): needs the force map. The fit of the truck file's law: the
@@ -319,60 +325,139 @@ pub fn fit_submodels(
         }
     }
 
-    // The ISO 6358 orifice from the same discharges, the tank's gas simulated with its
-    // cooling: written where the truck file's valve follows the orifice law.
+    // The ISO 6358 orifice and the linear resistances from the same discharges, the tank's
+    // gas simulated with its cooling: the orifice written where the truck file's valve
+    // follows the orifice law; the better of the two (the simpler unless the orifice explains
+    // the discharges clearly better) the valve of the models that take theirs from the lab.
     const ORIFICE: &str =
         "c1, c2, bcr (ISO 6358) from tank discharges, the tank's gas simulated with its cooling";
+    const LINEAR: &str =
+        "rflow1, rflow2 (eq 3.19) from tank discharges, the tank's gas simulated with its cooling";
     if !discharges.is_empty() {
-        match fit_orifice(&discharges, &OrificeFitOptions::for_truck(&truck)) {
+        let options = OrificeFitOptions::for_truck(&truck);
+        let mean_nrmse = |discharges: &[OrificeDischargeFit], role: Role| {
+            let v: Vec<f64> = discharges
+                .iter()
+                .filter(|d| d.role == role)
+                .map(|d| d.nrmse_percent)
+                .collect();
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        };
+        // The values a fit has (a channel without discharges has none), a spread where known.
+        let present = |values: &[(&str, &str, Option<f64>, f64)]| -> Vec<NamedValue> {
+            values
+                .iter()
+                .filter_map(|&(name, unit, v, s)| {
+                    Some(value(name, unit, v?, s.is_finite().then_some(s)))
+                })
+                .collect()
+        };
+        let orifice = fit_orifice(&discharges, &options);
+        let linear = fit_linear_valve(&discharges, &options);
+        let (orifice_rms, linear_rms) = (
+            orifice
+                .as_ref()
+                .map_or(f64::INFINITY, |f| f.residual_rms_pa),
+            linear.as_ref().map_or(f64::INFINITY, |f| f.residual_rms_pa),
+        );
+        // The linear law has one coefficient fewer: it is kept unless the orifice's
+        // residual is clearly smaller (measured on the virtual rig: 105 Pa for the law the
+        // valve follows, 1.3-3 times that for the other).
+        let linear_explains = linear_rms <= LAW_RESIDUAL_MARGIN * orifice_rms;
+        let named_linear =
+            truck.valve_law_named && matches!(truck.valve, ValveFlowLaw::LinearResistance { .. });
+        let named_orifice = matches!(truck.valve, ValveFlowLaw::Orifice { .. });
+        let comparison = format!(
+            "residual {orifice_rms:.0} Pa under the orifice, {linear_rms:.0} Pa under linear resistances"
+        );
+        match orifice {
             Err(e) => fits.push(failed("valve_orifice", ORIFICE, e.to_string())),
             Ok(fit) => {
                 let written = fit.write_to(&mut truck).err();
-                let nrmse = |role: Role| {
-                    let v: Vec<f64> = fit
-                        .discharges
-                        .iter()
-                        .filter(|d| d.role == role)
-                        .map(|d| d.nrmse_percent)
-                        .collect();
-                    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-                };
-                let std = |i: usize| fit.std[i].is_finite().then_some(fit.std[i]);
-                let mut parameters = Vec::new();
-                if let Some(c1) = fit.fill_conductance_m3_s_pa {
-                    parameters.push(value("c1", "m3/(s Pa)", c1, std(0)));
-                }
-                if let Some(c2) = fit.exhaust_conductance_m3_s_pa {
-                    parameters.push(value("c2", "m3/(s Pa)", c2, std(1)));
-                }
-                parameters.push(value("bcr", "1", fit.critical_pressure_ratio, std(2)));
-                parameters.push(value("tau_tank", "s", fit.tank_thermal_time_s, std(3)));
-                if written.is_some() {
-                    // Not in the file: the start of the models that run an orifice anyway.
-                    model_values.extend(
-                        [
-                            ("c1", fit.fill_conductance_m3_s_pa),
-                            ("c2", fit.exhaust_conductance_m3_s_pa),
-                            ("bcr", Some(fit.critical_pressure_ratio)),
-                        ]
-                        .into_iter()
-                        .filter_map(|(name, v)| Some((name, v?))),
-                    );
+                let parameters = present(&[
+                    ("c1", "m3/(s Pa)", fit.fill_conductance_m3_s_pa, fit.std[0]),
+                    (
+                        "c2",
+                        "m3/(s Pa)",
+                        fit.exhaust_conductance_m3_s_pa,
+                        fit.std[1],
+                    ),
+                    ("bcr", "1", Some(fit.critical_pressure_ratio), fit.std[2]),
+                    ("tau_tank", "s", Some(fit.tank_thermal_time_s), fit.std[3]),
+                ]);
+                let lab_takes_it = !named_orifice && !named_linear && !linear_explains;
+                if lab_takes_it {
+                    let built_in = airsus_truck::truth::EffectParameters::default();
+                    let mut law = ValveFlowLaw::Orifice {
+                        fill_conductance_m3_s_pa: built_in.fill_conductance_m3_s_pa,
+                        exhaust_conductance_m3_s_pa: built_in.exhaust_conductance_m3_s_pa,
+                        critical_pressure_ratio: fit.critical_pressure_ratio,
+                    };
+                    // A channel without a discharge keeps the structure's built-in value.
+                    for (field, v) in [
+                        (Field::FillConductance, fit.fill_conductance_m3_s_pa),
+                        (Field::ExhaustConductance, fit.exhaust_conductance_m3_s_pa),
+                    ] {
+                        if let Some(v) = v {
+                            law.set(field, v);
+                        }
+                    }
+                    lab_valve = Some(law);
                 }
                 fits.push(SubmodelFit {
                     name: "valve_orifice".to_owned(),
                     description: ORIFICE.to_owned(),
                     parameters,
-                    nrmse_estimation_percent: nrmse(Role::Estimation),
-                    nrmse_validation_percent: nrmse(Role::Validation),
+                    nrmse_estimation_percent: mean_nrmse(&fit.discharges, Role::Estimation),
+                    nrmse_validation_percent: mean_nrmse(&fit.discharges, Role::Validation),
                     notes: vec![
                         format!(
-                            "the NRMSE is of the tank pressure; residual {:.0} Pa; tau_tank is the rig's tank wall, not the truck's",
-                            fit.residual_rms_pa
+                            "the NRMSE is of the tank pressure; {comparison}; tau_tank is the rig's tank wall, not the truck's"
                         ),
-                        match written {
-                            None => "written: the truck file's valve follows the orifice law".to_owned(),
-                            Some(e) => format!("reported, not written: {e}; the start of the models whose valve is an orifice under any law (the `truck` structure)"),
+                        match (written, lab_takes_it) {
+                            (None, _) => "written: the truck file's valve follows the orifice law".to_owned(),
+                            (Some(e), true) => format!("reported, not written: {e}; the valve of the models that take theirs from the lab (the `truck` structure)"),
+                            (Some(e), false) => format!("reported, not written: {e}"),
+                        },
+                    ],
+                    error: None,
+                });
+            }
+        }
+        match linear {
+            Err(e) => fits.push(failed("valve_linear", LINEAR, e.to_string())),
+            Ok(fit) => {
+                let parameters = present(&[
+                    (
+                        "rflow1",
+                        "Pa s/mol",
+                        fit.fill_resistance_pa_s_per_mol,
+                        fit.std[0],
+                    ),
+                    (
+                        "rflow2",
+                        "Pa s/mol",
+                        fit.exhaust_resistance_pa_s_per_mol,
+                        fit.std[1],
+                    ),
+                    ("tau_tank", "s", Some(fit.tank_thermal_time_s), fit.std[2]),
+                ]);
+                let lab_takes_it = named_linear || (!named_orifice && linear_explains);
+                if lab_takes_it {
+                    lab_valve = Some(fit.law(&truck.valve));
+                }
+                fits.push(SubmodelFit {
+                    name: "valve_linear".to_owned(),
+                    description: LINEAR.to_owned(),
+                    parameters,
+                    nrmse_estimation_percent: mean_nrmse(&fit.discharges, Role::Estimation),
+                    nrmse_validation_percent: mean_nrmse(&fit.discharges, Role::Validation),
+                    notes: vec![
+                        format!("the NRMSE is of the tank pressure; {comparison}"),
+                        if lab_takes_it {
+                            "the valve of the models that take theirs from the lab (the `truck` structure); the thesis models keep the isothermal resistances above".to_owned()
+                        } else {
+                            "reported".to_owned()
                         },
                     ],
                     error: None,
@@ -448,13 +533,7 @@ pub fn fit_submodels(
         },
     }
 
-    (
-        SubmodelStart {
-            truck,
-            model_values,
-        },
-        SubmodelResults { fits },
-    )
+    (SubmodelStart { truck, lab_valve }, SubmodelResults { fits })
 }
 
 /// OE from (Δload kg, Δpressure kPa) to Δbellow height mm, written into `truck.model3`.

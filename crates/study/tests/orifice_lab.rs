@@ -3,7 +3,7 @@
 //! from volume). On the virtual truck and a variant whose valve differs from it.
 
 use airsus_data::{Role, TankDischarge};
-use airsus_estimate::submodel::{DischargeData, OrificeFitOptions, fit_orifice};
+use airsus_estimate::submodel::{DischargeData, OrificeFitOptions, fit_linear_valve, fit_orifice};
 use airsus_truck::experiments::reference_discharges;
 use airsus_truck::lab::DischargeTest;
 use airsus_truck::lab::measure_discharge;
@@ -105,5 +105,43 @@ fn the_tank_discharges_give_the_valves_orifice() {
         let err = fit.write_to(&mut linear).unwrap_err().to_string();
         assert!(err.contains("\"linear_resistance\""), "{err}");
         assert_eq!(linear, airsus_data::TruckParameters::reference());
+    }
+}
+
+#[test]
+fn the_discharges_tell_a_linear_valve_from_an_orifice() {
+    // Both laws fitted to the same discharges, the tank's gas simulated: the law the valve
+    // follows leaves the sensor's noise (100 Pa), the other far more. Measured: variant 3
+    // (linear) 107 Pa against 23,777 Pa under the orifice; variant 0 (orifice) 107 Pa against
+    // 22,173 Pa under linear resistances.
+    let options = OrificeFitOptions::for_truck(&airsus_data::TruckParameters::reference());
+    for k in [3, 0] {
+        let truck = VirtualTruck::variant(k);
+        let logs = discharges(&truck);
+        let data = data(&logs);
+        let linear = fit_linear_valve(&data, &options).unwrap();
+        let orifice = fit_orifice(&data, &options).unwrap();
+        let (own, other) = match truck.valve_law() {
+            airsus_data::ValveFlowLaw::LinearResistance {
+                fill_pa_s_per_mol,
+                exhaust_pa_s_per_mol,
+            } => {
+                // Started from the thesis' 2.5e6 / 1.5e6, the resistances come back to 1 %,
+                // the isothermal reading of the thesis (fit_valve) 16 % low on this rig.
+                let r1 = linear.fill_resistance_pa_s_per_mol.unwrap();
+                let r2 = linear.exhaust_resistance_pa_s_per_mol.unwrap();
+                assert!((r1 / fill_pa_s_per_mol - 1.0).abs() < 0.01, "{linear:?}");
+                assert!((r2 / exhaust_pa_s_per_mol - 1.0).abs() < 0.01, "{linear:?}");
+                let law = linear.law(&airsus_data::TruckParameters::reference().valve);
+                assert_eq!(law.tag(), "linear_resistance");
+                (linear.residual_rms_pa, orifice.residual_rms_pa)
+            }
+            _ => (orifice.residual_rms_pa, linear.residual_rms_pa),
+        };
+        assert!(own < 120.0, "variant {k}: {own} Pa");
+        assert!(
+            other > 20.0 * own,
+            "variant {k}: {other} Pa against {own} Pa"
+        );
     }
 }

@@ -274,15 +274,18 @@ impl VirtualTruck {
     ///
     /// One-way: once resolved, `physical` holds the laws and values, and they win over later
     /// edits of `effect_parameters` or of `effects.orifice_flow` (edit `physical` instead); the
-    /// thesis' linear resistances are replaced when the orifice takes over. The law value does
-    /// not record whether a file tagged the thesis' law explicitly, so a file cannot ask the
-    /// truck structure for a linear valve: it is treated like the SPEC form.
+    /// thesis' linear resistances are replaced when the orifice takes over, unless the file
+    /// names the linear law (`[valve] law = "linear_resistance"`,
+    /// [`TruckParameters::valve_law_named`]): then the structure's valve is linear too.
     pub fn resolve_laws(&mut self) {
         let (area, valve) = (self.area_law(), self.valve_law());
         let e = &mut self.effect_parameters;
         let p = &mut self.physical;
         p.bellow.effective_area = area;
         p.valve = valve;
+        // A linear valve that stays linear says so: read back, the file gives the structure
+        // the same law.
+        p.valve_law_named = matches!(valve, ValveFlowLaw::LinearResistance { .. });
         let slots: [(Field, &mut f64); 6] = [
             (Field::WallCreepStiffness, &mut e.creep_stiffness_n_per_m),
             (Field::WallCreepTime, &mut e.creep_time_constant_s),
@@ -317,7 +320,9 @@ impl VirtualTruck {
     pub fn valve_law(&self) -> ValveFlowLaw {
         let e = &self.effect_parameters;
         match self.physical.valve {
-            ValveFlowLaw::LinearResistance { .. } if self.effects.orifice_flow => {
+            ValveFlowLaw::LinearResistance { .. }
+                if self.effects.orifice_flow && !self.physical.valve_law_named =>
+            {
                 ValveFlowLaw::Orifice {
                     fill_conductance_m3_s_pa: e.fill_conductance_m3_s_pa,
                     exhaust_conductance_m3_s_pa: e.exhaust_conductance_m3_s_pa,
@@ -398,6 +403,31 @@ mod tests {
         let spread = ratios.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
             - ratios.iter().cloned().fold(f64::INFINITY, f64::min);
         assert!(spread > 0.03, "shape ratios {ratios:?}");
+    }
+
+    #[test]
+    fn the_structure_runs_a_linear_valve_only_where_the_file_names_it() {
+        let mut file = TruckParameters::reference();
+        let structure = |file: &TruckParameters| {
+            let mut truck = VirtualTruck::reference();
+            truck.physical = file.clone();
+            truck.resolve_laws();
+            truck.physical
+        };
+        // The SPEC form names no law: the structure's orifice.
+        assert_eq!(structure(&file).valve.tag(), "orifice");
+        file.valve_law_named = true;
+        let resolved = structure(&file);
+        assert_eq!(resolved.valve, file.valve);
+        // Variant 3's valve is linear: its structure file names the law, and read back runs it.
+        let mut variant = VirtualTruck::variant(3);
+        variant.resolve_laws();
+        assert!(variant.physical.valve_law_named);
+        let text = airsus_data::truck_to_toml(&variant.physical);
+        let read = airsus_data::truck::parse_truck(&text, std::path::Path::new("v3.toml"))
+            .unwrap()
+            .parameters;
+        assert_eq!(structure(&read).valve, variant.physical.valve);
     }
 
     #[test]

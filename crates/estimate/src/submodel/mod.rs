@@ -26,7 +26,10 @@ pub use effective_area::{
     EffectiveAreaFit, EffectiveAreaOptions, SplineAreaFit, fit_effective_area,
     fit_effective_area_spline,
 };
-pub use orifice::{OrificeDischargeFit, OrificeFit, OrificeFitOptions, fit_orifice};
+pub use orifice::{
+    LinearValveFit, OrificeDischargeFit, OrificeFit, OrificeFitOptions, fit_linear_valve,
+    fit_orifice,
+};
 pub use slow_dynamics::{SlowDynamicsFit, SlowDynamicsOptions, fit_slow_dynamics};
 pub use valve::{ChannelFit, DischargeData, DischargeFit, ValveFit, ValveFitOptions, fit_valve};
 pub use wall_friction::{WallFrictionFit, fit_wall_friction};

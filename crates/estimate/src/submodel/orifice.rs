@@ -46,6 +46,10 @@ pub struct OrificeFitOptions {
     pub start_critical_pressure_ratio: f64,
     /// The tank wall's thermal time constant to start from, s.
     pub start_tank_thermal_time_s: f64,
+    /// Where [`fit_linear_valve`] starts: `rflow1`, `rflow2`, Pa·s/mol (the truck's linear law,
+    /// or the thesis' values under another law).
+    pub start_fill_resistance_pa_s_per_mol: f64,
+    pub start_exhaust_resistance_pa_s_per_mol: f64,
 }
 
 impl OrificeFitOptions {
@@ -64,6 +68,13 @@ impl OrificeFitOptions {
             ),
             _ => (5e-9, 1.2e-8, 0.4),
         };
+        let (r1, r2) = match truck.valve {
+            ValveFlowLaw::LinearResistance {
+                fill_pa_s_per_mol,
+                exhaust_pa_s_per_mol,
+            } => (fill_pa_s_per_mol, exhaust_pa_s_per_mol),
+            _ => (2.5e6, 1.5e6),
+        };
         Self {
             gas_constant_j_mol_k: truck.environment.gas_constant_j_mol_k,
             ambient_pressure_pa: truck.environment.ambient_pressure_pa,
@@ -71,6 +82,8 @@ impl OrificeFitOptions {
             start_exhaust_conductance_m3_s_pa: c2,
             start_critical_pressure_ratio: b,
             start_tank_thermal_time_s: 30.0,
+            start_fill_resistance_pa_s_per_mol: r1,
+            start_exhaust_resistance_pa_s_per_mol: r2,
         }
     }
 }
@@ -137,10 +150,20 @@ impl OrificeFit {
     }
 }
 
-/// The logged tank gauge pressures of `data` as the tank's gas gives them under `C`, `b`, `τ`.
+/// The law the tank's air leaves by in a fit: each channel's coefficient (`C` of the orifice,
+/// or `R` of the thesis' linear resistance) and, for the orifice, the common `b`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum TankLaw {
+    Orifice,
+    Linear,
+}
+
+/// The logged tank gauge pressures of `data` as the tank's gas gives them: the air leaves
+/// through the channel with `coefficient` (`C` or `R`), `b` for the orifice, the wall's `τ`.
 fn simulate(
     data: &DischargeData,
-    conductance: f64,
+    law: TankLaw,
+    coefficient: f64,
     critical_ratio: f64,
     thermal_time_s: f64,
     options: &OrificeFitOptions,
@@ -158,9 +181,13 @@ fn simulate(
         ambient_pressure_pa: ambient,
         thermal_time_s: Some(thermal_time_s),
     };
-    simulate_tank_discharge(&discharge, |p, t| {
-        iso6358_molar_flow(conductance, critical_ratio, p, ambient, t)
-    })
+    match law {
+        TankLaw::Orifice => simulate_tank_discharge(&discharge, |p, t| {
+            iso6358_molar_flow(coefficient, critical_ratio, p, ambient, t)
+        }),
+        // Eq 3.19 / 5.5: the flow is the pressure difference over the resistance.
+        TankLaw::Linear => simulate_tank_discharge(&discharge, |p, _| (p - ambient) / coefficient),
+    }
 }
 
 /// `b` lies in (0.05, 0.9) (the top is the declared bound of `bcr`, so that what the fit
@@ -177,12 +204,14 @@ fn ratio_to(b: f64) -> f64 {
     (u / (1.0 - u)).ln()
 }
 
-/// The fit's unknowns in the solver's coordinates: logarithms of the conductances and of
-/// `τ` (positive, spanning decades), a logit of `b`.
+/// The fit's unknowns in the solver's coordinates: logarithms of the channels' coefficients
+/// (conductances or resistances) and of `τ` (positive, spanning decades), a logit of `b`.
 struct Problem<'a> {
     data: &'a [DischargeData<'a>],
     options: &'a OrificeFitOptions,
-    /// Which of `[ln c1, ln c2, b, ln τ]` are free (a channel without discharges is not).
+    law: TankLaw,
+    /// Which of `[ln c1, ln c2, b, ln τ]` are free (a channel without discharges is not; `b`
+    /// under the linear law is not).
     free: [bool; 4],
     z: [f64; 4],
     evaluations: std::cell::Cell<usize>,
@@ -217,7 +246,7 @@ impl Problem<'_> {
                 Channel::Fill => c1,
                 Channel::Exhaust => c2,
             };
-            let sim = simulate(d, c, b, tau, self.options).ok()?;
+            let sim = simulate(d, self.law, c, b, tau, self.options).ok()?;
             out.extend(
                 sim.iter()
                     .zip(&d.discharge.tank_gauge_pa)
@@ -271,11 +300,23 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 }
 
-/// Fits `C` of each channel with estimation discharges, the common `b` and the rig's `τ`.
-pub fn fit_orifice(
+/// What a tank fit found, in either law's coefficients.
+struct TankFit {
+    /// `[c1 or rflow1, c2 or rflow2, b, τ]` (b meaningless under the linear law).
+    values: [f64; 4],
+    /// Whether each was fitted.
+    free: [bool; 4],
+    std: [f64; 4],
+    discharges: Vec<OrificeDischargeFit>,
+    residual_rms_pa: f64,
+    evaluations: usize,
+}
+
+fn fit_tank(
     data: &[DischargeData],
     options: &OrificeFitOptions,
-) -> Result<OrificeFit, EstimateError> {
+    law: TankLaw,
+) -> Result<TankFit, EstimateError> {
     let bad = |reason: String| EstimateError::InsufficientData { fit: FIT, reason };
     for d in data {
         let log = d.discharge;
@@ -297,27 +338,41 @@ pub fn fit_orifice(
         data.iter()
             .any(|d| d.channel == channel && d.role == Role::Estimation)
     };
-    let free = [has(Channel::Fill), has(Channel::Exhaust), true, true];
+    let orifice = law == TankLaw::Orifice;
+    let free = [has(Channel::Fill), has(Channel::Exhaust), orifice, true];
     if !(free[0] || free[1]) {
         return Err(bad("no estimation discharge".to_owned()));
     }
+    let (first, second) = if orifice {
+        (
+            options.start_fill_conductance_m3_s_pa,
+            options.start_exhaust_conductance_m3_s_pa,
+        )
+    } else {
+        (
+            options.start_fill_resistance_pa_s_per_mol,
+            options.start_exhaust_resistance_pa_s_per_mol,
+        )
+    };
     let start = [
-        options.start_fill_conductance_m3_s_pa.ln(),
-        options.start_exhaust_conductance_m3_s_pa.ln(),
+        first.ln(),
+        second.ln(),
         ratio_to(options.start_critical_pressure_ratio),
         options.start_tank_thermal_time_s.ln(),
     ];
     if start.iter().any(|v| !v.is_finite()) {
         return Err(EstimateError::InvalidOption(
-            "the orifice fit's start values must be positive".to_owned(),
+            "the valve fit's start values must be positive".to_owned(),
         ));
     }
     // The pressure trace is explained almost as well by a slow wall and an early choke as by
     // the truth (measured: from b = 0.5 and τ = 30 s the fit ended at b = 0.05, τ = 269 s
     // with ten times the noise, from τ = 60 s at the truth): the solver is started from the
-    // given start and from a grid over b and τ, and the best end point is kept.
+    // given start and from a grid over b (the orifice's) and τ, and the best end point is
+    // kept.
     let mut starts = vec![start];
-    for b in [0.2, 0.35, 0.5] {
+    let ratios: &[f64] = if orifice { &[0.2, 0.35, 0.5] } else { &[0.4] };
+    for &b in ratios {
         for tau in [15.0_f64, 60.0, 240.0] {
             starts.push([start[0], start[1], ratio_to(b), tau.ln()]);
         }
@@ -328,6 +383,7 @@ pub fn fit_orifice(
             let problem = Problem {
                 data,
                 options,
+                law,
                 free,
                 z,
                 evaluations: std::cell::Cell::new(0),
@@ -373,7 +429,7 @@ pub fn fit_orifice(
     let (c1, c2, b, tau) = Problem::values(&problem.z);
     let mut discharges = Vec::with_capacity(data.len());
     // A discharge through a channel no estimation discharge went through is not scored: its
-    // conductance was not fitted.
+    // coefficient was not fitted.
     for d in data.iter().filter(|d| match d.channel {
         Channel::Fill => free[0],
         Channel::Exhaust => free[1],
@@ -382,7 +438,8 @@ pub fn fit_orifice(
             Channel::Fill => c1,
             Channel::Exhaust => c2,
         };
-        let sim = simulate(d, c, b, tau, options).map_err(|e| bad(format!("{}: {e}", d.name)))?;
+        let sim =
+            simulate(d, law, c, b, tau, options).map_err(|e| bad(format!("{}: {e}", d.name)))?;
         discharges.push(OrificeDischargeFit {
             name: d.name.clone(),
             channel: d.channel,
@@ -391,16 +448,90 @@ pub fn fit_orifice(
                 .map_err(|e| bad(format!("{}: NRMSE: {e}", d.name)))?,
         });
     }
-    Ok(OrificeFit {
-        fill_conductance_m3_s_pa: free[0].then_some(c1),
-        exhaust_conductance_m3_s_pa: free[1].then_some(c2),
-        critical_pressure_ratio: b,
-        tank_thermal_time_s: tau,
+    Ok(TankFit {
+        values: [c1, c2, b, tau],
+        free,
         std,
         discharges,
         residual_rms_pa: rms,
         evaluations,
     })
+}
+
+/// Fits `C` of each channel with estimation discharges, the common `b` and the rig's `τ`.
+pub fn fit_orifice(
+    data: &[DischargeData],
+    options: &OrificeFitOptions,
+) -> Result<OrificeFit, EstimateError> {
+    let fit = fit_tank(data, options, TankLaw::Orifice)?;
+    let [c1, c2, b, tau] = fit.values;
+    Ok(OrificeFit {
+        fill_conductance_m3_s_pa: fit.free[0].then_some(c1),
+        exhaust_conductance_m3_s_pa: fit.free[1].then_some(c2),
+        critical_pressure_ratio: b,
+        tank_thermal_time_s: tau,
+        std: fit.std,
+        discharges: fit.discharges,
+        residual_rms_pa: fit.residual_rms_pa,
+        evaluations: fit.evaluations,
+    })
+}
+
+/// The thesis' linear resistances (eq 3.19) fitted as [`fit_orifice`] fits the orifice: the
+/// tank's gas simulated with its cooling (unlike [`super::fit_valve`], the thesis'
+/// isothermal reading of eq 5.5). Its residual beside the orifice's says which law the valve
+/// follows.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LinearValveFit {
+    /// `rflow1`, Pa·s/mol; `None` without a fill discharge to estimate it from.
+    pub fill_resistance_pa_s_per_mol: Option<f64>,
+    /// `rflow2`, Pa·s/mol.
+    pub exhaust_resistance_pa_s_per_mol: Option<f64>,
+    /// The rig's tank wall, s.
+    pub tank_thermal_time_s: f64,
+    /// Standard deviations: rflow1, rflow2, τ (NaN where not estimated).
+    pub std: [f64; 3],
+    pub discharges: Vec<OrificeDischargeFit>,
+    /// RMS of the estimation residuals, Pa.
+    pub residual_rms_pa: f64,
+    pub evaluations: usize,
+}
+
+/// Fits `R` of each channel with estimation discharges and the rig's `τ`, the tank's gas
+/// simulated (see [`LinearValveFit`]).
+pub fn fit_linear_valve(
+    data: &[DischargeData],
+    options: &OrificeFitOptions,
+) -> Result<LinearValveFit, EstimateError> {
+    let fit = fit_tank(data, options, TankLaw::Linear)?;
+    let [r1, r2, _, tau] = fit.values;
+    Ok(LinearValveFit {
+        fill_resistance_pa_s_per_mol: fit.free[0].then_some(r1),
+        exhaust_resistance_pa_s_per_mol: fit.free[1].then_some(r2),
+        tank_thermal_time_s: tau,
+        std: [fit.std[0], fit.std[1], fit.std[3]],
+        discharges: fit.discharges,
+        residual_rms_pa: fit.residual_rms_pa,
+        evaluations: fit.evaluations,
+    })
+}
+
+impl LinearValveFit {
+    /// The linear law with these resistances, the channel without a discharge at `fallback`'s
+    /// value (or the thesis' reference where `fallback` is no linear law).
+    pub fn law(&self, fallback: &ValveFlowLaw) -> ValveFlowLaw {
+        let (r1, r2) = match *fallback {
+            ValveFlowLaw::LinearResistance {
+                fill_pa_s_per_mol,
+                exhaust_pa_s_per_mol,
+            } => (fill_pa_s_per_mol, exhaust_pa_s_per_mol),
+            _ => (2.5e6, 1.5e6),
+        };
+        ValveFlowLaw::LinearResistance {
+            fill_pa_s_per_mol: self.fill_resistance_pa_s_per_mol.unwrap_or(r1),
+            exhaust_pa_s_per_mol: self.exhaust_resistance_pa_s_per_mol.unwrap_or(r2),
+        }
+    }
 }
 
 #[cfg(test)]
