@@ -16,11 +16,13 @@ pub const TRUCK_MODEL: ModelEntry = ModelEntry {
     name: "truck",
     summary: "Virtual-truck structure: Model 2 + creep, wall friction, gas heat exchange, ISO 6358 valve, supply line",
     build: |truck| Ok(Box::new(TruckModel::from_truck_parameters(truck))),
-    // Model 2's set plus the creep element; with valve action the ISO 6358 conductances
-    // (instead of the linear resistances) and the gas volume's scale; with road input the
-    // damper table's scale.
+    // Model 2's set plus the creep element; with valve action the valve's flow coefficients
+    // (the conductances under its orifice), the gas volume's scale and the gas's thermal time
+    // (a fill compresses and heats the gas, which cools over `tth`: held at the built-in
+    // 20 s it cost a variant drawn at 35.6 s 15 points of data-set 4's pressure); with road
+    // input the damper table's scale.
     default_free: &["p0", "p1", "p2", "p3", "p4", "m2", "ig", "kc", "tc"],
-    valve_free: &["c1", "c2", "a0"],
+    valve_free: &["c1", "c2", "a0", "tth"],
     road_free: &["dscl"],
     lab_valve: true,
 };

@@ -1,0 +1,94 @@
+//! Issues #12/#13: the `truck` structure on virtual trucks it was not built from. Variant 1
+//! draws every value anew (valve, wall, creep, the gas's thermal time 35.6 s against the
+//! structure's built-in 20 s, masses, damping, the gas volume's shape); variant 3 also
+//! flows through linear resistances where the structure's own valve is an orifice. The
+//! study starts from the nominal truck file and what the lab's force map and tank
+//! discharges tell, and is scored against each run's noise-free truth.
+
+use airsus_study::{Protocol, StudyOptions, load_study, run_study};
+
+/// The `truck` structure estimated on variant `k` under our protocol: each run's
+/// (name, height %, pressure %, height ceiling %, pressure ceiling %), the ceiling of the
+/// load as logged where the log hides a change; and the model's notes.
+type Scores = Vec<(String, f64, f64, f64, f64)>;
+
+fn study_variant(k: u32) -> (Scores, Vec<String>) {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let generated = airsus_truck::experiments::generate_variant(&data, 1, k, &mut |_| {}).unwrap();
+    let input = load_study(&generated.study_valve).unwrap();
+    let options = StudyOptions {
+        models: vec!["truck".to_owned()],
+        ..StudyOptions::new(vec![Protocol::from_roles(&input)])
+    };
+    let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
+    let r = &outcome.results;
+    let truck = &r.protocols[0].models[0];
+    assert!(truck.error.is_none(), "variant {k}: {:?}", truck.error);
+    let scores = r
+        .runs
+        .iter()
+        .map(|info| {
+            let ceiling = info.ceiling.clone().expect("a generated run has its truth");
+            let (h, p) = match ceiling.logged_input {
+                Some(logged) => (logged.height_percent, logged.pressure_percent),
+                None => (ceiling.height_percent, ceiling.pressure_percent),
+            };
+            let fit = truck
+                .run(&info.name)
+                .and_then(|f| f.estimated)
+                .expect(&info.name);
+            (
+                info.name.clone(),
+                fit.height_percent,
+                fit.pressure_percent,
+                h,
+                p,
+            )
+        })
+        .collect();
+    (scores, truck.notes.clone())
+}
+
+/// Every run within `margin` points of its ceiling (#13 asks 3 on the validation runs), both
+/// outputs; the held-out levelling run within 8 and 4 (its load changes' transition times
+/// are unknown to a validation run: on the reference truck the truth itself scores 90.1/96.4 %
+/// on it with the study's common ramp against the ceiling's 95.5/99.1 %, see noise_floor.rs).
+fn assert_near_ceiling(k: u32, scores: &Scores, notes: &[String], margin: f64) {
+    for (run, h, p, h_ceiling, p_ceiling) in scores {
+        let (h_margin, p_margin) = match run.as_str() {
+            "levelling 2" => (8.0, 4.0),
+            _ => (margin, margin),
+        };
+        assert!(
+            *h > h_ceiling - h_margin && *p > p_ceiling - p_margin,
+            "variant {k}, {run}: {h:.1}/{p:.1} % against the ceiling {h_ceiling:.1}/{p_ceiling:.1} %; notes {notes:?}"
+        );
+    }
+}
+
+#[test]
+fn the_structure_reaches_the_ceiling_of_a_truck_drawn_anew() {
+    // Measured: within 0.4 points on every estimation run; held out data-set 4 99.1/95.4 %
+    // against 99.3/97.2 %, road 2 97.0/98.5 against 97.1/98.6, levelling 2 89.4/96.4. With the
+    // gas's thermal time held at the built-in 20 s: data-set 4's pressure 79.0 %, levelling
+    // 1's height 83.8 % (an estimation run).
+    let (scores, notes) = study_variant(1);
+    assert_near_ceiling(1, &scores, &notes, 2.0);
+}
+
+#[test]
+fn the_structure_takes_the_linear_valve_the_lab_calls_for() {
+    // Measured: data-set 3 (estimation) 95.1/87.0 % against 95.3/87.4 %; held out data-set 4
+    // 98.7/92.8 against 99.3/94.7, levelling 2 88.3/96.3. Under the structure's orifice with
+    // the lab's fit of one (b at its bound): data-set 3 75.5 %, data-set 4 75.6 %, levelling
+    // 2 81.0 %.
+    let (scores, notes) = study_variant(3);
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.contains("under law `linear_resistance`")),
+        "{notes:?}"
+    );
+    assert_near_ceiling(3, &scores, &notes, 3.0);
+}
