@@ -498,3 +498,46 @@ fn fit_valve_law_orifice_reads_the_conductances_from_the_discharges() {
     assert!(stderr.contains("linear_resistance"), "{stderr}");
     assert!(!out.exists());
 }
+
+#[test]
+fn fit_valve_tells_the_law_by_the_residuals_of_both() {
+    let dir = generated();
+    let study = dir.path().join("study.toml");
+    let study = study.to_str().unwrap();
+    let residual = |printed: &str| -> f64 {
+        let first = printed.lines().next().unwrap_or_default();
+        first
+            .rsplit("residual ")
+            .next()
+            .and_then(|r| r.trim_end_matches(" Pa").parse().ok())
+            .unwrap_or_else(|| panic!("{printed}"))
+    };
+    let (orifice, _) = ok(&["fit", "valve", "--study", study, "--law", "orifice"]);
+    let out = dir.path().join("linear_cooling.toml");
+    let (linear, _) = ok(&[
+        "fit",
+        "valve",
+        "--study",
+        study,
+        "--law",
+        "linear-cooling",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(linear.contains("the tank's gas simulated"), "{linear}");
+    // The built-in virtual truck's valve is an orifice: the sensor's 100 Pa under it,
+    // measured 22 kPa under linear resistances.
+    assert!(residual(&orifice) < 120.0, "{orifice}");
+    assert!(residual(&linear) > 20.0 * residual(&orifice), "{linear}");
+    // Written into the study's truck file, which follows the thesis' linear law.
+    let written = std::fs::read_to_string(&out).unwrap();
+    let truck = airsus_data::truck::parse_truck(&written, &out)
+        .unwrap()
+        .parameters;
+    assert_eq!(truck.valve.tag(), "linear_resistance");
+    let r1 = truck
+        .valve
+        .get(airsus_data::params::Field::FillResistance)
+        .unwrap();
+    assert!(linear.contains(&format!("{r1:.4e}")), "{r1} {linear}");
+}

@@ -18,9 +18,10 @@ use airsus_data::{
     write_truck,
 };
 use airsus_estimate::submodel::{
-    CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions, OrificeFit,
-    OrificeFitOptions, SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area,
-    fit_effective_area_spline, fit_orifice, fit_slow_dynamics, fit_valve, fit_wall_friction,
+    CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions, LinearValveFit,
+    OrificeDischargeFit, OrificeFit, OrificeFitOptions, SlowDynamicsOptions, ValveFitOptions,
+    fit_cross_section, fit_effective_area, fit_effective_area_spline, fit_linear_valve,
+    fit_orifice, fit_slow_dynamics, fit_valve, fit_wall_friction,
 };
 use airsus_ident::linear::OeOrders;
 use anyhow::{Context, bail};
@@ -111,9 +112,11 @@ pub enum FitCommand {
         /// Savitzky–Golay half window (window 2m+1 samples).
         #[arg(long, default_value_t = 5)]
         half_window: usize,
-        /// The law to fit: `linear` (the thesis' resistances, isothermal, eq 5.5/5.6) or
-        /// `orifice` (ISO 6358 c1, c2, bcr, the tank's gas simulated with its cooling).
-        /// Default: the --truck file's valve law.
+        /// The law to fit: `linear` (the thesis' resistances, isothermal, eq 5.5/5.6),
+        /// `linear-cooling` (the same resistances, the tank's gas simulated with its cooling,
+        /// as the study gives the `truck` structure) or `orifice` (ISO 6358 c1, c2, bcr, the
+        /// tank's gas simulated). The residuals of the last two tell which law the valve
+        /// follows. Default: the --truck file's valve law.
         #[arg(long, value_enum)]
         law: Option<ValveLawArg>,
     },
@@ -167,6 +170,7 @@ impl FitCommand {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ValveLawArg {
     Linear,
+    LinearCooling,
     Orifice,
 }
 
@@ -472,6 +476,21 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                 }
                 return finish(args, &truck);
             }
+            if law == ValveLawArg::LinearCooling {
+                let fit = fit_linear_valve(&data, &OrificeFitOptions::for_truck(&truck))?;
+                if args.json {
+                    print_json(&fit)?;
+                } else {
+                    print_linear_cooling_fit(&fit);
+                }
+                if let Err(e) = fit.write_to(&mut truck) {
+                    if args.out.is_some() {
+                        return Err(e.into());
+                    }
+                    eprintln!("note: {e}");
+                }
+                return finish(args, &truck);
+            }
             let options = ValveFitOptions {
                 half_window: *half_window,
                 ..ValveFitOptions::for_truck(&truck)
@@ -579,38 +598,47 @@ fn finish(args: &FitArgs, truck: &TruckParameters) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn print_orifice_fit(fit: &OrificeFit) {
+fn print_linear_cooling_fit(fit: &LinearValveFit) {
     println!(
-        "Valve orifice (ISO 6358), the tank's gas simulated with its cooling; residual {:.0} Pa",
+        "Valve flow resistances (thesis eq 3.19), the tank's gas simulated with its cooling; residual {:.0} Pa",
         fit.residual_rms_pa
     );
-    let e = |v: f64| {
-        if v.is_finite() {
-            format!("{v:.2e}")
-        } else {
-            "—".to_owned()
-        }
-    };
     for (label, value, std) in [
-        ("c1 (fill)", fit.fill_conductance_m3_s_pa, fit.std[0]),
-        ("c2 (exhaust)", fit.exhaust_conductance_m3_s_pa, fit.std[1]),
+        (
+            "R_flow1 (fill)",
+            fit.fill_resistance_pa_s_per_mol,
+            fit.std[0],
+        ),
+        (
+            "R_flow2 (exhaust)",
+            fit.exhaust_resistance_pa_s_per_mol,
+            fit.std[1],
+        ),
     ] {
         match value {
-            Some(v) => println!("  {label:<13} = {v:.4e} ± {} m3/(s Pa)", e(std)),
-            None => println!("  {label:<13}: no estimation discharge, not fitted"),
+            Some(v) => println!("  {label:<17} = {v:.4e} ± {} Pa s/mol", spread(std)),
+            None => println!("  {label:<17}: no estimation discharge, not fitted"),
         }
     }
     println!(
-        "  bcr           = {:.4} ± {}",
-        fit.critical_pressure_ratio,
-        e(fit.std[2])
-    );
-    println!(
-        "  tank wall     = {:.1} ± {} s (the rig's, not the truck's)",
+        "  tank wall         = {:.1} ± {} s (the rig's, not the truck's)",
         fit.tank_thermal_time_s,
-        e(fit.std[3])
+        spread(fit.std[2])
     );
-    for d in &fit.discharges {
+    print_tank_discharges(&fit.discharges);
+}
+
+/// A standard deviation, or a dash where none is known.
+fn spread(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.2e}")
+    } else {
+        "—".to_owned()
+    }
+}
+
+fn print_tank_discharges(discharges: &[OrificeDischargeFit]) {
+    for d in discharges {
         println!(
             "    {:<40} {:<10} tank pressure NRMSE {:.2} %",
             d.name,
@@ -618,4 +646,31 @@ fn print_orifice_fit(fit: &OrificeFit) {
             d.nrmse_percent
         );
     }
+}
+
+fn print_orifice_fit(fit: &OrificeFit) {
+    println!(
+        "Valve orifice (ISO 6358), the tank's gas simulated with its cooling; residual {:.0} Pa",
+        fit.residual_rms_pa
+    );
+    for (label, value, std) in [
+        ("c1 (fill)", fit.fill_conductance_m3_s_pa, fit.std[0]),
+        ("c2 (exhaust)", fit.exhaust_conductance_m3_s_pa, fit.std[1]),
+    ] {
+        match value {
+            Some(v) => println!("  {label:<13} = {v:.4e} ± {} m3/(s Pa)", spread(std)),
+            None => println!("  {label:<13}: no estimation discharge, not fitted"),
+        }
+    }
+    println!(
+        "  bcr           = {:.4} ± {}",
+        fit.critical_pressure_ratio,
+        spread(fit.std[2])
+    );
+    println!(
+        "  tank wall     = {:.1} ± {} s (the rig's, not the truck's)",
+        fit.tank_thermal_time_s,
+        spread(fit.std[3])
+    );
+    print_tank_discharges(&fit.discharges);
 }

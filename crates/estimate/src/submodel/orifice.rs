@@ -122,32 +122,45 @@ impl OrificeFit {
     /// truck under another valve law, or a value outside its declared range, leaves the truck
     /// unchanged and the error says which.
     pub fn write_to(&self, truck: &mut TruckParameters) -> Result<(), EstimateError> {
-        if !matches!(truck.valve, ValveFlowLaw::Orifice { .. }) {
-            return Err(EstimateError::InvalidOption(format!(
-                "the truck's valve follows law \"{}\", not the orifice law this fit is of",
-                truck.valve.tag()
-            )));
-        }
-        let fields = [
-            (Field::FillConductance, self.fill_conductance_m3_s_pa),
-            (Field::ExhaustConductance, self.exhaust_conductance_m3_s_pa),
-            (
-                Field::CriticalPressureRatio,
-                Some(self.critical_pressure_ratio),
-            ),
-        ];
-        for (field, value) in fields {
-            if let Some(value) = value {
-                super::check_declared(field, value)?;
-            }
-        }
-        for (field, value) in fields {
-            if let Some(value) = value {
-                truck.valve.set(field, value);
-            }
-        }
-        Ok(())
+        write_valve(
+            truck,
+            "orifice",
+            &[
+                (Field::FillConductance, self.fill_conductance_m3_s_pa),
+                (Field::ExhaustConductance, self.exhaust_conductance_m3_s_pa),
+                (
+                    Field::CriticalPressureRatio,
+                    Some(self.critical_pressure_ratio),
+                ),
+            ],
+        )
     }
+}
+
+/// Writes the fitted `values` into `truck`'s valve if it follows law `tag` and every value is
+/// in its declared range; otherwise leaves the truck unchanged and says why.
+fn write_valve(
+    truck: &mut TruckParameters,
+    tag: &str,
+    values: &[(Field, Option<f64>)],
+) -> Result<(), EstimateError> {
+    if truck.valve.tag() != tag {
+        return Err(EstimateError::InvalidOption(format!(
+            "the truck's valve follows law \"{}\", not the {tag} law this fit is of",
+            truck.valve.tag()
+        )));
+    }
+    for &(field, value) in values {
+        if let Some(value) = value {
+            super::check_declared(field, value)?;
+        }
+    }
+    for &(field, value) in values {
+        if let Some(value) = value {
+            truck.valve.set(field, value);
+        }
+    }
+    Ok(())
 }
 
 /// The law the tank's air leaves by in a fit: each channel's coefficient (`C` of the orifice,
@@ -517,6 +530,22 @@ pub fn fit_linear_valve(
 }
 
 impl LinearValveFit {
+    /// Writes `rflow1`, `rflow2` (where estimated) into a truck under the linear law; another
+    /// law, or a value outside its declared range, leaves the truck unchanged and says so.
+    pub fn write_to(&self, truck: &mut TruckParameters) -> Result<(), EstimateError> {
+        write_valve(
+            truck,
+            "linear_resistance",
+            &[
+                (Field::FillResistance, self.fill_resistance_pa_s_per_mol),
+                (
+                    Field::ExhaustResistance,
+                    self.exhaust_resistance_pa_s_per_mol,
+                ),
+            ],
+        )
+    }
+
     /// The linear law with these resistances, the channel without a discharge at `fallback`'s
     /// value (or the thesis' reference where `fallback` is no linear law).
     pub fn law(&self, fallback: &ValveFlowLaw) -> ValveFlowLaw {
