@@ -10,7 +10,6 @@
 //! A fit that cannot be done is recorded with its reason and the pipeline goes on from the
 //! truck file's values.
 
-use airsus_data::params::Field;
 use airsus_data::{Role, TruckParameters, ValveFlowLaw};
 use airsus_estimate::submodel::{
     CrossSectionOptions, DischargeData as FitDischarge, EffectiveAreaOptions, OrificeDischargeFit,
@@ -367,6 +366,9 @@ pub fn fit_submodels(
         let named_linear =
             truck.valve_law_named && matches!(truck.valve, ValveFlowLaw::LinearResistance { .. });
         let named_orifice = matches!(truck.valve, ValveFlowLaw::Orifice { .. });
+        // The law of the models that take the lab's valve: the file's where it names one.
+        let lab_linear = named_linear || (!named_orifice && linear_explains);
+        let lab_orifice = !named_orifice && !lab_linear;
         let comparison = format!(
             "residual {orifice_rms:.0} Pa under the orifice, {linear_rms:.0} Pa under linear resistances"
         );
@@ -385,24 +387,8 @@ pub fn fit_submodels(
                     ("bcr", "1", Some(fit.critical_pressure_ratio), fit.std[2]),
                     ("tau_tank", "s", Some(fit.tank_thermal_time_s), fit.std[3]),
                 ]);
-                let lab_takes_it = !named_orifice && !named_linear && !linear_explains;
-                if lab_takes_it {
-                    let built_in = airsus_truck::truth::EffectParameters::default();
-                    let mut law = ValveFlowLaw::Orifice {
-                        fill_conductance_m3_s_pa: built_in.fill_conductance_m3_s_pa,
-                        exhaust_conductance_m3_s_pa: built_in.exhaust_conductance_m3_s_pa,
-                        critical_pressure_ratio: fit.critical_pressure_ratio,
-                    };
-                    // A channel without a discharge keeps the structure's built-in value.
-                    for (field, v) in [
-                        (Field::FillConductance, fit.fill_conductance_m3_s_pa),
-                        (Field::ExhaustConductance, fit.exhaust_conductance_m3_s_pa),
-                    ] {
-                        if let Some(v) = v {
-                            law.set(field, v);
-                        }
-                    }
-                    lab_valve = Some(law);
+                if lab_orifice {
+                    lab_valve = Some(fit.law(&options));
                 }
                 fits.push(SubmodelFit {
                     name: "valve_orifice".to_owned(),
@@ -414,7 +400,7 @@ pub fn fit_submodels(
                         format!(
                             "the NRMSE is of the tank pressure; {comparison}; tau_tank is the rig's tank wall, not the truck's"
                         ),
-                        match (written, lab_takes_it) {
+                        match (written, lab_orifice) {
                             (None, _) => "written: the truck file's valve follows the orifice law".to_owned(),
                             (Some(e), true) => format!("reported, not written: {e}; the valve of the models that take theirs from the lab (the `truck` structure)"),
                             (Some(e), false) => format!("reported, not written: {e}"),
@@ -442,9 +428,8 @@ pub fn fit_submodels(
                     ),
                     ("tau_tank", "s", Some(fit.tank_thermal_time_s), fit.std[2]),
                 ]);
-                let lab_takes_it = named_linear || (!named_orifice && linear_explains);
-                if lab_takes_it {
-                    lab_valve = Some(fit.law(&truck.valve));
+                if lab_linear {
+                    lab_valve = Some(fit.law(&options));
                 }
                 fits.push(SubmodelFit {
                     name: "valve_linear".to_owned(),
@@ -454,7 +439,7 @@ pub fn fit_submodels(
                     nrmse_validation_percent: mean_nrmse(&fit.discharges, Role::Validation),
                     notes: vec![
                         format!("the NRMSE is of the tank pressure; {comparison}"),
-                        if lab_takes_it {
+                        if lab_linear {
                             "the valve of the models that take theirs from the lab (the `truck` structure); the thesis models keep the isothermal resistances above".to_owned()
                         } else {
                             "reported".to_owned()

@@ -132,7 +132,7 @@ fn the_discharges_tell_a_linear_valve_from_an_orifice() {
                 let r2 = linear.exhaust_resistance_pa_s_per_mol.unwrap();
                 assert!((r1 / fill_pa_s_per_mol - 1.0).abs() < 0.01, "{linear:?}");
                 assert!((r2 / exhaust_pa_s_per_mol - 1.0).abs() < 0.01, "{linear:?}");
-                let law = linear.law(&airsus_data::TruckParameters::reference().valve);
+                let law = linear.law(&options);
                 assert_eq!(law.tag(), "linear_resistance");
                 (linear.residual_rms_pa, orifice.residual_rms_pa)
             }

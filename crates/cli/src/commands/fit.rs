@@ -468,12 +468,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                 } else {
                     print_orifice_fit(&fit);
                 }
-                if let Err(e) = fit.write_to(&mut truck) {
-                    if args.out.is_some() {
-                        return Err(e.into());
-                    }
-                    eprintln!("note: {e}");
-                }
+                written_or_noted(args, fit.write_to(&mut truck))?;
                 return finish(args, &truck);
             }
             if law == ValveLawArg::LinearCooling {
@@ -483,12 +478,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                 } else {
                     print_linear_cooling_fit(&fit);
                 }
-                if let Err(e) = fit.write_to(&mut truck) {
-                    if args.out.is_some() {
-                        return Err(e.into());
-                    }
-                    eprintln!("note: {e}");
-                }
+                written_or_noted(args, fit.write_to(&mut truck))?;
                 return finish(args, &truck);
             }
             let options = ValveFitOptions {
@@ -530,12 +520,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             }
             // A truck under another valve law keeps it: said, and an error only when the
             // updated file was asked for.
-            if let Err(e) = fit.write_to(&mut truck) {
-                if args.out.is_some() {
-                    return Err(e.into());
-                }
-                eprintln!("note: {e}");
-            }
+            written_or_noted(args, fit.write_to(&mut truck))?;
         }
         FitCommand::SlowDynamics {
             run,
@@ -585,6 +570,22 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
         }
     }
     finish(args, &truck)
+}
+
+/// A fit that its truck file cannot take (another law, a value out of range): an error when
+/// the updated file was asked for (`--out`), a note otherwise.
+fn written_or_noted(
+    args: &FitArgs,
+    written: Result<(), airsus_estimate::EstimateError>,
+) -> anyhow::Result<()> {
+    match written {
+        Err(e) if args.out.is_some() => Err(e.into()),
+        Err(e) => {
+            eprintln!("note: {e}");
+            Ok(())
+        }
+        Ok(()) => Ok(()),
+    }
 }
 
 /// Writes the updated truck where `--out` asks for it.

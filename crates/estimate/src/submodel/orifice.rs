@@ -68,13 +68,13 @@ impl OrificeFitOptions {
             ),
             _ => (5e-9, 1.2e-8, 0.4),
         };
-        let (r1, r2) = match truck.valve {
-            ValveFlowLaw::LinearResistance {
-                fill_pa_s_per_mol,
-                exhaust_pa_s_per_mol,
-            } => (fill_pa_s_per_mol, exhaust_pa_s_per_mol),
-            _ => (2.5e6, 1.5e6),
+        // The thesis' reference resistances under another law.
+        let linear = match truck.valve {
+            law @ ValveFlowLaw::LinearResistance { .. } => law,
+            _ => TruckParameters::reference().valve,
         };
+        let r1 = linear.get(Field::FillResistance).unwrap_or(f64::NAN);
+        let r2 = linear.get(Field::ExhaustResistance).unwrap_or(f64::NAN);
         Self {
             gas_constant_j_mol_k: truck.environment.gas_constant_j_mol_k,
             ambient_pressure_pa: truck.environment.ambient_pressure_pa,
@@ -118,6 +118,20 @@ pub struct OrificeFit {
 }
 
 impl OrificeFit {
+    /// The orifice law with these values; a channel without a discharge keeps the fit's start
+    /// value (`options`: the truck's conductance, or the typical one).
+    pub fn law(&self, options: &OrificeFitOptions) -> ValveFlowLaw {
+        ValveFlowLaw::Orifice {
+            fill_conductance_m3_s_pa: self
+                .fill_conductance_m3_s_pa
+                .unwrap_or(options.start_fill_conductance_m3_s_pa),
+            exhaust_conductance_m3_s_pa: self
+                .exhaust_conductance_m3_s_pa
+                .unwrap_or(options.start_exhaust_conductance_m3_s_pa),
+            critical_pressure_ratio: self.critical_pressure_ratio,
+        }
+    }
+
     /// Writes `c1`, `c2` (where estimated) and `bcr` into a truck under the orifice law; a
     /// truck under another valve law, or a value outside its declared range, leaves the truck
     /// unchanged and the error says which.
@@ -546,19 +560,16 @@ impl LinearValveFit {
         )
     }
 
-    /// The linear law with these resistances, the channel without a discharge at `fallback`'s
-    /// value (or the thesis' reference where `fallback` is no linear law).
-    pub fn law(&self, fallback: &ValveFlowLaw) -> ValveFlowLaw {
-        let (r1, r2) = match *fallback {
-            ValveFlowLaw::LinearResistance {
-                fill_pa_s_per_mol,
-                exhaust_pa_s_per_mol,
-            } => (fill_pa_s_per_mol, exhaust_pa_s_per_mol),
-            _ => (2.5e6, 1.5e6),
-        };
+    /// The linear law with these resistances; a channel without a discharge keeps the fit's
+    /// start value (`options`: the truck's resistance, or the thesis' reference).
+    pub fn law(&self, options: &OrificeFitOptions) -> ValveFlowLaw {
         ValveFlowLaw::LinearResistance {
-            fill_pa_s_per_mol: self.fill_resistance_pa_s_per_mol.unwrap_or(r1),
-            exhaust_pa_s_per_mol: self.exhaust_resistance_pa_s_per_mol.unwrap_or(r2),
+            fill_pa_s_per_mol: self
+                .fill_resistance_pa_s_per_mol
+                .unwrap_or(options.start_fill_resistance_pa_s_per_mol),
+            exhaust_pa_s_per_mol: self
+                .exhaust_resistance_pa_s_per_mol
+                .unwrap_or(options.start_exhaust_resistance_pa_s_per_mol),
         }
     }
 }
