@@ -436,6 +436,69 @@ fn fit_effective_area_writes_a_spline_and_refits_a_spline_file_as_one() {
 }
 
 #[test]
+fn fit_effective_area_reads_the_growth_with_pressure_and_cross_section_the_settled_samples() {
+    let dir = generated();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    // The reference truck's bellow grows 0.004 per 100 kPa; its map says 0.0038 ± 0.0003.
+    let (printed, _) = ok(&[
+        "fit",
+        "effective-area",
+        "--force-map",
+        &p("force_map.csv"),
+        "--fit-kap",
+        "--out",
+        &p("kap.toml"),
+    ]);
+    assert!(printed.contains("fitted to the map"), "{printed}");
+    let truck = airsus_data::read_truck(std::path::Path::new(&p("kap.toml")))
+        .unwrap()
+        .parameters;
+    let area = &truck.bellow.effective_area;
+    assert_eq!(area.tag(), "polynomial_pressure");
+    assert!(
+        (area.growth_per_100kpa() - 0.004).abs() < 0.0004,
+        "{}",
+        area.growth_per_100kpa()
+    );
+
+    // The loading run's settled samples: 6 of its 7 holds last 120 s past their change.
+    let (printed, _) = ok(&[
+        "fit",
+        "cross-section",
+        "--run",
+        &p("ds1.csv"),
+        "--settled-after-s",
+        "120",
+    ]);
+    assert!(
+        printed.contains("in 6 load holds (120 s or more"),
+        "{printed}"
+    );
+    let refused = airsus(&[
+        "fit",
+        "cross-section",
+        "--run",
+        &p("ds1.csv"),
+        "--settled-after-s=-5",
+    ]);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert!(stderr.contains("--settled-after-s"), "{stderr}");
+    // Holds too short for three settled loads: an error that says what to do.
+    let refused = airsus(&[
+        "fit",
+        "cross-section",
+        "--run",
+        &p("ds1.csv"),
+        "--settled-after-s",
+        "400",
+    ]);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert!(stderr.contains("three loads at least"), "{stderr}");
+}
+
+#[test]
 fn fit_wall_friction_reads_the_maps_hysteresis_into_the_truck_file() {
     let dir = generated();
     let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();

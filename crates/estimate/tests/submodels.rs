@@ -8,8 +8,8 @@ use airsus_data::{
 use airsus_estimate::EstimateError;
 use airsus_estimate::submodel::{
     CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions,
-    SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area, fit_slow_dynamics,
-    fit_valve,
+    SlowDynamicsOptions, ValveFitOptions, fit_area_growth, fit_cross_section, fit_effective_area,
+    fit_slow_dynamics, fit_valve,
 };
 use airsus_model::build_model;
 use common::{load_step_run, measure, rng, valve_pulse_run};
@@ -103,24 +103,39 @@ fn cross_section_refuses_a_run_with_valve_action() {
     assert!(fit_cross_section(&flat, &[], &truck, &CrossSectionOptions::default()).is_err());
 }
 
-#[test]
-fn effective_area_polynomial_from_a_force_map() {
-    let poly = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941];
-    let area = |h: f64| poly.iter().rev().fold(0.0, |acc, p| acc * h + p);
-    let mut r = rng(7);
+/// The lab's bellow (the SPEC's quartic), m².
+const LAB_AREA_POLY: [f64; 5] = [-0.0289, 0.8362, -3.0698, 4.9616, -2.9941];
+
+fn lab_area_m2(h: f64) -> f64 {
+    LAB_AREA_POLY.iter().rev().fold(0.0, |acc, p| acc * h + p)
+}
+
+/// A force map of [`lab_area_m2`] growing by `growth` per 100 kPa: 7 pressures, 10 heights,
+/// each measured twice (up and down, `friction_n` apart either way of the mean), 20 N noise.
+fn force_map(growth: f64, friction_n: f64, seed: u64) -> ForceMap {
+    let mut r = rng(seed);
     let mut map = ForceMap::default();
     for i in 1..=7 {
         let p = 1e5 * f64::from(i);
         for k in 0..10 {
             let h = 0.22 + 0.02 * f64::from(k);
-            for _ in 0..2 {
+            for sweep in [-1.0, 1.0] {
                 let z: f64 = StandardNormal.sample(&mut r);
                 map.bellow_height_m.push(h);
                 map.bellow_gauge_pa.push(p);
-                map.force_n.push(p * area(h) + 20.0 * z);
+                map.force_n.push(
+                    p * lab_area_m2(h) * (1.0 + growth * p / 1e5) + sweep * friction_n + 20.0 * z,
+                );
             }
         }
     }
+    map
+}
+
+#[test]
+fn effective_area_polynomial_from_a_force_map() {
+    let (poly, area) = (LAB_AREA_POLY, lab_area_m2);
+    let map = force_map(0.0, 0.0, 7);
     let fit = fit_effective_area(&map, &EffectiveAreaOptions::default()).unwrap();
     assert_eq!(fit.per_height.len(), 10);
     assert_eq!(fit.points, 140);
@@ -156,6 +171,66 @@ fn effective_area_polynomial_from_a_force_map() {
         fit_effective_area(&few, &EffectiveAreaOptions::default()),
         Err(EstimateError::InsufficientData { .. })
     ));
+}
+
+#[test]
+fn area_growth_with_pressure_from_a_force_map() {
+    // A bellow whose area grows 0.5 % per 100 kPa, measured up and down at 7 pressures with a
+    // wall friction of 150 N between the sweeps and 20 N of noise.
+    let (area, growth) = (lab_area_m2, 0.005);
+    let map = force_map(growth, 150.0, 11);
+    let fit = fit_area_growth(&map, 1e-4).unwrap();
+    assert_eq!(fit.heights, 10);
+    assert!(
+        (fit.growth_per_100kpa - growth).abs() <= 3.0 * fit.growth_std_per_100kpa
+            && fit.growth_std_per_100kpa < 0.1 * growth,
+        "{fit:?}"
+    );
+    // The quartic fitted under the fitted growth is the area at zero pressure; the thesis'
+    // `F = p A(h)` averages the stretch into it (about 2 % here).
+    let with = fit_effective_area(
+        &map,
+        &EffectiveAreaOptions {
+            fit_growth: true,
+            ..EffectiveAreaOptions::default()
+        },
+    )
+    .unwrap();
+    let without = fit_effective_area(&map, &EffectiveAreaOptions::default()).unwrap();
+    assert_eq!(with.growth_per_100kpa, Some(fit.growth_per_100kpa));
+    assert!(with.growth_std_per_100kpa.is_some());
+    for h in [0.24, 0.3, 0.38] {
+        let relative = |a: f64| a / area(h) - 1.0;
+        assert!(
+            relative(with.area_m2(h)).abs() < 3e-3,
+            "{h}: {}",
+            relative(with.area_m2(h))
+        );
+        assert!(relative(without.area_m2(h)) > 0.015, "{h}");
+    }
+    assert!(with.force_nrmse_percent > without.force_nrmse_percent);
+    let law = with.law().unwrap();
+    assert_eq!(law.tag(), "polynomial_pressure");
+    assert!((law.area_m2(0.3, 4e5) / (area(0.3) * 1.02) - 1.0).abs() < 3e-3);
+    // Into a truck whose law stretches with pressure: the quartic and the growth.
+    let mut t = TruckParameters::reference();
+    t.bellow.effective_area = law.clone();
+    t.bellow
+        .effective_area
+        .set(airsus_data::params::Field::AreaPressureGrowth, 0.0);
+    with.write_to(&mut t).unwrap();
+    assert_eq!(t.bellow.effective_area, law);
+
+    // A map at one pressure cannot tell a growth from an area: an error, not a guess.
+    let one_pressure = ForceMap {
+        bellow_height_m: map.bellow_height_m[..20].to_vec(),
+        bellow_gauge_pa: map.bellow_gauge_pa[..20].to_vec(),
+        force_n: map.force_n[..20].to_vec(),
+    };
+    let err = fit_area_growth(&one_pressure, 1e-4)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("two or more pressures"), "{err}");
 }
 
 /// A tank emptied through a linear resistance R: `dn/dt = −p_gauge/R`, `p_gauge = n R T/V −

@@ -60,6 +60,11 @@ pub enum FitCommand {
         /// Bellow height of --known-volume-l, mm.
         #[arg(long, requires = "known_volume_l")]
         at_height_mm: Option<f64>,
+        /// Fit only samples at least this long after the logged load last changed, s (the
+        /// study uses 120: a load step heats or cools the gas, and the wall creeps, for tens of
+        /// seconds). Default: every sample, as thesis 5.2.1.
+        #[arg(long)]
+        settled_after_s: Option<f64>,
     },
     /// Effective area: per-height least squares of F = p A_eff, then the quartic (thesis
     /// 5.2.2) or a monotone spline through the heights. A truck whose law stretches the area
@@ -75,6 +80,12 @@ pub enum FitCommand {
         /// 16). Default: the --truck file's law (a spline for a spline, else the quartic).
         #[arg(long, value_enum)]
         law: Option<AreaLawArg>,
+        /// Fit the area's growth with pressure `kap` from the map too (two heights measured at
+        /// two pressures or more): the areas are those at zero pressure, and the law written
+        /// stretches them (`polynomial_pressure`, or the spline with `growth_per_100kpa`).
+        /// Without it: the --truck file's `kap`, or `F = p A(h)` as the thesis.
+        #[arg(long)]
+        fit_kap: bool,
     },
     /// Wall friction `fc` (the `truck` structure's `[effects] friction_force_n`) from the
     /// hysteresis of a force map measured in up and down sweeps: half the difference of the
@@ -233,7 +244,13 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             validation,
             known_volume_l,
             at_height_mm,
+            settled_after_s,
         } => {
+            if let Some(settle) = settled_after_s
+                && !(settle.is_finite() && *settle >= 0.0)
+            {
+                bail!("--settled-after-s must be a time of zero or more seconds, got {settle}");
+            }
             let est = airsus_logs::read_plain_run(run)
                 .with_context(|| format!("run {}", run.display()))?;
             let vals = validation
@@ -253,6 +270,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             };
             let options = CrossSectionOptions {
                 scale,
+                settled_after_s: *settled_after_s,
                 ..CrossSectionOptions::default()
             };
             let fit = fit_cross_section(&est, &val_refs, &truck, &options)?;
@@ -278,8 +296,12 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                 }
                 println!("  A1 = {:.5} ± {:.5} m", fit.a1_m, fit.a1_std_m);
                 println!(
-                    "  {} samples, bellow height {:.1}-{:.1} mm{}",
+                    "  {} samples in {} load holds{}, bellow height {:.1}-{:.1} mm{}",
                     fit.samples,
+                    fit.holds,
+                    settled_after_s.map_or(String::new(), |s| format!(
+                        " ({s} s or more after a load change)"
+                    )),
                     fit.bellow_height_range_m.0 * 1e3,
                     fit.bellow_height_range_m.1 * 1e3,
                     if fit.converged {
@@ -302,10 +324,12 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             force_map,
             degree,
             law,
+            fit_kap,
         } => {
             let map = read_force_map(force_map)?;
             let options = EffectiveAreaOptions {
                 degree: *degree,
+                fit_growth: *fit_kap,
                 ..EffectiveAreaOptions::for_truck(&truck)
             };
             let law = law.unwrap_or(if truck.bellow.effective_area.knots().is_some() {
@@ -335,7 +359,12 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                     }
                     if let Some(kap) = fit.growth_per_100kpa {
                         println!(
-                            "  areas at zero pressure; kap = {kap} per 100 kPa from the truck"
+                            "  areas at zero pressure; kap = {kap} per 100 kPa {}",
+                            if *fit_kap {
+                                "fitted to the map"
+                            } else {
+                                "from the truck"
+                            }
                         );
                     }
                     println!("  NRMSE: force {:.2} %", fit.force_nrmse_percent);
@@ -356,13 +385,29 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                     for (i, (p, s)) in fit.poly.iter().zip(&fit.poly_std).enumerate() {
                         println!("  p{i} = {p:>12.5} ± {s:.5}");
                     }
+                    if let Some(kap) = fit.growth_per_100kpa {
+                        match fit.growth_std_per_100kpa {
+                            Some(std) => println!(
+                                "  kap = {kap:.5} ± {std:.5} per 100 kPa (fitted to the map; the p_i are the area at zero pressure)"
+                            ),
+                            None => println!(
+                                "  kap = {kap} per 100 kPa from the truck (the p_i are the area at zero pressure)"
+                            ),
+                        }
+                    }
                     println!(
                         "  NRMSE: area vs per-height LS {:.2} %, force {:.2} %",
                         fit.area_nrmse_percent, fit.force_nrmse_percent
                     );
                 }
                 if args.out.is_some() {
-                    fit.write_to(&mut truck)?;
+                    if *fit_kap && !truck.bellow.effective_area.depends_on_pressure() {
+                        // The thesis' quartic has no growth to write the fitted one into: the
+                        // law becomes the quartic that stretches with pressure.
+                        truck.bellow.effective_area = fit.law()?;
+                    } else {
+                        fit.write_to(&mut truck)?;
+                    }
                 }
             }
         }

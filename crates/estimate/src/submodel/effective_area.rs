@@ -35,6 +35,11 @@ pub struct EffectiveAreaOptions {
     /// then those at zero gauge pressure, `F = p A(h) (1 + κ p / 100 kPa)`, so that the law
     /// written back does not count the stretch twice. `None`: `F = p A(h)` (thesis 5.2.2).
     pub growth_per_100kpa: Option<f64>,
+    /// Fit `κ` from the map as well ([`fit_area_growth`]), in place of `growth_per_100kpa`:
+    /// a map at several pressures per height determines it, and a `κ` assumed instead bends
+    /// the areas by the error times the map's mean pressure (the virtual truck family: the
+    /// built-in 0.004 for a bellow at 0.0048 put the area 0.4 % high over the whole stroke).
+    pub fit_growth: bool,
 }
 
 impl Default for EffectiveAreaOptions {
@@ -43,6 +48,7 @@ impl Default for EffectiveAreaOptions {
             degree: 4,
             height_tolerance_m: 1e-4,
             growth_per_100kpa: None,
+            fit_growth: false,
         }
     }
 }
@@ -56,6 +62,99 @@ impl EffectiveAreaOptions {
             ..Self::default()
         }
     }
+
+    /// The growth the areas are fitted under: fitted from `map` when asked for
+    /// ([`Self::fit_growth`]), with its standard deviation, else the given one.
+    fn growth(&self, map: &ForceMap) -> Result<(Option<f64>, Option<f64>), EstimateError> {
+        if self.fit_growth {
+            let fit = fit_area_growth(map, self.height_tolerance_m)?;
+            Ok((Some(fit.growth_per_100kpa), Some(fit.growth_std_per_100kpa)))
+        } else {
+            Ok((self.growth_per_100kpa, None))
+        }
+    }
+}
+
+/// The relative growth of the effective area with gauge pressure, `κ` per 100 kPa, read off a
+/// force map: `F = p A_h (1 + κ p)` with one area `A_h` per height and one `κ` for the map.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct AreaGrowthFit {
+    pub growth_per_100kpa: f64,
+    pub growth_std_per_100kpa: f64,
+    /// Heights measured at two or more pressures (those that carry `κ`).
+    pub heights: usize,
+}
+
+/// The range `κ` is searched over, per 100 kPa: a rolling-lobe bellow's area grows by a few
+/// tenths of a percent per 100 kPa; ten times that either way is far outside any bellow.
+const GROWTH_SEARCH_PER_100KPA: (f64, f64) = (-0.05, 0.05);
+
+/// Fits `κ` (module docs of [`AreaGrowthFit`]) by variable projection: for a given `κ` every
+/// height's area is linear least squares in closed form (step 1), so the residual is a
+/// function of `κ` alone, minimised by a scan and golden-section refinement (a smooth 1-D
+/// profile; no crate needed for that). The standard deviation is from the profile's
+/// curvature. Needs at least two heights measured at two or more pressures.
+pub fn fit_area_growth(map: &ForceMap, tolerance_m: f64) -> Result<AreaGrowthFit, EstimateError> {
+    let bad = |reason: String| EstimateError::InsufficientData { fit: FIT, reason };
+    let rss = |growth: f64| -> Result<f64, EstimateError> {
+        Ok(per_height_areas(map, tolerance_m, Some(growth))?
+            .iter()
+            .map(|g| g.residual_n2)
+            .sum())
+    };
+    let groups = per_height_areas(map, tolerance_m, None)?;
+    let heights = groups.iter().filter(|g| g.pressures > 1).count();
+    if heights < 2 {
+        return Err(bad(format!(
+            "{heights} height(s) measured at two or more pressures; the area's growth with pressure needs two at least"
+        )));
+    }
+    let (low, high) = GROWTH_SEARCH_PER_100KPA;
+    let steps = 100;
+    let at = |i: usize| low + (high - low) * i as f64 / steps as f64;
+    let mut best = (0, f64::INFINITY);
+    for i in 0..=steps {
+        let r = rss(at(i))?;
+        if r < best.1 {
+            best = (i, r);
+        }
+    }
+    let (mut a, mut b) = (at(best.0.saturating_sub(1)), at((best.0 + 1).min(steps)));
+    let golden = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut c, mut d) = (b - golden * (b - a), a + golden * (b - a));
+    let (mut fc, mut fd) = (rss(c)?, rss(d)?);
+    while b - a > 1e-9 {
+        if fc < fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - golden * (b - a);
+            fc = rss(c)?;
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + golden * (b - a);
+            fd = rss(d)?;
+        }
+    }
+    let growth = 0.5 * (a + b);
+    if growth <= low + 1e-6 || growth >= high - 1e-6 {
+        return Err(bad(format!(
+            "the map's forces call for an area growth of {growth} per 100 kPa, at the end of the plausible range {low}..{high}: check the map's pressure and force units"
+        )));
+    }
+    // σ²(κ) = σ² / (½ d²RSS/dκ²), σ² = RSS / (N − heights − 1).
+    let r0 = rss(growth)?;
+    let step = 1e-4;
+    let curvature = (rss(growth + step)? - 2.0 * r0 + rss(growth - step)?) / (step * step);
+    let dof = map.len().saturating_sub(groups.len() + 1).max(1) as f64;
+    let std = if curvature > 0.0 {
+        (r0 / dof / (0.5 * curvature)).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    Ok(AreaGrowthFit {
+        growth_per_100kpa: growth,
+        growth_std_per_100kpa: std,
+        heights,
+    })
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -63,6 +162,11 @@ pub struct EffectiveAreaFit {
     /// `p0, p1, …` of `A_eff(h) = Σ p_i h^i` (h in m, area in m²).
     pub poly: Vec<f64>,
     pub poly_std: Vec<f64>,
+    /// The growth with pressure the areas were fitted under, `κ` per 100 kPa (given, or
+    /// fitted: [`EffectiveAreaOptions::fit_growth`]); `None`: `F = p A(h)`.
+    pub growth_per_100kpa: Option<f64>,
+    /// Its standard deviation where it was fitted.
+    pub growth_std_per_100kpa: Option<f64>,
     /// The per-height least-squares areas (step 1): height m, area m², points.
     pub per_height: Vec<(f64, f64, usize)>,
     /// NRMSE of the polynomial against the per-height areas, percent.
@@ -102,7 +206,31 @@ impl EffectiveAreaFit {
                 ))
             })?;
         *coefficients = poly;
+        if let Some(growth) = self.growth_per_100kpa {
+            truck
+                .bellow
+                .effective_area
+                .set(airsus_data::params::Field::AreaPressureGrowth, growth);
+        }
         Ok(())
+    }
+
+    /// The fit as a law of its own: the quartic, stretched with pressure by the growth it was
+    /// fitted under (`polynomial_pressure`) where it has one.
+    pub fn law(&self) -> Result<EffectiveAreaLaw, EstimateError> {
+        let coefficients_m2: [f64; 5] = self.poly.clone().try_into().map_err(|_| {
+            EstimateError::InvalidOption(format!(
+                "a truck's effective area is a quartic; this fit has degree {}",
+                self.poly.len().saturating_sub(1)
+            ))
+        })?;
+        Ok(match self.growth_per_100kpa {
+            Some(growth_per_100kpa) => EffectiveAreaLaw::PressurePolynomial {
+                coefficients_m2,
+                growth_per_100kpa,
+            },
+            None => EffectiveAreaLaw::Polynomial { coefficients_m2 },
+        })
     }
 }
 
@@ -116,6 +244,10 @@ struct HeightArea {
     points: usize,
     /// `Σ p²` over the group: the area's weight when groups are merged.
     weight: f64,
+    /// `Σ (F − q A)²` over the group, N².
+    residual_n2: f64,
+    /// Distinct pressures in the group.
+    pressures: usize,
 }
 
 /// Step 1 of both fits: the map's points grouped by height (within `tolerance_m`), each
@@ -173,12 +305,20 @@ fn per_height_areas(
         } else {
             f64::NAN
         };
+        let mut pressures: Vec<f64> = order[i..j]
+            .iter()
+            .map(|&k| map.bellow_gauge_pa[k])
+            .collect();
+        pressures.sort_by(f64::total_cmp);
+        pressures.dedup_by(|a, b| (*a - *b).abs() <= 1.0);
         per_height.push(HeightArea {
             height_m: hs / (j - i) as f64,
             area_m2: area,
             area_std_m2: std,
             points: j - i,
             weight: pp,
+            residual_n2: residual,
+            pressures: pressures.len(),
         });
         i = j;
     }
@@ -195,8 +335,9 @@ pub fn fit_effective_area(
 ) -> Result<EffectiveAreaFit, EstimateError> {
     let bad = |reason: String| EstimateError::InsufficientData { fit: FIT, reason };
     let n = map.len();
+    let (growth_per_100kpa, growth_std_per_100kpa) = options.growth(map)?;
     let per_height: Vec<(f64, f64, usize)> =
-        per_height_areas(map, options.height_tolerance_m, options.growth_per_100kpa)?
+        per_height_areas(map, options.height_tolerance_m, growth_per_100kpa)?
             .iter()
             .map(|g| (g.height_m, g.area_m2, g.points))
             .collect();
@@ -246,6 +387,8 @@ pub fn fit_effective_area(
     let fit = EffectiveAreaFit {
         poly,
         poly_std,
+        growth_per_100kpa,
+        growth_std_per_100kpa,
         per_height,
         area_nrmse_percent: 0.0,
         force_nrmse_percent: 0.0,
@@ -253,7 +396,7 @@ pub fn fit_effective_area(
     };
     let areas: Vec<f64> = fit.per_height.iter().map(|x| x.1).collect();
     let area_fit: Vec<f64> = fit.per_height.iter().map(|x| fit.area_m2(x.0)).collect();
-    let kappa = options.growth_per_100kpa.unwrap_or(0.0) / 1e5;
+    let kappa = growth_per_100kpa.unwrap_or(0.0) / 1e5;
     let force_fit: Vec<f64> = (0..n)
         .map(|k| {
             let p = map.bellow_gauge_pa[k];
@@ -351,7 +494,8 @@ pub fn fit_effective_area_spline(
     map: &ForceMap,
     options: &EffectiveAreaOptions,
 ) -> Result<SplineAreaFit, EstimateError> {
-    let groups = per_height_areas(map, options.height_tolerance_m, options.growth_per_100kpa)?;
+    let (growth_per_100kpa, _) = options.growth(map)?;
+    let groups = per_height_areas(map, options.height_tolerance_m, growth_per_100kpa)?;
     let map_heights = groups.len();
     if map_heights < 2 {
         return Err(EstimateError::InsufficientData {
@@ -383,6 +527,8 @@ pub fn fit_effective_area_spline(
                         / weight,
                     points,
                     weight,
+                    residual_n2: merged.iter().map(|g| g.residual_n2).sum(),
+                    pressures: merged.iter().map(|g| g.pressures).max().unwrap_or(0),
                 }
             })
             .collect()
@@ -392,7 +538,7 @@ pub fn fit_effective_area_spline(
         areas_m2: knots.iter().map(|g| g.area_m2).collect(),
         areas_std_m2: knots.iter().map(|g| g.area_std_m2).collect(),
         force_nrmse_percent: f64::NAN,
-        growth_per_100kpa: options.growth_per_100kpa,
+        growth_per_100kpa,
         map_heights,
         points: map.len(),
     };

@@ -23,8 +23,8 @@ pub use cross_section::{
     CrossSectionFit, CrossSectionOptions, CrossSectionScale, fit_cross_section,
 };
 pub use effective_area::{
-    EffectiveAreaFit, EffectiveAreaOptions, SplineAreaFit, fit_effective_area,
-    fit_effective_area_spline,
+    AreaGrowthFit, EffectiveAreaFit, EffectiveAreaOptions, SplineAreaFit, fit_area_growth,
+    fit_effective_area, fit_effective_area_spline,
 };
 pub use orifice::{
     LinearValveFit, OrificeDischargeFit, OrificeFit, OrificeFitOptions, fit_linear_valve,
