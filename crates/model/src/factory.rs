@@ -75,11 +75,13 @@ pub struct ModelEntry {
     pub valve_free: &'static [&'static str],
     /// Freed as well when the estimation runs have road input.
     pub road_free: &'static [&'static str],
-    /// Whether the model's valve starts from the lab's tank discharges simulated with the
-    /// gas's cooling, in the law they call for where the truck file names none: a model whose
-    /// own gas exchanges heat (the `truck` structure). The thesis models keep the file's law
-    /// and the thesis' isothermal reading of the discharges (5.2.3).
-    pub lab_valve: bool,
+    /// Whether the model starts from the lab's laws in the form its own physics takes them,
+    /// where the truck file names none: the valve from the tank discharges simulated with the
+    /// gas's cooling, in the law they call for, and the effective area with its growth with
+    /// pressure read off the force map. For a model whose gas exchanges heat and whose area
+    /// stretches with pressure (the `truck` structure). The thesis models keep the file's laws
+    /// and the thesis' readings of the lab (5.2.2, 5.2.3: isothermal, `F = p A(h)`).
+    pub lab_laws: bool,
 }
 
 impl ModelEntry {
@@ -144,7 +146,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         default_free: &[AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "kf"],
         valve_free: &FLOW,
         road_free: &ROAD,
-        lab_valve: false,
+        lab_laws: false,
     },
     ModelEntry {
         name: "m2",
@@ -153,7 +155,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         default_free: &[AREA[0], AREA[1], AREA[2], AREA[3], AREA[4], "m2", "ig"],
         valve_free: &FLOW,
         road_free: &ROAD,
-        lab_valve: false,
+        lab_laws: false,
     },
     ModelEntry {
         name: "m2x",
@@ -164,7 +166,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         ],
         valve_free: &FLOW,
         road_free: &ROAD,
-        lab_valve: false,
+        lab_laws: false,
     },
     ModelEntry {
         name: "m2xh",
@@ -175,7 +177,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         ],
         valve_free: &FLOW,
         road_free: &ROAD,
-        lab_valve: false,
+        lab_laws: false,
     },
     ModelEntry {
         name: "m3",
@@ -185,7 +187,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         valve_free: &FLOW,
         // Model 3's height is a linear block: it has no damper and ignores the road.
         road_free: &[],
-        lab_valve: false,
+        lab_laws: false,
     },
 ];
 

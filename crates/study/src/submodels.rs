@@ -10,12 +10,12 @@
 //! A fit that cannot be done is recorded with its reason and the pipeline goes on from the
 //! truck file's values.
 
-use airsus_data::{Role, TruckParameters, ValveFlowLaw};
+use airsus_data::{EffectiveAreaLaw, Role, TruckParameters, ValveFlowLaw};
 use airsus_estimate::submodel::{
     CrossSectionOptions, DischargeData as FitDischarge, EffectiveAreaOptions, OrificeDischargeFit,
-    OrificeFitOptions, SlowDynamicsOptions, ValveFitOptions, fit_cross_section, fit_effective_area,
-    fit_effective_area_spline, fit_linear_valve, fit_orifice, fit_slow_dynamics, fit_valve,
-    fit_wall_friction,
+    OrificeFitOptions, SlowDynamicsOptions, ValveFitOptions, fit_area_growth, fit_cross_section,
+    fit_effective_area, fit_effective_area_spline, fit_linear_valve, fit_orifice,
+    fit_slow_dynamics, fit_valve, fit_wall_friction,
 };
 use airsus_ident::linear::{IdData, OeOrders, PemOptions, oe};
 use airsus_report::results::{NamedValue, SubmodelFit, SubmodelResults};
@@ -47,27 +47,45 @@ fn failed(name: &str, description: &str, error: String) -> SubmodelFit {
 /// more than this factor.
 const LAW_RESIDUAL_MARGIN: f64 = 1.05;
 
+/// The cross-section fit reads the gas law where each load has been held this long, s
+/// ([`CrossSectionOptions::settled_after_s`]): four gas thermal times of the family's
+/// slowest (40 s draws 35 % of the transient's pressure error down to 5 %), inside the
+/// 200 s holds of the thesis' loading runs.
+const CROSS_SECTION_SETTLED_AFTER_S: f64 = 120.0;
+
 /// What the submodel fits give the grey-box fits to start from.
 #[derive(Debug, Clone)]
 pub struct SubmodelStart {
     /// The truck file with every fit written into it that its laws take.
     pub truck: TruckParameters,
     /// The valve the lab's discharges call for (law and values, the tank's gas simulated),
-    /// for the models that take theirs from the lab ([`airsus_model::ModelEntry::lab_valve`]):
+    /// for the models that take theirs from the lab ([`airsus_model::ModelEntry::lab_laws`]):
     /// the law the file names, or where it names none, the linear law unless the orifice
     /// explains the discharges clearly better. `None`: no discharge, or the file's own
     /// (an orifice file has the lab's orifice written into it).
     pub lab_valve: Option<ValveFlowLaw>,
+    /// The effective area with its growth with pressure read off the force map, for the same
+    /// models, where the file's law is the thesis' quartic (`F = p A(h)`: the areas averaged
+    /// over the map's pressures, which a model that stretches them with pressure would count
+    /// twice). `None`: no force map, a map at one pressure, or a file that names its law
+    /// (a law with growth gets the map's `κ` written into it for every model).
+    pub lab_area: Option<EffectiveAreaLaw>,
 }
 
 impl SubmodelStart {
     /// The start of a model: the truck file, with the lab's valve for a model that takes it.
     pub fn truck_for(&self, entry: &airsus_model::ModelEntry) -> TruckParameters {
         let mut truck = self.truck.clone();
-        if let (true, Some(law)) = (entry.lab_valve, self.lab_valve) {
+        if !entry.lab_laws {
+            return truck;
+        }
+        if let Some(law) = self.lab_valve {
             truck.valve = law;
             // A linear law named, so that the structure runs it and its file says so.
             truck.valve_law_named = matches!(law, ValveFlowLaw::LinearResistance { .. });
+        }
+        if let Some(area) = &self.lab_area {
+            truck.bellow.effective_area = area.clone();
         }
         truck
     }
@@ -87,7 +105,71 @@ pub fn fit_submodels(
     // thesis' quartic, or a spline through the map's heights for a file whose law is one.
     const AREA: &str = "A_eff(h) = p0 + p1 h + ... + p4 h^4 from the force map (5.2.2)";
     const SPLINE: &str = "A_eff(h) monotone spline through the force map's heights (5.2.2)";
-    let options = EffectiveAreaOptions::for_truck(&truck);
+    const AREA_GROWTH: &str =
+        "A_eff(h, p) = (p0 + ... + p4 h^4)(1 + kap p / 100 kPa) from the force map";
+    let mut options = EffectiveAreaOptions::for_truck(&truck);
+    // The area's growth with pressure, where the map's pressures determine it.
+    let growth = input
+        .force_map
+        .as_ref()
+        .map(|map| fit_area_growth(map, options.height_tolerance_m));
+    let mut lab_area = None;
+    // Reported after the thesis' reading of the map, which the other models start from.
+    let mut growth_fits = Vec::new();
+    if let Some(Err(e)) = &growth {
+        growth_fits.push(failed("effective_area_growth", AREA_GROWTH, e.to_string()));
+    }
+    if let (Some(Ok(growth)), Some(map)) = (&growth, &input.force_map) {
+        if options.growth_per_100kpa.is_some() {
+            // The file's law stretches with pressure: every model gets the map's κ.
+            options.growth_per_100kpa = Some(growth.growth_per_100kpa);
+        } else if truck.bellow.effective_area.coefficients_m2().is_some() {
+            let structure = EffectiveAreaOptions {
+                growth_per_100kpa: Some(growth.growth_per_100kpa),
+                ..options.clone()
+            };
+            match fit_effective_area(map, &structure).and_then(|fit| Ok((fit.law()?, fit))) {
+                Err(e) => {
+                    growth_fits.push(failed("effective_area_growth", AREA_GROWTH, e.to_string()))
+                }
+                Ok((law, fit)) => {
+                    lab_area = Some(law);
+                    let mut parameters: Vec<NamedValue> = fit
+                        .poly
+                        .iter()
+                        .zip(&fit.poly_std)
+                        .enumerate()
+                        .map(|(i, (v, s))| {
+                            value(
+                                &format!("p{i}"),
+                                &format!("m^{}", 2 - i as i32),
+                                *v,
+                                Some(*s),
+                            )
+                        })
+                        .collect();
+                    parameters.push(value(
+                        "kap",
+                        "1/100kPa",
+                        growth.growth_per_100kpa,
+                        Some(growth.growth_std_per_100kpa),
+                    ));
+                    growth_fits.push(SubmodelFit {
+                        name: "effective_area_growth".to_owned(),
+                        description: AREA_GROWTH.to_owned(),
+                        parameters,
+                        nrmse_estimation_percent: Some(fit.area_nrmse_percent),
+                        nrmse_validation_percent: None,
+                        notes: vec![format!(
+                            "{} points, kap from {} heights at several pressures; force NRMSE {:.2} %; the start of the models whose area stretches with pressure (the `truck` structure), in place of the thesis' quartic, which averages the areas over the map's pressures",
+                            fit.points, growth.heights, fit.force_nrmse_percent
+                        )],
+                        error: None,
+                    });
+                }
+            }
+        }
+    }
     let spline = truck.bellow.effective_area.knots().is_some();
     let description = if spline { SPLINE } else { AREA };
     match &input.force_map {
@@ -147,6 +229,8 @@ pub fn fit_submodels(
             },
         },
     }
+
+    fits.append(&mut growth_fits);
 
     // Wall friction: the force map's hysteresis between its up and down sweeps (the `truck`
     // structure's `fc`; the other models have no wall friction).
@@ -215,7 +299,24 @@ pub fn fit_submodels(
                 .filter(|r| r.name != est.name)
                 .map(|r| &r.run)
                 .collect();
-            match fit_cross_section(&est.run, &validation, &truck, &CrossSectionOptions::new()) {
+            let settled = CrossSectionOptions {
+                settled_after_s: Some(CROSS_SECTION_SETTLED_AFTER_S),
+                ..CrossSectionOptions::new()
+            };
+            // Loads held too briefly for settled samples: every sample, as the thesis.
+            let (result, how) = match fit_cross_section(&est.run, &validation, &truck, &settled) {
+                Ok(fit) => (
+                    Ok(fit),
+                    format!(
+                        "samples {CROSS_SECTION_SETTLED_AFTER_S} s or more after a load change (the gas and the wall settled)"
+                    ),
+                ),
+                Err(settled_error) => (
+                    fit_cross_section(&est.run, &validation, &truck, &CrossSectionOptions::new()),
+                    format!("every sample, as thesis 5.2.1 (not settled ones: {settled_error})"),
+                ),
+            };
+            match result {
                 Err(e) => fits.push(failed("cross_section", CROSS, e.to_string())),
                 Ok(fit) => {
                     fit.write_to(&mut truck);
@@ -236,7 +337,10 @@ pub fn fit_submodels(
                         nrmse_estimation_percent: Some(fit.nrmse_estimation_percent),
                         nrmse_validation_percent: validation_nrmse,
                         notes: vec![
-                            format!("fitted on {}; pressure model NRMSE like thesis Table 5.1", est.name),
+                            format!(
+                                "fitted on {} from {how}: {} samples in {} load holds; pressure model NRMSE like thesis Table 5.1",
+                                est.name, fit.samples, fit.holds
+                            ),
                             "a closed-valve run fixes only the shape A1/A0 of the volume law (SPEC §4); A0 is kept from the truck file".to_owned(),
                         ],
                         error: None,
@@ -518,7 +622,14 @@ pub fn fit_submodels(
         },
     }
 
-    (SubmodelStart { truck, lab_valve }, SubmodelResults { fits })
+    (
+        SubmodelStart {
+            truck,
+            lab_valve,
+            lab_area,
+        },
+        SubmodelResults { fits },
+    )
 }
 
 /// OE from (Δload kg, Δpressure kPa) to Δbellow height mm, written into `truck.model3`.

@@ -24,7 +24,7 @@ pub const TRUCK_MODEL: ModelEntry = ModelEntry {
     default_free: &["p0", "p1", "p2", "p3", "p4", "m2", "ig", "kc", "tc"],
     valve_free: &["c1", "c2", "a0", "tth"],
     road_free: &["dscl"],
-    lab_valve: true,
+    lab_laws: true,
 };
 
 /// Every registered model, in report order: the thesis models, then `truck`.
