@@ -148,8 +148,10 @@ def test_study_takes_the_commands_fit_options(reference: Path, tmp_path: Path) -
         normalisation="noise-level",
         starts=2,
         exclude_after_load_change_s=10.0,
+        validation_transitions="common",
     )
     assert results["initial_state"] == "prefix"
+    assert results["validation_transitions"] == "common"
     (model,) = results["protocols"][0]["models"]
     assert model["starts"] == 2
     # Every run carries its noise ceiling (the generated study names the truth files).
@@ -158,6 +160,13 @@ def test_study_takes_the_commands_fit_options(reference: Path, tmp_path: Path) -
         airsus.study(reference / "study.toml", tmp_path / "o2", normalisation="spread")
     with pytest.raises(airsus.AirsusError, match="starts must be at least 1"):
         airsus.study(reference / "study.toml", tmp_path / "o3", models=["m2"], starts=0)
+    with pytest.raises(airsus.AirsusError, match="validation_transitions `sometimes`"):
+        airsus.study(
+            reference / "study.toml",
+            tmp_path / "o5",
+            models=["m2"],
+            validation_transitions="sometimes",
+        )
     with pytest.raises(airsus.AirsusError, match="exclude_after_load_change_s -1"):
         airsus.study(
             reference / "study.toml", tmp_path / "o4", models=["m2"], exclude_after_load_change_s=-1

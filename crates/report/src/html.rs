@@ -457,6 +457,18 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
                         " (estimation runs: each change over its own, {shortest:.1}–{longest:.1} s)"
                     ));
                 }
+                let (shortest, longest) = m
+                    .validation_transitions
+                    .iter()
+                    .flat_map(|t| t.durations_s.iter().copied())
+                    .fold((f64::INFINITY, 0.0f64), |(lo, hi), d| {
+                        (lo.min(d), hi.max(d))
+                    });
+                if shortest.is_finite() {
+                    stop.push_str(&format!(
+                        "; validation runs: each change over its own, fitted with the parameters fixed, {shortest:.1}–{longest:.1} s"
+                    ));
+                }
                 match m.local_optima_losses.as_slice() {
                     [best, .., worst] if m.starts > 1 => format!(
                         "{stop}; {} starts, local optima's losses {best:.3e} to {worst:.3e}",
@@ -670,6 +682,10 @@ mod tests {
                 run: "data-set 1".to_owned(),
                 durations_s: vec![3.2, 6.9],
             }],
+            validation_transitions: vec![crate::results::LoadTransitions {
+                run: "data-set 2".to_owned(),
+                durations_s: vec![4.4, 7.5],
+            }],
             runs: vec![
                 run("data-set 1", "estimation", fit(95.0, 93.0)),
                 run("data-set 2", "validation", fit(91.0, 88.0)),
@@ -692,6 +708,7 @@ mod tests {
             initial_state: "equilibrium".to_owned(),
             load_ramp: None,
             exclude_after_load_change_s: 0.0,
+            validation_transitions: None,
             runs: ["data-set 1", "data-set 2", "data-set 3"]
                 .iter()
                 .enumerate()
@@ -812,7 +829,7 @@ mod tests {
         assert!(html.contains("Table 5.11"));
         assert!(
             html.contains(
-                "converged (gradient 3.2e-7); load eased over 4.2 s (estimation runs: each change over its own, 3.2–6.9 s); 4 starts, local optima's losses 1.200e-2 to 1.500e0"
+                "converged (gradient 3.2e-7); load eased over 4.2 s (estimation runs: each change over its own, 3.2–6.9 s); validation runs: each change over its own, fitted with the parameters fixed, 4.4–7.5 s; 4 starts, local optima's losses 1.200e-2 to 1.500e0"
             ),
             "the global stage's spread"
         );

@@ -29,6 +29,10 @@ pub struct StudyResults {
     /// Seconds after each logged load change the estimation's loss left out (0: none).
     #[serde(default)]
     pub exclude_after_load_change_s: f64,
+    /// How a validation run's logged load changes were eased: `fitted` (each over its own
+    /// time, fitted with the parameters fixed) or `common`; absent in files written before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validation_transitions: Option<String>,
     pub runs: Vec<RunInfo>,
     pub submodels: SubmodelResults,
     /// One entry per estimation protocol (which runs the grey-box fits used).
@@ -286,6 +290,10 @@ pub struct ModelResult {
     /// validation runs keep `load_ramp_s`); empty when no change has its own time.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub load_transitions: Vec<LoadTransitions>,
+    /// Each logged load change of a validation run eased over its own time, fitted to that
+    /// run with the parameters fixed (`--validation-transitions fitted`); empty otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub validation_transitions: Vec<LoadTransitions>,
     pub runs: Vec<RunFit>,
     /// The estimated truck file, relative to the output folder.
     pub truck_file: Option<String>,
@@ -318,6 +326,7 @@ impl ModelResult {
             gradient_norm: None,
             load_ramp_s: None,
             load_transitions: vec![],
+            validation_transitions: vec![],
             runs: vec![],
             truck_file: None,
             notes: vec![],
@@ -343,6 +352,7 @@ mod tests {
             initial_state: "equilibrium".to_owned(),
             load_ramp: Some("estimate".to_owned()),
             exclude_after_load_change_s: 0.0,
+            validation_transitions: None,
             runs: vec![RunInfo {
                 name: "data-set 1".to_owned(),
                 file: "ds1.csv".to_owned(),
@@ -401,6 +411,7 @@ mod tests {
                         run: "data-set 1".to_owned(),
                         durations_s: vec![4.9, 6.6],
                     }],
+                    validation_transitions: vec![],
                     runs: vec![RunFit {
                         run: "data-set 1".to_owned(),
                         role: "estimation".to_owned(),

@@ -86,6 +86,10 @@ pub struct StudyOptions {
     /// (`GreyboxProblem::exclude_after_load_change_s`; 0: none). Default
     /// [`DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S`].
     pub exclude_after_load_change_s: f64,
+    /// Whether each logged load change of a validation run is eased over its own transition
+    /// time, fitted to that run with the parameters fixed (with [`LoadRamp::Estimate`]);
+    /// `false`: over the common time fitted to the estimation runs.
+    pub validation_transitions: bool,
 }
 
 /// The study's default for [`StudyOptions::exclude_after_load_change_s`]: none yet. Leaving
@@ -114,6 +118,7 @@ impl StudyOptions {
             starts: 1,
             load_ramp: LoadRamp::default(),
             exclude_after_load_change_s: DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S,
+            validation_transitions: true,
         }
     }
 }
@@ -275,6 +280,14 @@ pub fn run_study(
         initial_state: options.initial.as_str().to_owned(),
         load_ramp: Some(options.load_ramp.as_str().to_owned()),
         exclude_after_load_change_s: options.exclude_after_load_change_s,
+        validation_transitions: (options.load_ramp == LoadRamp::Estimate).then(|| {
+            if options.validation_transitions {
+                "fitted"
+            } else {
+                "common"
+            }
+            .to_owned()
+        }),
         runs: input
             .runs
             .iter()

@@ -5,8 +5,9 @@ use std::time::Instant;
 
 use airsus_data::{Run, ValveState, write_truck};
 use airsus_estimate::{
-    GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, PrefixOptions, StartChoice,
-    StartMethod, StopReason, ease_logged_load, estimate_with_starts, ramp_logged_load,
+    GreyboxOptions, GreyboxProblem, LoadTransitionsFit, MultiStart, NoProgress, PrefixOptions,
+    StartChoice, StartMethod, StopReason, ease_logged_load, estimate_with_starts,
+    fit_load_transitions, logged_load_changes, longest_transition_s, ramp_logged_load,
     resolve_start, solver_for_ramp,
 };
 use airsus_model::{Excitation, SuspensionModel};
@@ -79,6 +80,30 @@ pub fn simulate_from(
     let options = solver_for_ramp(&SolverOptions::default(), load_ramp_s.unwrap_or(0.0));
     simulate(&SimulationProblem::new(model, inputs, initial).with_options(options))
         .map_err(|e| e.to_string())
+}
+
+/// A validation run's logged load changes, each eased over its own transition time fitted to
+/// the run with `model`'s parameters fixed ([`fit_load_transitions`], from `common_s`), and
+/// its start fitted to the first seconds under the common time. A crane sets each load
+/// down in its own time, which the log does not record: an input of the experiment, not a
+/// property of the truck, estimated as the run's start is.
+fn validation_transitions(
+    model: &dyn SuspensionModel,
+    run: &Run,
+    method: StartMethod,
+    common_s: f64,
+) -> Result<(Vec<f64>, InitialState), String> {
+    let choice = StartChoice::FromRun(method, PrefixOptions::default());
+    let (initial, _) = resolve_start(model, &ramp_logged_load(run, common_s), &choice)
+        .map_err(|e| e.to_string())?;
+    let problem = GreyboxProblem {
+        start_states: vec![Some(initial.clone())],
+        ..GreyboxProblem::new(model, &[run], &[])
+    };
+    let fit = fit_load_transitions(&problem, &LoadTransitionsFit::common(&[run], common_s))
+        .map_err(|e| e.to_string())?;
+    let durations = fit.durations_s.into_iter().next().unwrap_or_default();
+    Ok((durations, initial))
 }
 
 /// The load the models were fed: the logged steps eased over a common transition time
@@ -427,6 +452,7 @@ pub fn fit_and_validate(
     }
 
     let mut responses = Vec::new();
+    let mut validated_transitions: Vec<(String, Vec<f64>)> = Vec::new();
     for run in &input.runs {
         let mut fit = RunFit {
             run: run.name.clone(),
@@ -448,20 +474,72 @@ pub fn fit_and_validate(
             .iter()
             .find(|(name, _)| *name == run.run.name)
             .map(|(_, start)| start.clone());
-        let simulated = match joint_start {
-            Some(start) => simulate_from(&*estimated, &felt.feed(&run.run), start, load_ramp_s),
-            None => simulate_run(&*estimated, &felt.feed(&run.run), initial, load_ramp_s),
+        // A validation run's own transition times (estimation runs have theirs already).
+        // A held-out run's own transition times (estimation runs have theirs already).
+        let held_out = !protocol.estimation.contains(&run.name);
+        let own_transitions = match felt.common_s {
+            Some(common_s)
+                if held_out
+                    && options.validation_transitions
+                    && !logged_load_changes(&run.run).is_empty() =>
+            {
+                match validation_transitions(&*estimated, &run.run, initial, common_s) {
+                    Ok(fitted) => Some(fitted),
+                    Err(e) => {
+                        result.notes.push(format!(
+                            "{}: its load changes' transition times could not be fitted ({e}); validated with the common {common_s:.1} s",
+                            run.name
+                        ));
+                        None
+                    }
+                }
+            }
+            _ => None,
+        };
+        let (fed, simulated) = match (own_transitions, joint_start) {
+            (Some((durations, start)), _) => {
+                let longest = longest_transition_s(std::slice::from_ref(&durations));
+                let fed = std::borrow::Cow::Owned(ease_logged_load(&run.run, &durations));
+                validated_transitions.push((run.name.clone(), durations));
+                let simulated =
+                    simulate_from(&*estimated, &fed, start, Some(longest).filter(|&l| l > 0.0));
+                (fed, simulated)
+            }
+            (None, Some(start)) => {
+                let fed = felt.feed(&run.run);
+                let simulated = simulate_from(&*estimated, &fed, start, load_ramp_s);
+                (fed, simulated)
+            }
+            (None, None) => {
+                let fed = felt.feed(&run.run);
+                let simulated = simulate_run(&*estimated, &fed, initial, load_ramp_s);
+                (fed, simulated)
+            }
         };
         match simulated {
             Ok(response) => {
                 fit.estimated = output_fit(&run.run, &response);
-                let correlations = residual_correlations(&felt.feed(&run.run), &response);
+                let correlations = residual_correlations(&fed, &response);
                 fit.residuals = residual_summaries(&correlations);
                 responses.push((run.name.clone(), response, correlations));
             }
             Err(e) => fit.error = Some(e),
         }
         result.runs.push(fit);
+    }
+    if !validated_transitions.is_empty() {
+        result.notes.push(format!(
+            "validation runs {}: each logged load change eased over its own transition time, fitted to the run with the parameters fixed (as the start is to its first seconds)",
+            validated_transitions
+                .iter()
+                .map(|(name, _)| name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+        result.validation_transitions = validated_transitions
+            .into_iter()
+            .map(|(run, durations_s)| airsus_report::results::LoadTransitions { run, durations_s })
+            .collect();
     }
     let worse = worse_than_the_start(&result.runs);
     result.notes.extend(worse);

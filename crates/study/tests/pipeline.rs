@@ -19,6 +19,7 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         starts: 2,
         load_ramp: airsus_study::LoadRamp::Estimate,
         exclude_after_load_change_s: airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S,
+        validation_transitions: true,
     };
     let out = dir.path().join("out");
     let events = std::sync::Mutex::new(Vec::new());
@@ -85,6 +86,26 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
     // ramp over 3 to 8 s while the log steps; Model 2, without slow dynamics, takes a longer
     // one), and the study says what it did.
     let tau = m2.load_ramp_s.expect("a load transition time for m2");
+    // The held-out runs with logged load changes: each change over its own time, fitted
+    // with the parameters fixed; the results say so.
+    let validated: Vec<&str> = m2
+        .validation_transitions
+        .iter()
+        .map(|t| t.run.as_str())
+        .collect();
+    assert_eq!(validated, ["data-set 2", "levelling 2"], "{:?}", m2.notes);
+    assert!(
+        m2.validation_transitions
+            .iter()
+            .flat_map(|t| &t.durations_s)
+            .all(|d| *d > 0.0 && *d <= airsus_estimate::MAX_LOAD_RAMP_S)
+    );
+    assert!(
+        m2.notes
+            .iter()
+            .any(|n| n.contains("with the parameters fixed"))
+    );
+    assert_eq!(r.validation_transitions.as_deref(), Some("fitted"));
     assert!(
         tau > 2.0 && tau <= airsus_estimate::MAX_LOAD_RAMP_S,
         "m2: load ramp {tau} s"
@@ -239,6 +260,7 @@ fn a_protocol_without_estimation_runs_is_a_clear_error() {
         starts: 1,
         load_ramp: airsus_study::LoadRamp::Logged,
         exclude_after_load_change_s: 0.0,
+        validation_transitions: false,
     };
     let err = run_study(&input, &options, &dir.path().join("out"), &|_| {})
         .err()
@@ -312,6 +334,7 @@ fn a_study_can_start_its_runs_from_the_first_seconds_and_says_so() {
         starts: 1,
         load_ramp: airsus_study::LoadRamp::Logged,
         exclude_after_load_change_s: 0.0,
+        validation_transitions: false,
     };
     let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
     let r = &outcome.results;

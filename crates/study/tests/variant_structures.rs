@@ -52,17 +52,14 @@ fn study_variant(k: u32) -> (Scores, Vec<String>) {
 }
 
 /// Every run within `margin` points of its ceiling (#13 asks 3 on the validation runs), both
-/// outputs; the held-out levelling run within 8 and 4 (its load changes' transition times
-/// are unknown to a validation run: on the reference truck the truth itself scores 90.1/96.4 %
-/// on it with the study's common ramp against the ceiling's 95.5/99.1 %, see noise_floor.rs).
+/// outputs, the held-out levelling run too: each of its logged load changes is eased over its
+/// own transition time, fitted with the parameters fixed (with the common ramp of the
+/// estimation runs it was 6-7 points short of its height ceiling on every variant: the truth
+/// itself scores 90.1 % so on the reference).
 fn assert_near_ceiling(k: u32, scores: &Scores, notes: &[String], margin: f64) {
     for (run, h, p, h_ceiling, p_ceiling) in scores {
-        let (h_margin, p_margin) = match run.as_str() {
-            "levelling 2" => (8.0, 4.0),
-            _ => (margin, margin),
-        };
         assert!(
-            *h > h_ceiling - h_margin && *p > p_ceiling - p_margin,
+            *h > h_ceiling - margin && *p > p_ceiling - margin,
             "variant {k}, {run}: {h:.1}/{p:.1} % against the ceiling {h_ceiling:.1}/{p_ceiling:.1} %; notes {notes:?}"
         );
     }
@@ -70,8 +67,9 @@ fn assert_near_ceiling(k: u32, scores: &Scores, notes: &[String], margin: f64) {
 
 #[test]
 fn the_structure_reaches_the_ceiling_of_a_truck_drawn_anew() {
-    // Measured: within 0.4 points on every estimation run; held out data-set 4 99.1/95.4 %
-    // against 99.3/97.2 %, road 2 97.0/98.5 against 97.1/98.6, levelling 2 89.4/96.4. With the
+    // Measured: within 0.4 points on every estimation run; held out data-set 4 99.2/96.4 %
+    // against 99.3/97.2 %, road 2 97.0/98.5 against 97.1/98.6, levelling 2 95.1/99.1 against
+    // 95.2/99.1 (89.5/96.4 with the estimation runs' common ramp). With the
     // gas's thermal time held at the built-in 20 s: data-set 4's pressure 79.0 %, levelling
     // 1's height 83.8 % (an estimation run).
     let (scores, notes) = study_variant(1);
@@ -80,8 +78,9 @@ fn the_structure_reaches_the_ceiling_of_a_truck_drawn_anew() {
 
 #[test]
 fn the_structure_takes_the_linear_valve_the_lab_calls_for() {
-    // Measured: data-set 3 (estimation) 95.1/87.0 % against 95.3/87.4 %; held out data-set 4
-    // 98.7/92.8 against 99.3/94.7, levelling 2 88.3/96.3. Under the structure's orifice with
+    // Measured: data-set 3 (estimation) 95.1/86.9 % against 95.3/87.4 %; held out data-set 4
+    // 98.1/93.3 against 99.3/94.7, levelling 2 95.2/98.8 against 95.5/99.1, road 2 95.5/97.2
+    // against 97.0/98.6. Under the structure's orifice with
     // the lab's fit of one (b at its bound): data-set 3 75.5 %, data-set 4 75.6 %, levelling
     // 2 81.0 %.
     let (scores, notes) = study_variant(3);

@@ -261,7 +261,7 @@ fn run_the_study(
 /// `study` is None). Returns `{"results": path of results.json, "report": path of report.html,
 /// "notes", "chart_failures"}`.
 #[pyfunction]
-#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, variant=None, load_ramp=None, exclude_after_load_change_s=None))]
+#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, variant=None, load_ramp=None, exclude_after_load_change_s=None, validation_transitions=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn study<'py>(
     py: Python<'py>,
@@ -277,7 +277,17 @@ pub fn study<'py>(
     variant: Option<u32>,
     load_ramp: Option<String>,
     exclude_after_load_change_s: Option<f64>,
+    validation_transitions: Option<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let validation_transitions = match validation_transitions.as_deref().unwrap_or("fitted") {
+        "fitted" => true,
+        "common" => false,
+        other => {
+            return Err(crate::error::to_py(anyhow::anyhow!(
+                "validation_transitions `{other}`: expected `fitted` or `common`"
+            )));
+        }
+    };
     let exclude_after_load_change_s = airsus_estimate::check_load_change_exclusion_s(
         exclude_after_load_change_s.unwrap_or(airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S),
     )
@@ -306,6 +316,7 @@ pub fn study<'py>(
         starts: starts.unwrap_or(1),
         load_ramp,
         exclude_after_load_change_s,
+        validation_transitions,
         ..StudyOptions::new(vec![])
     };
     let builtin = (seed.unwrap_or(1), variant.unwrap_or(0));

@@ -935,6 +935,7 @@ def study(
     load_ramp: str = "estimate",
     progress: Progress = None,
     exclude_after_load_change_s: float = 0.0,
+    validation_transitions: str = "fitted",
 ) -> Dict[str, Any]:
     """Run the whole thesis pipeline, as ``airsus study STUDY.toml --out OUT``: submodel fits,
     grey-box estimation of every model, validation with residual analysis on every run, and
@@ -959,6 +960,10 @@ def study(
             ``--load-ramp``.
         exclude_after_load_change_s: seconds after each logged load change that the
             estimation's loss leaves out (0: none), as ``--exclude-after-load-change-s``.
+        validation_transitions: ``"fitted"`` (each logged load change of a validation run
+            eased over its own transition time, fitted to the run with the parameters fixed,
+            as its start is to its first seconds) or ``"common"`` (the one time fitted to the
+            estimation runs), as ``--validation-transitions``.
         progress: called with a dict per event (the GIL is released while the study runs):
             ``{"event": "stage", "message": ...}`` or ``{"event": "model_done", "protocol",
             "model", "seconds", "done", "total"}``.
@@ -980,6 +985,7 @@ def study(
         variant=None if variant is None else int(variant),
         load_ramp=load_ramp,
         exclude_after_load_change_s=float(exclude_after_load_change_s),
+        validation_transitions=validation_transitions,
     )
     with open(native["results"], encoding="utf-8") as f:
         results: Dict[str, Any] = json.load(f)

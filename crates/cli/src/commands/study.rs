@@ -68,6 +68,19 @@ pub struct StudyArgs {
     /// differently, and fitted to those seconds the parameters absorb the transition.
     #[arg(long, value_name = "SECONDS", default_value_t = airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S)]
     pub exclude_after_load_change_s: f64,
+    /// How a validation run's logged load changes are eased: `fitted`, each over its own
+    /// transition time fitted to the run with the parameters fixed (as its start is to its
+    /// first seconds: a crane sets each load down in its own time, which the log does not
+    /// record); `common`, all over the one time fitted to the estimation runs. With
+    /// `--load-ramp estimate`.
+    #[arg(long, value_enum, default_value_t = ValidationTransitionsArg::Fitted)]
+    pub validation_transitions: ValidationTransitionsArg,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ValidationTransitionsArg {
+    Fitted,
+    Common,
 }
 
 pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
@@ -112,6 +125,7 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
         starts: args.starts,
         load_ramp: args.load_ramp.into(),
         exclude_after_load_change_s: args.exclude_after_load_change_s,
+        validation_transitions: args.validation_transitions == ValidationTransitionsArg::Fitted,
         ..StudyOptions::new(vec![])
     };
     let outcome = match &args.study {
