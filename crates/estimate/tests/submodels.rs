@@ -76,6 +76,30 @@ fn cross_section_shape_from_a_closed_valve_run() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("`area_integral`"), "{err}");
+
+    // Settled samples only: the 120 s holds at three loads, 60 s after each change. Model 2's
+    // gas is isothermal, so the shape is the same; the holds are counted.
+    let settled = |seconds: f64| CrossSectionOptions {
+        settled_after_s: Some(seconds),
+        ..CrossSectionOptions::default()
+    };
+    let fit = fit_cross_section(&est, &[&val], &start, &settled(60.0)).unwrap();
+    // Seven holds give their last 60 s (600 samples each); the eighth, cut by the run's end
+    // at 900 s, its last sample.
+    assert_eq!((fit.holds, fit.samples), (8, 4201), "{fit:?}");
+    assert!(
+        (fit.ratio_per_m - ratio).abs() <= 3.0 * fit.ratio_std_per_m,
+        "{fit:?}"
+    );
+    // No hold lasts 130 s: no settled sample at three loads, said so.
+    let err = fit_cross_section(&est, &[], &start, &settled(130.0))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("three loads at least"), "{err}");
+    let err = fit_cross_section(&est, &[], &start, &settled(f64::NAN))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("settled_after_s = NaN"), "{err}");
 }
 
 #[test]
@@ -221,10 +245,15 @@ fn area_growth_with_pressure_from_a_force_map() {
     with.write_to(&mut t).unwrap();
     assert_eq!(t.bellow.effective_area, law);
 
-    // A map at one pressure cannot tell a growth from an area: an error, not a guess.
+    // A map at one pressure (logged with 0.3 kPa of jitter) cannot tell a growth from an
+    // area: an error, not a guess.
     let one_pressure = ForceMap {
         bellow_height_m: map.bellow_height_m[..20].to_vec(),
-        bellow_gauge_pa: map.bellow_gauge_pa[..20].to_vec(),
+        bellow_gauge_pa: map.bellow_gauge_pa[..20]
+            .iter()
+            .enumerate()
+            .map(|(k, p)| p + 300.0 * (k % 3) as f64)
+            .collect(),
         force_n: map.force_n[..20].to_vec(),
     };
     let err = fit_area_growth(&one_pressure, 1e-4)

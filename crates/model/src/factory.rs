@@ -75,12 +75,13 @@ pub struct ModelEntry {
     pub valve_free: &'static [&'static str],
     /// Freed as well when the estimation runs have road input.
     pub road_free: &'static [&'static str],
-    /// Whether the model starts from the lab's laws in the form its own physics takes them,
-    /// where the truck file names none: the valve from the tank discharges simulated with the
-    /// gas's cooling, in the law they call for, and the effective area with its growth with
-    /// pressure read off the force map. For a model whose gas exchanges heat and whose area
-    /// stretches with pressure (the `truck` structure). The thesis models keep the file's laws
-    /// and the thesis' readings of the lab (5.2.2, 5.2.3: isothermal, `F = p A(h)`).
+    /// Whether the model starts from the lab's laws in the form its own physics takes them:
+    /// the valve from the tank discharges simulated with the gas's cooling, in the law they
+    /// call for where the truck file names none, and the effective area with its growth with
+    /// pressure read off the force map where the file gives the thesis' quartic. For a model
+    /// whose gas exchanges heat and whose area stretches with pressure (the `truck`
+    /// structure). The thesis models keep the file's laws and the thesis' readings of the lab
+    /// (5.2.2, 5.2.3: isothermal, `F = p A(h)`).
     pub lab_laws: bool,
 }
 

@@ -282,12 +282,15 @@ pub struct ModelResult {
     /// the loss means a true stationary point.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gradient_norm: Option<f64>,
-    /// The logged load's steps eased over this transition time, s, for estimation and
-    /// validation alike (`--load-ramp estimate`); absent when the load was used as logged.
+    /// The logged load's steps eased over this common transition time, s, fitted to the
+    /// estimation runs (`--load-ramp estimate`): where the validation runs start from, and
+    /// what they keep with `--validation-transitions common`; absent when the load was used
+    /// as logged.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub load_ramp_s: Option<f64>,
     /// Each logged load change of an estimation run eased over its own fitted time (the
-    /// validation runs keep `load_ramp_s`); empty when no change has its own time.
+    /// validation runs' are in `validation_transitions`); empty when no change has its own
+    /// time.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub load_transitions: Vec<LoadTransitions>,
     /// Each logged load change of a validation run eased over its own time, fitted to that
@@ -507,6 +510,10 @@ mod tests {
             identifiable: true,
         });
         model.runs[0].estimated = model.runs[0].nominal;
+        model.validation_transitions.push(LoadTransitions {
+            run: "data-set 2".to_owned(),
+            durations_s: vec![5.1],
+        });
         model.runs[0].residuals.push(ResidualSummary {
             output: "height".to_owned(),
             input: "self".to_owned(),
@@ -517,6 +524,7 @@ mod tests {
             worst_ratio: 1.1,
             note: None,
         });
+        r.validation_transitions = Some("fitted".to_owned());
         let mut keys = std::collections::BTreeSet::new();
         key_paths(&serde_json::to_value(&r).unwrap(), "", &mut keys);
         let expected = [
@@ -526,6 +534,7 @@ mod tests {
             "exclude_after_load_change_s",
             "initial_state",
             "load_ramp",
+            "validation_transitions",
             "findings.uses",
             "findings.uses[].best_other_than_truck",
             "findings.uses[].protocol",
@@ -564,6 +573,9 @@ mod tests {
             "protocols[].models[].load_transitions",
             "protocols[].models[].load_transitions[].durations_s",
             "protocols[].models[].load_transitions[].run",
+            "protocols[].models[].validation_transitions",
+            "protocols[].models[].validation_transitions[].durations_s",
+            "protocols[].models[].validation_transitions[].run",
             "protocols[].models[].local_optima_losses",
             "protocols[].models[].model",
             "protocols[].models[].notes",

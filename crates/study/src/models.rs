@@ -92,22 +92,28 @@ fn validation_transitions(
     run: &Run,
     method: StartMethod,
     common_s: f64,
+    normalisation: airsus_estimate::Normalisation,
 ) -> Result<(Vec<f64>, InitialState), String> {
     let choice = StartChoice::FromRun(method, PrefixOptions::default());
     let (initial, _) = resolve_start(model, &ramp_logged_load(run, common_s), &choice)
         .map_err(|e| e.to_string())?;
     let problem = GreyboxProblem {
-        start_states: vec![Some(initial.clone())],
-        ..GreyboxProblem::new(model, &[run], &[])
+        start_states: vec![Some(initial)],
+        ..GreyboxProblem::new(model, &[run], &[]).with_normalisation(normalisation)
     };
     let fit = fit_load_transitions(&problem, &LoadTransitionsFit::common(&[run], common_s))
         .map_err(|e| e.to_string())?;
     let durations = fit.durations_s.into_iter().next().unwrap_or_default();
+    // The start again, from the run as it is then simulated (a change within its first
+    // seconds is eased over its own time there too).
+    let (initial, _) = resolve_start(model, &ease_logged_load(run, &durations), &choice)
+        .map_err(|e| e.to_string())?;
     Ok((durations, initial))
 }
 
-/// The load the models were fed: the logged steps eased over a common transition time
-/// (validation runs), and in estimation runs each change over its own.
+/// The load the models were fed: the logged steps eased over a common transition time, and
+/// in estimation runs each change over its own (a validation run's own times, where fitted,
+/// are applied where it is validated).
 #[derive(Debug, Clone, Default)]
 pub struct FeltLoad {
     /// The common time, s; `None`: the load as logged.
@@ -279,6 +285,12 @@ pub fn fit_and_validate(
             };
         }
     };
+    if start_truck.bellow.effective_area != start.truck.bellow.effective_area {
+        result.notes.push(format!(
+            "the effective area starts from the force map with its growth with pressure, kap {:.4} per 100 kPa",
+            start_truck.bellow.effective_area.growth_per_100kpa()
+        ));
+    }
     if start_truck.valve != start.truck.valve {
         result.notes.push(format!(
             "the valve starts from the lab's discharges under law `{}` (the tank's gas simulated)",
@@ -483,7 +495,13 @@ pub fn fit_and_validate(
                     && options.validation_transitions
                     && !logged_load_changes(&run.run).is_empty() =>
             {
-                match validation_transitions(&*estimated, &run.run, initial, common_s) {
+                match validation_transitions(
+                    &*estimated,
+                    &run.run,
+                    initial,
+                    common_s,
+                    normalisation,
+                ) {
                     Ok(fitted) => Some(fitted),
                     Err(e) => {
                         result.notes.push(format!(

@@ -12,10 +12,10 @@
 
 use airsus_data::{EffectiveAreaLaw, Role, TruckParameters, ValveFlowLaw};
 use airsus_estimate::submodel::{
-    CrossSectionOptions, DischargeData as FitDischarge, EffectiveAreaOptions, OrificeDischargeFit,
-    OrificeFitOptions, SlowDynamicsOptions, ValveFitOptions, fit_area_growth, fit_cross_section,
-    fit_effective_area, fit_effective_area_spline, fit_linear_valve, fit_orifice,
-    fit_slow_dynamics, fit_valve, fit_wall_friction,
+    AreaGrowthFit, CrossSectionOptions, DischargeData as FitDischarge, EffectiveAreaOptions,
+    OrificeDischargeFit, OrificeFitOptions, SlowDynamicsOptions, ValveFitOptions, fit_area_growth,
+    fit_cross_section, fit_effective_area, fit_effective_area_spline, fit_linear_valve,
+    fit_orifice, fit_slow_dynamics, fit_valve, fit_wall_friction,
 };
 use airsus_ident::linear::{IdData, OeOrders, PemOptions, oe};
 use airsus_report::results::{NamedValue, SubmodelFit, SubmodelResults};
@@ -28,6 +28,19 @@ fn value(name: &str, unit: &str, value: f64, std: Option<f64>) -> NamedValue {
         unit: unit.to_owned(),
         value,
         std,
+    }
+}
+
+/// A fit reported with its values and notes only (no NRMSE).
+fn noted(name: &str, description: &str, parameters: Vec<NamedValue>, note: String) -> SubmodelFit {
+    SubmodelFit {
+        name: name.to_owned(),
+        description: description.to_owned(),
+        parameters,
+        nrmse_estimation_percent: None,
+        nrmse_validation_percent: None,
+        notes: vec![note],
+        error: None,
     }
 }
 
@@ -53,6 +66,11 @@ const LAW_RESIDUAL_MARGIN: f64 = 1.05;
 /// 200 s holds of the thesis' loading runs.
 const CROSS_SECTION_SETTLED_AFTER_S: f64 = 120.0;
 
+/// The largest standard deviation of a force map's `kap` the study uses, per 100 kPa: a
+/// quarter of a typical rolling-lobe bellow's growth (0.004), i.e. 0.1 % of area per 100 kPa.
+/// A map measured at one nominal pressure determines none.
+const KAP_STD_LIMIT_PER_100KPA: f64 = 1e-3;
+
 /// What the submodel fits give the grey-box fits to start from.
 #[derive(Debug, Clone)]
 pub struct SubmodelStart {
@@ -65,10 +83,12 @@ pub struct SubmodelStart {
     /// (an orifice file has the lab's orifice written into it).
     pub lab_valve: Option<ValveFlowLaw>,
     /// The effective area with its growth with pressure read off the force map, for the same
-    /// models, where the file's law is the thesis' quartic (`F = p A(h)`: the areas averaged
-    /// over the map's pressures, which a model that stretches them with pressure would count
-    /// twice). `None`: no force map, a map at one pressure, or a file that names its law
-    /// (a law with growth gets the map's `κ` written into it for every model).
+    /// models, where the file gives the thesis' quartic under the thesis' volume law (`F = p
+    /// A(h)`: the areas averaged over the map's pressures, which a model that stretches them
+    /// with pressure would count twice). `None`: no force map, a map whose pressures leave
+    /// `kap` undetermined, an area law that stretches already (the map's `kap` is then
+    /// written into it for every model), or a spline or area-integral volume (whose volume
+    /// the area makes).
     pub lab_area: Option<EffectiveAreaLaw>,
 }
 
@@ -116,14 +136,51 @@ pub fn fit_submodels(
     let mut lab_area = None;
     // Reported after the thesis' reading of the map, which the other models start from.
     let mut growth_fits = Vec::new();
-    if let Some(Err(e)) = &growth {
-        growth_fits.push(failed("effective_area_growth", AREA_GROWTH, e.to_string()));
-    }
-    if let (Some(Ok(growth)), Some(map)) = (&growth, &input.force_map) {
-        if options.growth_per_100kpa.is_some() {
+    let kap_value = |growth: &AreaGrowthFit| {
+        value(
+            "kap",
+            "1/100kPa",
+            growth.growth_per_100kpa,
+            Some(growth.growth_std_per_100kpa),
+        )
+    };
+    match (&growth, &input.force_map) {
+        (Some(Err(e)), _) => {
+            growth_fits.push(failed("effective_area_growth", AREA_GROWTH, e.to_string()));
+        }
+        // A NaN or infinite spread is no determination either.
+        (Some(Ok(growth)), _)
+            if growth.growth_std_per_100kpa.is_nan()
+                || growth.growth_std_per_100kpa > KAP_STD_LIMIT_PER_100KPA =>
+        {
+            growth_fits.push(noted(
+                "effective_area_growth",
+                AREA_GROWTH,
+                vec![kap_value(growth)],
+                format!(
+                    "not used: the map's pressures leave kap uncertain by more than {KAP_STD_LIMIT_PER_100KPA} per 100 kPa; the file's law is kept"
+                ),
+            ));
+        }
+        (Some(Ok(growth)), Some(_)) if options.growth_per_100kpa.is_some() => {
             // The file's law stretches with pressure: every model gets the map's κ.
             options.growth_per_100kpa = Some(growth.growth_per_100kpa);
-        } else if truck.bellow.effective_area.coefficients_m2().is_some() {
+            growth_fits.push(noted(
+                "effective_area_growth",
+                AREA_GROWTH,
+                vec![kap_value(growth)],
+                format!(
+                    "kap from {} heights at several pressures, written into the file's law (it stretches with pressure) for every model",
+                    growth.heights
+                ),
+            ));
+        }
+        // The thesis' quartic under the thesis' volume law: the structure's own start. (Under
+        // the area-integral volume the area makes the gas volume too: left to the file's law.)
+        (Some(Ok(growth)), Some(map))
+            if truck.bellow.effective_area.coefficients_m2().is_some()
+                && truck.bellow.gas_volume.coefficients_m2().is_some() =>
+        {
             let structure = EffectiveAreaOptions {
                 growth_per_100kpa: Some(growth.growth_per_100kpa),
                 ..options.clone()
@@ -148,12 +205,7 @@ pub fn fit_submodels(
                             )
                         })
                         .collect();
-                    parameters.push(value(
-                        "kap",
-                        "1/100kPa",
-                        growth.growth_per_100kpa,
-                        Some(growth.growth_std_per_100kpa),
-                    ));
+                    parameters.push(kap_value(growth));
                     growth_fits.push(SubmodelFit {
                         name: "effective_area_growth".to_owned(),
                         description: AREA_GROWTH.to_owned(),
@@ -169,6 +221,7 @@ pub fn fit_submodels(
                 }
             }
         }
+        _ => {}
     }
     let spline = truck.bellow.effective_area.knots().is_some();
     let description = if spline { SPLINE } else { AREA };

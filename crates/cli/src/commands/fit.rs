@@ -401,7 +401,12 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                     );
                 }
                 if args.out.is_some() {
-                    if *fit_kap && !truck.bellow.effective_area.depends_on_pressure() {
+                    if *fit_kap
+                        && matches!(
+                            truck.bellow.effective_area,
+                            airsus_data::EffectiveAreaLaw::Polynomial { .. }
+                        )
+                    {
                         // The thesis' quartic has no growth to write the fitted one into: the
                         // law becomes the quartic that stretches with pressure.
                         truck.bellow.effective_area = fit.law()?;

@@ -59,7 +59,8 @@ pub struct CrossSectionOptions {
     /// faster than it exchanges heat, and the wall creeps after it: until both have settled
     /// `p V` is not the isothermal constant eq 5.2 assumes, and fitting the transients
     /// bends the shape (the virtual truck family: `c` 35 % short of the truth from every
-    /// sample, within 10 % from samples 120 s after a change).
+    /// sample, 2-18 % from samples 120 s after a change). The first hold is timed from the
+    /// run's start. At least three settled holds at different loads are needed.
     pub settled_after_s: Option<f64>,
 }
 
@@ -144,8 +145,20 @@ fn heights_and_pressures(
     let amb = truck.environment.ambient_pressure_pa;
     let mut h = Vec::with_capacity(run.len());
     let mut p = Vec::with_capacity(run.len());
+    if let Some(settle) = settled_after_s
+        && !(settle.is_finite() && settle >= 0.0)
+    {
+        return Err(EstimateError::InvalidOption(format!(
+            "settled_after_s = {settle}: expected a time of zero or more seconds"
+        )));
+    }
+    if run.is_empty() {
+        return Err(bad("0 samples; at least 3 are needed".to_owned()));
+    }
     let load = &run.inputs.wheel_load_kg;
     let (mut changed_s, mut holds, mut hold_counted) = (run.time_s[0], 0, false);
+    // The loads of the settled holds: the shape needs three different ones.
+    let mut settled_loads: Vec<f64> = Vec::new();
     for k in 0..run.len() {
         if k > 0 && load[k] != load[k - 1] {
             changed_s = run.time_s[k];
@@ -157,6 +170,9 @@ fn heights_and_pressures(
         if !hold_counted {
             holds += 1;
             hold_counted = true;
+            if !settled_loads.contains(&load[k]) {
+                settled_loads.push(load[k]);
+            }
         }
         let hb = bellow_height_from_sensor_m(
             g.h0_m,
@@ -176,10 +192,11 @@ fn heights_and_pressures(
         p.push(pa);
     }
     if let Some(settle) = settled_after_s
-        && holds < 3
+        && settled_loads.len() < 3
     {
         return Err(bad(format!(
-            "{holds} load hold(s) last longer than {settle} s; the shape needs settled samples at three loads at least (hold each load longer, or fit every sample)"
+            "{holds} load hold(s) at {} different load(s) last longer than {settle} s; the shape needs settled samples at three loads at least (hold each load longer, or fit every sample)",
+            settled_loads.len()
         )));
     }
     if h.len() < 3 {

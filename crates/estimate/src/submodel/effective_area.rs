@@ -89,6 +89,9 @@ pub struct AreaGrowthFit {
 /// tenths of a percent per 100 kPa; ten times that either way is far outside any bellow.
 const GROWTH_SEARCH_PER_100KPA: (f64, f64) = (-0.05, 0.05);
 
+/// Pressures of one height closer than this (or than 1 %) are one pressure, Pa.
+const PRESSURE_TOLERANCE_PA: f64 = 1e3;
+
 /// Fits `κ` (module docs of [`AreaGrowthFit`]) by variable projection: for a given `κ` every
 /// height's area is linear least squares in closed form (step 1), so the residual is a
 /// function of `κ` alone, minimised by a scan and golden-section refinement (a smooth 1-D
@@ -140,7 +143,7 @@ pub fn fit_area_growth(map: &ForceMap, tolerance_m: f64) -> Result<AreaGrowthFit
             "the map's forces call for an area growth of {growth} per 100 kPa, at the end of the plausible range {low}..{high}: check the map's pressure and force units"
         )));
     }
-    // σ²(κ) = σ² / (½ d²RSS/dκ²), σ² = RSS / (N − heights − 1).
+    // σ²(κ) = σ² / (½ d²RSS/dκ²), σ² = RSS / (N − number of heights − 1).
     let r0 = rss(growth)?;
     let step = 1e-4;
     let curvature = (rss(growth + step)? - 2.0 * r0 + rss(growth - step)?) / (step * step);
@@ -310,7 +313,8 @@ fn per_height_areas(
             .map(|&k| map.bellow_gauge_pa[k])
             .collect();
         pressures.sort_by(f64::total_cmp);
-        pressures.dedup_by(|a, b| (*a - *b).abs() <= 1.0);
+        // One nominal pressure logged with some jitter is one pressure.
+        pressures.dedup_by(|a, b| (*a - *b).abs() <= PRESSURE_TOLERANCE_PA.max(0.01 * b.abs()));
         per_height.push(HeightArea {
             height_m: hs / (j - i) as f64,
             area_m2: area,
