@@ -10,6 +10,7 @@
 //! 5. figures and the report (`report.html`, `results.json`, estimated truck files).
 
 pub mod ceiling;
+pub mod coverage;
 pub mod figures;
 pub mod findings;
 pub mod input;
@@ -272,6 +273,7 @@ pub fn run_study(
     }
 
     progress(Event::Stage("report"));
+    let extrapolated = coverage::extrapolation_notes(input, &options.protocols, &input.truck);
     let mut results = StudyResults {
         schema_version: SCHEMA_VERSION,
         airsus_version: env!("CARGO_PKG_VERSION").to_owned(),
@@ -302,7 +304,17 @@ pub fn run_study(
                 thesis_data_set: findings::thesis_data_set(&r.name),
                 ceiling: ceiling::noise_ceiling(r),
                 format: r.format.to_owned(),
-                notes: r.notes.clone(),
+                notes: r
+                    .notes
+                    .iter()
+                    .cloned()
+                    .chain(
+                        extrapolated
+                            .iter()
+                            .filter(|(run, _)| *run == r.name)
+                            .map(|(_, note)| note.clone()),
+                    )
+                    .collect(),
             })
             .collect(),
         submodels,

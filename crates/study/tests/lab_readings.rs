@@ -4,7 +4,8 @@
 //!   structure's start under it (the thesis' `F = p A(h)` averages the growth into the
 //!   areas, which a model that stretches them with pressure counted twice);
 //! - the gas volume's shape `A1/A0` from the loading run's settled samples (a load step
-//!   compresses the gas faster than it exchanges heat, and every sample bent the shape).
+//!   compresses the gas faster than it exchanges heat, and every sample bent the shape);
+//! - which held-out runs go where neither the estimation runs nor the map went.
 
 use airsus_data::TruckParameters;
 use airsus_estimate::submodel::{CrossSectionOptions, fit_cross_section};
@@ -19,6 +20,8 @@ struct Variant {
     cross_section_notes: Vec<String>,
     /// `A1/A0` from every sample of the loading run, as thesis 5.2.1 reads it.
     every_sample_shape: f64,
+    /// The held-out runs that leave the heights the estimation runs and the map show.
+    extrapolated: Vec<(String, String)>,
 }
 
 fn variant(k: u32) -> Variant {
@@ -30,6 +33,11 @@ fn variant(k: u32) -> Variant {
         .map(str::to_owned)
         .to_vec();
     let (start, fits) = fit_submodels(&input, &estimation);
+    let extrapolated = airsus_study::coverage::extrapolation_notes(
+        &input,
+        &[airsus_study::Protocol::from_roles(&input)],
+        &input.truck,
+    );
     let truth = airsus_data::read_truck(&dir.path().join("truth/truck_structure.toml"))
         .unwrap()
         .parameters;
@@ -53,6 +61,7 @@ fn variant(k: u32) -> Variant {
         start_thesis: start.truck.clone(),
         cross_section_notes: cross.notes.clone(),
         every_sample_shape,
+        extrapolated,
     }
 }
 
@@ -65,6 +74,21 @@ fn shape(truck: &TruckParameters) -> f64 {
 fn the_lab_and_the_loading_run_read_right_on_trucks_drawn_apart() {
     for k in 0..4 {
         let v = variant(k);
+        // Only variant 2's data-set 4 leaves the heights the estimation runs and the force
+        // map show (measured: 16 % of its samples, down to 195 mm against 220 mm), which is
+        // the one held-out run of the family that the `truck` structure cannot bring within
+        // 2 points of its ceiling.
+        let extrapolated: Vec<&str> = v.extrapolated.iter().map(|(r, _)| r.as_str()).collect();
+        if k == 2 {
+            assert_eq!(extrapolated, ["data-set 4"], "{:?}", v.extrapolated);
+            assert!(
+                v.extrapolated[0].1.contains("16 % of its samples"),
+                "{:?}",
+                v.extrapolated
+            );
+        } else {
+            assert!(extrapolated.is_empty(), "variant {k}: {:?}", v.extrapolated);
+        }
         let area = &v.start_structure.bellow.effective_area;
         let truth_area = &v.truth.bellow.effective_area;
 
