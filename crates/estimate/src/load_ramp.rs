@@ -175,7 +175,12 @@ pub fn ease_logged_load(run: &Run, durations_s: &[f64]) -> Run {
 /// The minimum of `f` on `[a, b]` by golden-section search, `steps` shrinkings of the
 /// bracket by 0.618 after the first two evaluations; `f` is assumed unimodal there. Hand
 /// written: ten lines, where an optimiser crate would need a problem type per use.
-fn golden_section_min(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, steps: usize) -> (f64, f64) {
+pub(crate) fn golden_section_min(
+    f: &mut dyn FnMut(f64) -> f64,
+    a: f64,
+    b: f64,
+    steps: usize,
+) -> (f64, f64) {
     let golden = (5f64.sqrt() - 1.0) / 2.0;
     let (mut a, mut b) = (a, b);
     let mut c = b - golden * (b - a);

@@ -395,6 +395,17 @@ fn submodels(h: &mut String, results: &StudyResults) {
     h.push_str("</table>");
 }
 
+/// The shortest and longest of the transition times, s; `None` without any.
+fn span_s(transitions: &[crate::results::LoadTransitions]) -> Option<(f64, f64)> {
+    let (shortest, longest) = transitions
+        .iter()
+        .flat_map(|t| t.durations_s.iter().copied())
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), d| {
+            (lo.min(d), hi.max(d))
+        });
+    shortest.is_finite().then_some((shortest, longest))
+}
+
 fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) {
     let _ = write!(
         h,
@@ -445,26 +456,12 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
                 if let Some(tau) = m.load_ramp_s {
                     stop.push_str(&format!("; load eased over {tau:.1} s"));
                 }
-                let own = m
-                    .load_transitions
-                    .iter()
-                    .flat_map(|t| t.durations_s.iter().copied());
-                let (shortest, longest) = own.fold((f64::INFINITY, 0.0f64), |(lo, hi), d| {
-                    (lo.min(d), hi.max(d))
-                });
-                if shortest.is_finite() {
+                if let Some((shortest, longest)) = span_s(&m.load_transitions) {
                     stop.push_str(&format!(
                         " (estimation runs: each change over its own, {shortest:.1}–{longest:.1} s)"
                     ));
                 }
-                let (shortest, longest) = m
-                    .validation_transitions
-                    .iter()
-                    .flat_map(|t| t.durations_s.iter().copied())
-                    .fold((f64::INFINITY, 0.0f64), |(lo, hi), d| {
-                        (lo.min(d), hi.max(d))
-                    });
-                if shortest.is_finite() {
+                if let Some((shortest, longest)) = span_s(&m.validation_transitions) {
                     stop.push_str(&format!(
                         "; validation runs: each change over its own, fitted with the parameters fixed, {shortest:.1}–{longest:.1} s"
                     ));

@@ -20,27 +20,39 @@ const MARGIN_M: f64 = 2e-3;
 const NOTE_FRACTION: f64 = 0.01;
 
 /// The bellow heights of a run's measured samples (eq 2.1 inverted with the lever's static
-/// flex, under `truck`'s geometry), m; empty for a run without measured outputs.
-fn bellow_heights_m(run: &airsus_data::Run, truck: &TruckParameters) -> Vec<f64> {
-    let Some(measured) = run.outputs.as_ref() else {
-        return Vec::new();
-    };
+/// flex, under `truck`'s geometry), m, sample by sample; `None` for a run without measured
+/// outputs.
+pub(crate) fn bellow_heights_m(
+    run: &airsus_data::Run,
+    truck: &TruckParameters,
+) -> Option<Vec<f64>> {
+    let measured = run.outputs.as_ref()?;
     let g = &truck.geometry;
     let (gain, gravity) = (g.lever_gain(), truck.environment.gravity_m_s2);
-    measured
-        .sensor_height_m
-        .iter()
-        .zip(&run.inputs.wheel_load_kg)
-        .map(|(&sensor_m, &load_kg)| {
-            bellow_height_from_sensor_m(
-                g.h0_m,
-                gain,
-                sensor_m,
-                g.lever_compliance_m_per_n,
-                load_kg,
-                gravity,
-            )
-        })
+    Some(
+        measured
+            .sensor_height_m
+            .iter()
+            .zip(&run.inputs.wheel_load_kg)
+            .map(|(&sensor_m, &load_kg)| {
+                bellow_height_from_sensor_m(
+                    g.h0_m,
+                    gain,
+                    sensor_m,
+                    g.lever_compliance_m_per_n,
+                    load_kg,
+                    gravity,
+                )
+            })
+            .collect(),
+    )
+}
+
+/// [`bellow_heights_m`]' finite values (none for a run without measured outputs).
+fn finite_bellow_heights_m(run: &airsus_data::Run, truck: &TruckParameters) -> Vec<f64> {
+    bellow_heights_m(run, truck)
+        .unwrap_or_default()
+        .into_iter()
         .filter(|h| h.is_finite())
         .collect()
 }
@@ -71,7 +83,7 @@ pub fn extrapolation_notes(
                 .runs
                 .iter()
                 .filter(|r| protocol.estimation.contains(&r.name))
-                .flat_map(|r| bellow_heights_m(&r.run, truck))
+                .flat_map(|r| finite_bellow_heights_m(&r.run, truck))
                 .chain(map_range.into_iter().flat_map(|(lo, hi)| [lo, hi])),
         );
         let Some((low, high)) = seen else { continue };
@@ -80,7 +92,7 @@ pub fn extrapolation_notes(
             .iter()
             .filter(|r| !protocol.estimation.contains(&r.name))
         {
-            let heights = bellow_heights_m(&run.run, truck);
+            let heights = finite_bellow_heights_m(&run.run, truck);
             let below = heights.iter().filter(|&&h| h < low - MARGIN_M).count();
             let above = heights.iter().filter(|&&h| h > high + MARGIN_M).count();
             let outside = below + above;

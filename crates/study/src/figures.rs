@@ -4,7 +4,6 @@
 
 use airsus_data::{Channel, TruckParameters};
 use airsus_estimate::submodel::derivative::savitzky_golay_slope;
-use airsus_model::submodels::bellow_height_from_sensor_m;
 use airsus_report::chart::{Chart, Panel, Series, SeriesStyle};
 use airsus_sim::SimulationResponse;
 
@@ -269,23 +268,15 @@ pub fn discharge_chart(input: &StudyInput, truck: &TruckParameters) -> Option<Ch
 /// Pressure against bellow height on the closed-valve runs, with the gas law through the
 /// first sample using the fitted cross-section (thesis Fig 5.7).
 pub fn pressure_height_chart(input: &StudyInput, truck: &TruckParameters) -> Option<Chart> {
-    let g = &truck.geometry;
-    let k_l = g.lever_gain();
-    let gravity = truck.environment.gravity_m_s2;
     let ambient = truck.environment.ambient_pressure_pa;
     let mut series = Vec::new();
     for (i, r) in input.runs.iter().filter(|r| !r.valve_action()).enumerate() {
-        let Some(out) = r.run.outputs.as_ref() else {
+        let (Some(out), Some(h_b)) = (
+            r.run.outputs.as_ref(),
+            crate::coverage::bellow_heights_m(&r.run, truck),
+        ) else {
             continue;
         };
-        let h_b: Vec<f64> = out
-            .sensor_height_m
-            .iter()
-            .zip(&r.run.inputs.wheel_load_kg)
-            .map(|(&h, &m)| {
-                bellow_height_from_sensor_m(g.h0_m, k_l, h, g.lever_compliance_m_per_n, m, gravity)
-            })
-            .collect();
         let step = (h_b.len() / 1500).max(1);
         series.push(Series {
             name: format!("{} measured", r.name),

@@ -698,23 +698,10 @@ fn identify_model3(
         .outputs
         .as_ref()
         .ok_or("the run has no measured outputs")?;
-    let g = &truck.geometry;
-    let gravity = truck.environment.gravity_m_s2;
-    let k_l = g.lever_gain();
-    let bellow_mm: Vec<f64> = out
-        .sensor_height_m
+    let bellow_mm: Vec<f64> = crate::coverage::bellow_heights_m(run, truck)
+        .unwrap_or_default()
         .iter()
-        .zip(&run.inputs.wheel_load_kg)
-        .map(|(h, m)| {
-            1e3 * airsus_model::submodels::bellow_height_from_sensor_m(
-                g.h0_m,
-                k_l,
-                *h,
-                g.lever_compliance_m_per_n,
-                *m,
-                gravity,
-            )
-        })
+        .map(|h| 1e3 * h)
         .collect();
     let dev = |x: &[f64]| -> Vec<f64> { x.iter().map(|v| v - x[0]).collect() };
     let load = dev(&run.inputs.wheel_load_kg);

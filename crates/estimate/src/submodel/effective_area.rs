@@ -89,6 +89,10 @@ pub struct AreaGrowthFit {
 /// tenths of a percent per 100 kPa; ten times that either way is far outside any bellow.
 const GROWTH_SEARCH_PER_100KPA: (f64, f64) = (-0.05, 0.05);
 
+/// Golden-section steps after the scan: its bracket of 0.002 per 100 kPa times 0.618³¹ is
+/// under 1e-9.
+const GROWTH_GOLDEN_STEPS: usize = 31;
+
 /// Pressures of one height closer than this (or than 1 %) are one pressure, Pa.
 const PRESSURE_TOLERANCE_PA: f64 = 1e3;
 
@@ -122,22 +126,14 @@ pub fn fit_area_growth(map: &ForceMap, tolerance_m: f64) -> Result<AreaGrowthFit
             best = (i, r);
         }
     }
-    let (mut a, mut b) = (at(best.0.saturating_sub(1)), at((best.0 + 1).min(steps)));
-    let golden = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut c, mut d) = (b - golden * (b - a), a + golden * (b - a));
-    let (mut fc, mut fd) = (rss(c)?, rss(d)?);
-    while b - a > 1e-9 {
-        if fc < fd {
-            (b, d, fd) = (d, c, fc);
-            c = b - golden * (b - a);
-            fc = rss(c)?;
-        } else {
-            (a, c, fc) = (c, d, fd);
-            d = a + golden * (b - a);
-            fd = rss(d)?;
-        }
-    }
-    let growth = 0.5 * (a + b);
+    // The profile is smooth: golden section in the scan's best bracket (two scan steps) to
+    // 1e-9. `rss` fails only on the map itself, which the scan has already read.
+    let (growth, _) = crate::load_ramp::golden_section_min(
+        &mut |g| rss(g).unwrap_or(f64::INFINITY),
+        at(best.0.saturating_sub(1)),
+        at((best.0 + 1).min(steps)),
+        GROWTH_GOLDEN_STEPS,
+    );
     if growth <= low + 1e-6 || growth >= high - 1e-6 {
         return Err(bad(format!(
             "the map's forces call for an area growth of {growth} per 100 kPa, at the end of the plausible range {low}..{high}: check the map's pressure and force units"
