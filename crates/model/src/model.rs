@@ -233,6 +233,50 @@ pub trait SuspensionModel: BoxClone + Send + Sync + std::fmt::Debug {
         false
     }
 
+    /// The coordinate the model's rate-independent hysteresis follows (the bellow height, m,
+    /// for a wall friction), or `None` when the model has none. An estimator whose state
+    /// estimate jitters with the sensors' noise would drive such a hysteresis by the jitter,
+    /// which wears it away (a dithered Dahl element relaxes to zero whatever its history);
+    /// with the coordinate it can pass the estimate's motion through a play first and move
+    /// the hysteresis only by what is left ([`follow_hysteresis`]).
+    ///
+    /// [`follow_hysteresis`]: SuspensionModel::follow_hysteresis
+    fn hysteresis_coordinate_m(&self, x: &[f64]) -> Option<f64> {
+        let _ = x;
+        None
+    }
+
+    /// Indices of the hysteresis states that [`follow_hysteresis`] moves.
+    ///
+    /// [`follow_hysteresis`]: SuspensionModel::follow_hysteresis
+    fn hysteresis_states(&self) -> &[usize] {
+        &[]
+    }
+
+    /// Moves the hysteresis states of `x` from their current values along a monotone
+    /// displacement of [`hysteresis_coordinate_m`], by their rate-independent law in closed
+    /// form (only the path counts, not how fast it was taken).
+    ///
+    /// [`hysteresis_coordinate_m`]: SuspensionModel::hysteresis_coordinate_m
+    fn follow_hysteresis(&self, x: &mut [f64], displacement_m: f64) {
+        let _ = (x, displacement_m);
+    }
+
+    /// [`initial_state`] with the hysteresis preloaded to `preload` of its range: −1 as left
+    /// by lowering the truck onto its height (the wall friction holding it up), +1 by raising
+    /// it, 0 unloaded. Models without a hysteresis return [`initial_state`].
+    ///
+    /// [`initial_state`]: SuspensionModel::initial_state
+    fn initial_state_with_hysteresis(
+        &self,
+        u: &InputSample,
+        ic: &InitialCondition,
+        preload: f64,
+    ) -> Result<Vec<f64>, ModelError> {
+        let _ = preload;
+        self.initial_state(u, ic)
+    }
+
     /// The state in static equilibrium under `u` that matches `ic`.
     fn initial_state(&self, u: &InputSample, ic: &InitialCondition)
     -> Result<Vec<f64>, ModelError>;

@@ -30,9 +30,13 @@ use airsus_model::{
 };
 
 use crate::physics::{
-    GasEnergyBalance, dahl_force_rate, gas_temperature_rate, maxwell_position_rate, smoothstep,
+    GasEnergyBalance, dahl_force_after_displacement, dahl_force_rate, gas_temperature_rate,
+    maxwell_position_rate, smoothstep,
 };
 use crate::truth::{EffectParameters, VirtualTruck};
+
+/// Index of `dahl_f_n` in [`STATES`].
+const DAHL_STATE: usize = 7;
 
 const STATES: &[StateInfo] = &[
     StateInfo::new("x_m", "m", StateRole::Position),
@@ -477,6 +481,24 @@ impl SuspensionModel for TruckModel {
         self.supply == SupplyMode::Measured && self.truth().effects.supply_line
     }
 
+    /// The wall friction (Dahl) follows the bellow height.
+    fn hysteresis_coordinate_m(&self, x: &[f64]) -> Option<f64> {
+        (self.c.e.friction_force_n > 0.0).then(|| self.bellow_height_m(x))
+    }
+
+    fn hysteresis_states(&self) -> &[usize] {
+        &[DAHL_STATE]
+    }
+
+    fn follow_hysteresis(&self, x: &mut [f64], displacement_m: f64) {
+        x[DAHL_STATE] = dahl_force_after_displacement(
+            x[DAHL_STATE],
+            displacement_m,
+            self.c.e.friction_stiffness_n_per_m,
+            self.c.e.friction_force_n,
+        );
+    }
+
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample {
         let c = &self.c;
         let h_b = self.bellow_height_m(x);
@@ -501,5 +523,14 @@ impl SuspensionModel for TruckModel {
         ic: &InitialCondition,
     ) -> Result<Vec<f64>, ModelError> {
         self.equilibrium_with_friction(u, ic, 0.0)
+    }
+
+    fn initial_state_with_hysteresis(
+        &self,
+        u: &InputSample,
+        ic: &InitialCondition,
+        preload: f64,
+    ) -> Result<Vec<f64>, ModelError> {
+        self.equilibrium_with_friction(u, ic, preload.clamp(-1.0, 1.0) * self.c.e.friction_force_n)
     }
 }

@@ -34,6 +34,22 @@ pub fn dahl_force_rate(
     stiffness_n_per_m * (velocity_m_s - velocity_m_s.abs() * force_n / coulomb_force_n)
 }
 
+/// Dahl friction after a monotone displacement `Δ` from force `F₀`: the rate law integrated
+/// in closed form over the path (it is rate-independent, so only the path counts),
+/// `F = s F_c + (F₀ − s F_c) e^(−σ|Δ|/F_c)` with `s = sign Δ`.
+pub fn dahl_force_after_displacement(
+    force_n: f64,
+    displacement_m: f64,
+    stiffness_n_per_m: f64,
+    coulomb_force_n: f64,
+) -> f64 {
+    if coulomb_force_n <= 0.0 || displacement_m == 0.0 {
+        return force_n;
+    }
+    let s = displacement_m.signum() * coulomb_force_n;
+    s + (force_n - s) * (-stiffness_n_per_m * displacement_m.abs() / coulomb_force_n).exp()
+}
+
 /// Maxwell element (spring `k` in series with a damper `c = k τ`): the damper's position `s`
 /// follows the element's elongation `x` with `ds/dt = (x − s)/τ`; the force is `k (x − s)`.
 /// After a step in `x` the force relaxes as `e^(−t/τ)`: creep under constant load.
@@ -62,6 +78,30 @@ mod tests {
 
     const C: f64 = 5e-9; // 0.5 dm³/(s·bar)
     const B: f64 = 0.4;
+
+    #[test]
+    fn dahl_after_a_displacement_is_its_rate_law_integrated() {
+        let (sigma, fc) = (20_000.0, 120.0);
+        for (f0, travel) in [(0.0, 3e-3), (-120.0, 4e-3), (80.0, -2e-3), (-30.0, -10e-3)] {
+            // The rate law over the path at 1 µm steps (explicit Euler, far finer than 6 mm).
+            let steps = (travel / 1e-6_f64).abs().round() as usize;
+            let dx = travel / steps as f64;
+            let mut f = f0;
+            for _ in 0..steps {
+                f += dahl_force_rate(f, dx, sigma, fc);
+            }
+            let closed = dahl_force_after_displacement(f0, travel, sigma, fc);
+            assert!(
+                (closed - f).abs() < 0.05,
+                "{f0} {travel}: {closed} against {f}"
+            );
+        }
+        // A long travel saturates at the sliding force, either way; none moves nothing.
+        assert!((dahl_force_after_displacement(30.0, 1.0, sigma, fc) - fc).abs() < 1e-9);
+        assert!((dahl_force_after_displacement(30.0, -1.0, sigma, fc) + fc).abs() < 1e-9);
+        assert_eq!(dahl_force_after_displacement(30.0, 0.0, sigma, fc), 30.0);
+        assert_eq!(dahl_force_after_displacement(30.0, 1e-3, sigma, 0.0), 30.0);
+    }
 
     #[test]
     fn choked_flow_is_proportional_to_upstream_pressure_only() {
