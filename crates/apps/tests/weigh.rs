@@ -339,6 +339,7 @@ fn cal_run<'a>(run: &'a Run, est: &'a WeighSeries, h: Option<&'a [f64]>) -> Cali
         valve: &run.inputs.valve,
         height_m: h,
         quality: None,
+        measurement_std_kg: None,
     }
 }
 
@@ -553,4 +554,195 @@ fn ekf_on_a_richer_truck_calibrated_held_out() {
         assert!(c.mean_std_kg < 15.0, "{who}: {c:?}");
         assert!(c.within_95_interval >= 0.92, "{who}: {c:?}");
     }
+}
+
+/// The truck file the study estimated on variant `k` (our protocol, the `truck` structure,
+/// seed 1; `tools/weigh/make_fixtures.sh` writes them): what weighing may use, never the truth.
+fn study_estimate(k: u32) -> TruckParameters {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join(format!("tests/fixtures/study_truck_variant{k}.toml"));
+    airsus_data::read_truck(&path).unwrap().parameters
+}
+
+/// Variant `k` with its study estimate: the truck, its unsprung mass, its wall friction (N),
+/// and the EKF on the `truck` structure with that estimate, told how a run starts.
+struct StudiedVariant {
+    truck: VirtualTruck,
+    unsprung_kg: f64,
+    friction_n: f64,
+    estimate: TruckParameters,
+    weigher: StaticWeigher,
+}
+
+impl StudiedVariant {
+    fn new(k: u32) -> Self {
+        let truck = VirtualTruck::variant(k);
+        let estimate = study_estimate(k);
+        Self {
+            unsprung_kg: truck.physical.mass.unsprung_kg,
+            friction_n: truck.effect_parameters.friction_force_n,
+            truck,
+            weigher: StaticWeigher::new(
+                StaticLaw::from_truck(&estimate),
+                WeighingUncertainty::default(),
+            ),
+            estimate,
+        }
+    }
+
+    fn ekf(&self, run: &Run, start: HysteresisStart) -> WeighSeries {
+        let tuning = EkfTuning {
+            start_hysteresis: start,
+            ..EkfTuning::default()
+        };
+        let model = Box::new(airsus_truck::model::TruckModel::from_truck_parameters(
+            &self.estimate,
+        ));
+        weigh_ekf(run, model, &self.weigher, &tuning).unwrap()
+    }
+}
+
+/// Issue #14: the EKF on the `truck` structure with each variant's study estimate, on runs
+/// the study did not see (new noise and step seeds). Data-sets 1-2 start after the truck was
+/// lowered onto its height, 3-4 after it was raised (the generator's plan), levelling runs with
+/// the wall unloaded: said to the filter. The interval is sized on the study's estimation
+/// runs (data-sets 1 and 3, levelling 1, their logged loads) and must hold the held-out truth.
+/// Before the filter drove the wall friction through a play, the noise's jitter wore the
+/// friction away and standstills read 0.5-0.9 % off, by the friction's sign.
+#[test]
+fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
+    use airsus_truck::experiments::{GeneratedRun, levelling_run};
+    use airsus_truck::scenario::{levelling_1, levelling_2};
+    let (mut covered, mut standstills) = (0.0, 0usize);
+    for k in 0..=3 {
+        let variant = StudiedVariant::new(k);
+        let (vt, m2, friction) = (&variant.truck, variant.unsprung_kg, variant.friction_n);
+        let ekf = |run: &Run, start| variant.ekf(run, start);
+        let seed = 100 + u64::from(k);
+        let experiment =
+            |scenario, f: f64| -> GeneratedRun { run_experiment(vt, &scenario, f, seed).unwrap() };
+        let calibration: Vec<Run> = vec![
+            experiment(data_set_1(m2, seed), -friction).logged,
+            experiment(data_set_3(m2, seed), friction).logged,
+            levelling_run(vt, levelling_1(m2, seed), seed)
+                .unwrap()
+                .logged,
+        ];
+        let estimates: Vec<WeighSeries> = calibration
+            .iter()
+            .map(|r| ekf(r, HysteresisStart::Unknown))
+            .collect();
+        let pairs: Vec<(&Run, &WeighSeries)> = calibration.iter().zip(&estimates).collect();
+        let cal = LinearCalibration::fit_weighed_runs(
+            &pairs,
+            &StandstillRule::default(),
+            CalibrationTerms::IntervalOnly,
+        )
+        .unwrap();
+        // Nothing corrected: the model carries the scale.
+        assert_eq!((cal.gain, cal.offset_kg), (1.0, 0.0));
+        let held_out = [
+            (
+                "ds2",
+                experiment(data_set_2(m2, seed), -friction),
+                HysteresisStart::Lowered,
+            ),
+            (
+                "ds4",
+                experiment(data_set_4(m2, seed), friction),
+                HysteresisStart::Raised,
+            ),
+            (
+                "levelling 2",
+                levelling_run(vt, levelling_2(m2, seed), seed).unwrap(),
+                HysteresisStart::Unknown,
+            ),
+        ];
+        for (name, run, start) in held_out {
+            let raw = ekf(&run.logged, start);
+            let heights = run.logged.measured().unwrap().sensor_height_m.clone();
+            let flags = flags(&run.logged);
+            let weighed = cal
+                .apply_with_quality(&raw, Some(&heights), Some(&flags))
+                .unwrap();
+            let a = score(&run.logged, &run.truth.inputs.wheel_load_kg, &weighed);
+            let who = format!("variant {k}, {name}");
+            println!(
+                "{who}: standstill max {:.3} % mean {:+.3} % σ {:.1} kg coverage {:.3} ({} samples); valve at work max {:.3} % coverage {:.3}; after valve max {:.3} %",
+                a.standstill.max_abs_error_percent,
+                a.standstill.mean_error_percent,
+                a.standstill.mean_std_kg,
+                a.standstill.within_95_interval,
+                a.standstill.samples,
+                a.valve_activity.max_abs_error_percent,
+                a.valve_activity.within_95_interval,
+                a.after_valve.max_abs_error_percent,
+            );
+            assert!(a.standstill.samples > 1000, "{who}: {a:?}");
+            assert!(a.standstill.max_abs_error_percent < 0.5, "{who}: {a:?}");
+            assert!(a.valve_activity.max_abs_error_percent < 1.0, "{who}: {a:?}");
+            assert!(a.after_valve.max_abs_error_percent < 1.0, "{who}: {a:?}");
+            // An interval of a few kilograms (0.3 % of the load at most), not the 36-38 kg
+            // the assumed parameter errors give.
+            assert!(a.standstill.mean_std_kg < 12.0, "{who}: {a:?}");
+            covered += a.standstill.within_95_interval * a.standstill.samples as f64;
+            standstills += a.standstill.samples;
+        }
+    }
+    let coverage = covered / standstills as f64;
+    println!("pooled standstill coverage of the 95 % interval: {coverage:.3}");
+    assert!((0.92..=1.0).contains(&coverage), "{coverage}");
+}
+
+/// A run that starts at rest with an unknown wall friction: the friction and the load trade off
+/// exactly there, so the first standstill reads off by up to the friction's force (variant 2:
+/// 183 N at the bellow), and the filter's interval says so: wide until the first load change
+/// slides the friction to one side, a few kilograms after it.
+#[test]
+fn an_unknown_start_friction_widens_the_interval_until_the_bellow_moves() {
+    let variant = StudiedVariant::new(2);
+    let friction = variant.friction_n;
+    let scenario = data_set_2(variant.unsprung_kg, 7);
+    let run = run_experiment(&variant.truck, &scenario, -friction, 7).unwrap();
+    let truth = &run.truth.inputs.wheel_load_kg;
+    let weigh = |start| variant.ekf(&run.logged, start);
+    let (unknown, lowered) = (
+        weigh(HysteresisStart::Unknown),
+        weigh(HysteresisStart::Lowered),
+    );
+    let first_change = truth
+        .iter()
+        .position(|&m| (m - truth[0]).abs() > 1.0)
+        .unwrap();
+    // The first standstill (its last 60 s before the first load change) and the last.
+    let dt = run.logged.sample_time_s;
+    let first = first_change - (60.0 / dt) as usize..first_change;
+    let n = truth.len();
+    let last = n - (60.0 / dt) as usize..n;
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let err = |s: &WeighSeries, r: std::ops::Range<usize>| {
+        mean(
+            &r.clone()
+                .map(|i| s.wheel_load_kg[i] - truth[i])
+                .collect::<Vec<_>>(),
+        )
+    };
+    // The filter's own part (the assumed parameter part is the same everywhere).
+    let own = |s: &WeighSeries, r: std::ops::Range<usize>| mean(&s.measurement_std_kg[r]);
+    let (e_first, s_first) = (err(&unknown, first.clone()), own(&unknown, first.clone()));
+    let (e_last, s_last) = (err(&unknown, last.clone()), own(&unknown, last.clone()));
+    println!(
+        "unknown start: first standstill {e_first:+.1} kg (filter σ {s_first:.1} kg), last {e_last:+.1} kg (σ {s_last:.1} kg); lowered: first {:+.1} kg (σ {:.1} kg)",
+        err(&lowered, first.clone()),
+        own(&lowered, first.clone())
+    );
+    // The friction held the lowered truck up: the unknown start reads light by about F_c.
+    assert!(e_first < -0.3 * friction / 9.81, "{e_first}");
+    // ... and its interval holds that; the known start needs no such width, nor the last
+    // standstill, after the loads have slid the friction.
+    assert!(e_first.abs() < 1.96 * s_first, "{e_first} {s_first}");
+    assert!(s_first > 4.0 * s_last, "{s_first} {s_last}");
+    assert!(s_first > 4.0 * own(&lowered, first.clone()));
+    assert!(err(&lowered, first).abs() < 0.3 * friction / 9.81);
+    assert!(e_last.abs() < 0.2e-2 * truth[n - 1], "{e_last}");
 }

@@ -7,8 +7,8 @@
 //! loading, valve, levelling (the truck's deadband ECU at work) and road runs.
 
 use airsus_apps::weigh::{
-    EkfTuning, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty, evaluate_weighing,
-    weigh_ekf,
+    EkfTuning, HysteresisStart, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty,
+    evaluate_weighing, weigh_ekf,
 };
 use airsus_data::read_run;
 use airsus_study::{LoadRamp, Protocol, StudyOptions, load_study, run_study};
@@ -108,12 +108,12 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
     assert_eq!(r.validation_transitions.as_deref(), Some("fitted"));
 
     // Issue #14: weighing with what the study estimated, nothing else. The load filter on the
-    // estimated `truck` file, scored against the true load of the held-out runs. Measured:
-    // data-set 2 standstills within 0.59 % (means within 0.29 %), data-set 4 within 0.6 %
-    // at standstill and 0.55 % while the valve works; the held-out levelling run, where the
-    // ECU works the valve after every load step, within 0.13 % at standstill and 0.25 %
-    // while the valve works or has just closed. The interval is still too wide (it covers
-    // the truth on every sample).
+    // estimated `truck` file, told how each held-out run starts (data-set 2 after the truck
+    // was lowered, data-set 4 after it was raised, the levelling run with the wall
+    // unloaded), scored against the true load. Measured: standstills within 0.09 % (data-set
+    // 2), 0.13 % (data-set 4) and 0.08 % (levelling 2), 0.15 % and 0.10 % while the valve
+    // works. (Before the filter moved the wall friction through a play: 0.59 %, 0.6 % and
+    // 0.13 %.)
     let file = dir
         .path()
         .join("out")
@@ -123,13 +123,19 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
         StaticLaw::from_truck(&estimated),
         WeighingUncertainty::default(),
     );
-    for (run, standstill_max, valve_max) in
-        [("ds2", 0.75, 0.0), ("ds4", 0.75, 1.0), ("lev2", 0.5, 1.0)]
-    {
+    for (run, start, standstill_max, valve_max) in [
+        ("ds2", HysteresisStart::Lowered, 0.25, 0.0),
+        ("ds4", HysteresisStart::Raised, 0.25, 0.3),
+        ("lev2", HysteresisStart::Unknown, 0.2, 0.3),
+    ] {
         let logged = read_run(&data.join(format!("{run}.csv"))).unwrap();
         let truth = read_run(&data.join(format!("truth/{run}.csv"))).unwrap();
         let model = build_any_model("truck", &estimated).unwrap();
-        let series = weigh_ekf(&logged, model, &weigher, &EkfTuning::default()).unwrap();
+        let tuning = EkfTuning {
+            start_hysteresis: start,
+            ..EkfTuning::default()
+        };
+        let series = weigh_ekf(&logged, model, &weigher, &tuning).unwrap();
         let score = evaluate_weighing(
             &logged.time_s,
             &series.wheel_load_kg,
@@ -146,7 +152,7 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
         );
         assert!(
             score.standstill.max_abs_error_percent < standstill_max
-                && score.standstill.mean_error_percent.abs() < 0.3,
+                && score.standstill.mean_error_percent.abs() < 0.1,
             "{run} standstill: {:?}",
             score.standstill
         );

@@ -9,8 +9,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use airsus_apps::weigh::{
-    EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw, StaticWeigher,
-    WeighSeries, WeighingUncertainty, quality_flags, weigh_ekf, weigh_static,
+    CalibrationTerms, EkfTuning, HysteresisStart, LinearCalibration, StandstillDetector,
+    StandstillRule, StaticLaw, StaticWeigher, WeighSeries, WeighingUncertainty, quality_flags,
+    weigh_ekf, weigh_static,
 };
 use airsus_data::{Outputs, Run, TruckParameters};
 use airsus_study::{
@@ -74,12 +75,21 @@ fn run_weigh(
     method: &str,
     model_name: &str,
     window_s: f64,
+    start_hysteresis: &str,
     calibration: &[RunSource],
 ) -> anyhow::Result<Weighed> {
     let ekf = match method {
         "static" => false,
         "ekf" => true,
         other => bail!("unknown method `{other}`; the methods are: static, ekf"),
+    };
+    let start = match start_hysteresis {
+        "unknown" => HysteresisStart::Unknown,
+        "lowered" => HysteresisStart::Lowered,
+        "raised" => HysteresisStart::Raised,
+        other => {
+            bail!("unknown start_hysteresis `{other}`; it is one of: unknown, lowered, raised")
+        }
     };
     // Weighing estimates the load: a run without a wheel-load column is weighed as it is.
     let weighed = airsus_data::RunSource {
@@ -94,15 +104,20 @@ fn run_weigh(
         bail!("window_s must be a non-negative number of seconds");
     }
     let window = ((window_s / run.sample_time_s).round() as usize).max(1);
-    let estimate = |run: &Run| -> anyhow::Result<WeighSeries> {
+    let estimate = |run: &Run, start: HysteresisStart| -> anyhow::Result<WeighSeries> {
         Ok(if ekf {
             let model = build_any_model(model_name, truck)?;
-            weigh_ekf(run, model, &weigher, &EkfTuning::default())?
+            let tuning = EkfTuning {
+                start_hysteresis: start,
+                ..EkfTuning::default()
+            };
+            weigh_ekf(run, model, &weigher, &tuning)?
         } else {
             weigh_static(run, &weigher, window)?
         })
     };
-    let mut series = estimate(&run).with_context(|| format!("weighing {}", source.label()))?;
+    let mut series =
+        estimate(&run, start).with_context(|| format!("weighing {}", source.label()))?;
     let flags = quality_flags(&run, &StandstillDetector::default())
         .with_context(|| format!("flagging the samples of {}", source.label()))?;
     let quality = flags.iter().map(|q| q.as_str()).collect();
@@ -114,12 +129,18 @@ fn run_weigh(
             let cal_run = cal_source
                 .load(Outputs::Required)
                 .with_context(|| format!("reading {}", cal_source.label()))?;
-            let cal_est =
-                estimate(&cal_run).with_context(|| format!("weighing {}", cal_source.label()))?;
+            let cal_est = estimate(&cal_run, HysteresisStart::Unknown)
+                .with_context(|| format!("weighing {}", cal_source.label()))?;
             cal_runs.push((cal_run, cal_est));
         }
         let runs: Vec<_> = cal_runs.iter().map(|(run, est)| (run, est)).collect();
-        let cal = LinearCalibration::fit_weighed_runs(&runs, &rule).context("calibrating")?;
+        let terms = if method == "ekf" {
+            CalibrationTerms::IntervalOnly
+        } else {
+            CalibrationTerms::ScaleHysteresisHeight
+        };
+        let cal =
+            LinearCalibration::fit_weighed_runs(&runs, &rule, terms).context("calibrating")?;
         series = cal.apply_with_quality(
             &series,
             Some(&run.measured()?.sensor_height_m),
@@ -139,7 +160,8 @@ fn run_weigh(
 /// Returns `{"time_s", "wheel_load_kg", "wheel_load_std_kg", "quality", "calibration"}` at full
 /// precision (the command's CSV rounds to 3 decimals).
 #[pyfunction]
-#[pyo3(signature = (truck, run, method=None, model=None, window_s=None, calibration_run=None))]
+#[pyo3(signature = (truck, run, method=None, model=None, window_s=None, calibration_run=None, start_hysteresis=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn weigh<'py>(
     py: Python<'py>,
     truck: PyRef<'py, NativeTruck>,
@@ -148,6 +170,7 @@ pub fn weigh<'py>(
     model: Option<String>,
     window_s: Option<f64>,
     calibration_run: Option<Vec<RunSpec<'py>>>,
+    start_hysteresis: Option<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = truck.params.clone();
     drop(truck);
@@ -161,8 +184,19 @@ pub fn weigh<'py>(
     let method = method.unwrap_or_else(|| "static".to_owned());
     let model = model.unwrap_or_else(|| "m2".to_owned());
     let window_s = window_s.unwrap_or(2.0);
+    let start = start_hysteresis.unwrap_or_else(|| "unknown".to_owned());
     let weighed = py
-        .detach(|| run_weigh(&params, &source, &method, &model, window_s, &calibration))
+        .detach(|| {
+            run_weigh(
+                &params,
+                &source,
+                &method,
+                &model,
+                window_s,
+                &start,
+                &calibration,
+            )
+        })
         .or_py()?;
     let out = PyDict::new(py);
     let s = weighed.series;
@@ -183,6 +217,9 @@ pub fn weigh<'py>(
             cal.set_item("residual_q95_kg", c.residual_q95_kg)?;
             cal.set_item("settling_q95_kg", c.settling_q95_kg)?;
             cal.set_item("valve_q95_kg", c.valve_q95_kg)?;
+            cal.set_item("standstill_std_kg", c.standstill_std_kg)?;
+            cal.set_item("settling_std_kg", c.settling_std_kg)?;
+            cal.set_item("valve_std_kg", c.valve_std_kg)?;
             cal.set_item("dropped", c.dropped)?;
             out.set_item("calibration", cal)?;
         }

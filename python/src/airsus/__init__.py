@@ -864,6 +864,7 @@ def weigh(
     model: str = "m2",
     window_s: float = 2.0,
     calibration_run: Union[None, RunLike, Sequence[RunLike]] = None,
+    start_hysteresis: str = "unknown",
 ) -> pd.DataFrame:
     """Estimate the wheel load over a run from its measured pressure and height (the logged
     load is not used), as ``airsus weigh`` does.
@@ -874,10 +875,16 @@ def weigh(
         method: ``static`` (the static force balance inverted, averaged over ``window_s``) or
             ``ekf`` (an extended Kalman filter on ``model`` with the load as a random walk).
         calibration_run: a run whose logged load is trusted at standstill (weighbridge), or
-            a list of them: a gain and offset are fitted on their standstills and applied,
-            with the wall friction's hysteresis and a height term when the runs determine
-            them (a loading run and a run at one load with the valve moving the height do; a
-            loading run alone cannot tell the height from the load).
+            a list of them: the interval is sized on their standstills; with the static method
+            a gain and offset are fitted on them and applied, with the wall friction's
+            hysteresis and a height term when the runs determine them (a loading run and a
+            run at one load with the valve moving the height do; a loading run alone cannot
+            tell the height from the load). The EKF's model carries all four and is not
+            corrected.
+        start_hysteresis: how the truck came to the run's first reading, for the EKF on a
+            model with wall friction (``truck``): ``unknown`` (its interval holds the
+            friction's whole range until the bellow moves), ``lowered`` (a load set down, an
+            exhaust) or ``raised`` (a fill, a load taken off).
 
     Returns:
         A DataFrame ``time_s, wheel_load_kg, wheel_load_std_kg, quality`` at full precision
@@ -885,13 +892,16 @@ def weigh(
         trusted, from the run alone: ``standstill`` (read the scale here), ``settling`` or
         ``valve``. ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg,
         hysteresis_kg, height_kg_per_mm, reference_height_mm, samples, residual_rms_kg,
-        residual_q95_kg, settling_q95_kg, valve_q95_kg`` and ``dropped`` (the terms the runs
-        did not determine, with why) when ``calibration_run`` is given:
+        residual_q95_kg, settling_q95_kg, valve_q95_kg, standstill_std_kg, settling_std_kg,
+        valve_std_kg`` and ``dropped`` (the terms the runs did not determine, with why) when
+        ``calibration_run`` is given:
         ``load = gain·estimate + offset + hysteresis·z + height·(h − reference)``, with ``z``
         the wall-friction state from the heights (a fill reads high, ``hysteresis_kg < 0``
         takes it out). The standard deviation then comes from the calibration's residuals,
-        per quality class (``settling_q95_kg`` and ``valve_q95_kg``: what the calibration
-        runs showed while the air moved; None with too few such samples).
+        per quality class: ``√(own² + σ_c²)`` with ``own`` the estimate's own noise part and
+        ``σ_c`` (``standstill_std_kg``, ``settling_std_kg``, ``valve_std_kg``) the smallest
+        part that held 95 % of the calibration's known loads (the ``*_q95_kg``: what the
+        residuals' 95th percentile was; None with too few such samples).
     """
     if isinstance(calibration_run, (list, tuple)):
         if not calibration_run:
@@ -906,6 +916,7 @@ def weigh(
         model=model,
         window_s=float(window_s),
         calibration_run=calibration,
+        start_hysteresis=start_hysteresis,
     )
     frame = pd.DataFrame(
         {

@@ -31,9 +31,29 @@
 //! - air amount: `(ε_n n)² T + (ε_f ṅ)² T`: a slow drift (the gas temperature the isothermal
 //!   model lacks, leaks) plus a relative error `ε_f` of the valve flow while it is open;
 //! - the rates (`xdot`, `alphadot` and the like): `σ_v² T`, unmodelled forces (wall friction,
-//!   creep); every other extra state a small relative drift.
+//!   creep); the hysteresis states none (below); every other extra state a small relative
+//!   drift.
 //!
 //! The defaults were tuned on the reference experiments (module tests give the numbers).
+//!
+//! # Wall friction (a model with a hysteresis: `truck`)
+//! The bellow wall's friction holds part of the load (up after the truck was lowered, down
+//! after it was raised), so the same load reads at another pressure after a fill than after an
+//! exhaust. The model carries it as a Dahl element driven by the bellow's motion; the filter
+//! must not drive it by its own estimate's motion, which jitters by a fraction of a millimetre
+//! with the sensors' noise: a dithered Dahl element relaxes to zero within tens of seconds,
+//! and the standstills then read off by the friction (0.5-0.9 % on the virtual-truck variants,
+//! by the sign of the last movement). So the friction is
+//! - held through each prediction and moved after each correction only by what the estimated
+//!   bellow height moved beyond a play ([`EkfTuning::hysteresis_play_m`]), by its law in closed
+//!   form ([`SuspensionModel::follow_hysteresis`]);
+//! - considered, not estimated (Schmidt-Kalman: its rows of the gain are zero): at rest the
+//!   friction and the load trade off exactly, so no reading can tell them apart, and
+//!   corrections pushed it beyond its range while the load stepped. Its uncertainty still
+//!   widens the load's through the covariance;
+//! - started as said ([`HysteresisStart`]): an unknown start is uniform over the friction's
+//!   range, so the load's interval holds it until the first movement slides the friction to one
+//!   side (the movement's map shrinks its variance by `e^(−σ|Δ|/F_c)`).
 
 use airsus_model::{InitialCondition, InputSample, StateRole, SuspensionModel};
 use nalgebra::{DMatrix, DVector};
@@ -68,7 +88,44 @@ pub struct EkfTuning {
     /// The longest run of readings beyond the gate that is bounded as a glitch; readings that
     /// stay beyond it longer are a real change (a load set down) and are taken whole.
     pub glitch_samples: usize,
+    /// Width of the play the estimate's motion passes before it moves the model's hysteresis
+    /// (the wall friction), in the hysteresis coordinate's unit (m of bellow height): about
+    /// twice the sample-to-sample jitter of the estimate, far below the millimetres a load or
+    /// a valve moves the bellow.
+    pub hysteresis_play_m: f64,
+    /// How the truck came to its first reading, which sets the hysteresis the run starts with.
+    pub start_hysteresis: HysteresisStart,
 }
+
+/// How the truck came to a run's first reading: what its wall friction holds at the start.
+/// At rest the friction and the load trade off exactly (a load `F_c` heavier on a wall whose
+/// friction holds `F_c` up reads the same), so an unknown start is as uncertain as the
+/// friction's range until the bellow first moves far enough to slide it to one side.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum HysteresisStart {
+    /// Not known: the friction's mean is zero, its spread uniform over its range.
+    #[default]
+    Unknown,
+    /// Lowered onto its height (a load set down, an exhaust): the friction holds it up.
+    Lowered,
+    /// Raised onto its height (a fill, a load taken off): the friction holds it down.
+    Raised,
+}
+
+impl HysteresisStart {
+    /// The preload of [`SuspensionModel::initial_state_with_hysteresis`].
+    pub fn preload(self) -> f64 {
+        match self {
+            Self::Unknown => 0.0,
+            Self::Lowered => -1.0,
+            Self::Raised => 1.0,
+        }
+    }
+}
+
+/// The spread of a known start's hysteresis, as a fraction of its half range: the last
+/// movement may not have slid the friction all the way.
+const KNOWN_START_SPREAD: f64 = 0.1;
 
 impl Default for EkfTuning {
     fn default() -> Self {
@@ -84,6 +141,8 @@ impl Default for EkfTuning {
             substeps: 20,
             innovation_gate_sigma: 6.0,
             glitch_samples: 2,
+            hysteresis_play_m: 0.3e-3,
+            start_hysteresis: HysteresisStart::Unknown,
         }
     }
 }
@@ -97,6 +156,7 @@ impl Default for EkfTuning {
 fn consistent_start(
     model: &dyn SuspensionModel,
     first_input: &InputSample,
+    preload: f64,
     static_load_kg: f64,
     sensor_height_m: f64,
     gauge_pa: f64,
@@ -107,11 +167,12 @@ fn consistent_start(
             ..*first_input
         };
         let x = model
-            .initial_state(
+            .initial_state_with_hysteresis(
                 &u,
                 &InitialCondition::SensorHeight {
                     height_m: sensor_height_m,
                 },
+                preload,
             )
             .ok()?;
         let gap = model.output(&x, &u).bellow_gauge_pa - gauge_pa;
@@ -154,6 +215,10 @@ pub struct LoadEkf {
     time_s: f64,
     /// Readings beyond the innovation gate in a row, up to this one.
     beyond_gate: usize,
+    /// The play's output on the model's hysteresis coordinate (see `play_hysteresis`).
+    played_m: Option<f64>,
+    /// Indices of the model's hysteresis states.
+    hysteresis: Vec<usize>,
 }
 
 impl LoadEkf {
@@ -198,9 +263,11 @@ impl LoadEkf {
             ));
         }
         let static_load = law.wheel_load_kg(sensor_height_m, gauge_pa)?;
+        let preload = tuning.start_hysteresis.preload();
         let (load, x0) = match consistent_start(
             model.as_ref(),
             first_input,
+            preload,
             static_load,
             sensor_height_m,
             gauge_pa,
@@ -213,7 +280,11 @@ impl LoadEkf {
                 };
                 (
                     static_load,
-                    model.initial_state(&u, &InitialCondition::BellowPressure { gauge_pa })?,
+                    model.initial_state_with_hysteresis(
+                        &u,
+                        &InitialCondition::BellowPressure { gauge_pa },
+                        preload,
+                    )?,
                 )
             }
         };
@@ -238,7 +309,35 @@ impl LoadEkf {
         if let Some(i) = amount_index {
             p[(i, i)] = (0.01 * x0[i]).powi(2);
         }
+        // The hysteresis's start: its range is the span between the states preloaded one way
+        // and the other at the start's load; unknown history is uniform over it.
+        let hysteresis = model.hysteresis_states().to_vec();
+        if !hysteresis.is_empty() {
+            let u = InputSample {
+                wheel_load_kg: load,
+                ..*first_input
+            };
+            let ic = InitialCondition::SensorHeight {
+                height_m: sensor_height_m,
+            };
+            if let (Ok(low), Ok(high)) = (
+                model.initial_state_with_hysteresis(&u, &ic, -1.0),
+                model.initial_state_with_hysteresis(&u, &ic, 1.0),
+            ) {
+                for &i in &hysteresis {
+                    let half_range = 0.5 * (high[i] - low[i]).abs();
+                    let std = match tuning.start_hysteresis {
+                        HysteresisStart::Unknown => half_range / 3f64.sqrt(),
+                        HysteresisStart::Lowered | HysteresisStart::Raised => {
+                            KNOWN_START_SPREAD * half_range
+                        }
+                    };
+                    p[(i, i)] = std.powi(2);
+                }
+            }
+        }
         p[(n, n)] = tuning.initial_load_std_kg.powi(2);
+        let played_m = model.hysteresis_coordinate_m(&x0);
         Ok(Self {
             model,
             tuning,
@@ -248,6 +347,8 @@ impl LoadEkf {
             p,
             time_s,
             beyond_gate: 0,
+            played_m,
+            hysteresis,
         })
     }
 
@@ -316,6 +417,52 @@ impl LoadEkf {
         1e-7 * v.abs().max(1e-2)
     }
 
+    /// The model's hysteresis (wall friction) driven through a play. The state estimate
+    /// jitters with the sensors' noise by a fraction of a millimetre from sample to sample,
+    /// and a rate-independent hysteresis driven by that jitter wears away (a dithered Dahl
+    /// element relaxes to zero, where the truck's wall, which did not jitter, holds its
+    /// friction). So the prediction holds the hysteresis states (`step`), and after each
+    /// correction they follow the estimate's hysteresis coordinate only by what it moved
+    /// beyond the play, by their law in closed form; the covariance goes through that map's
+    /// Jacobian (forward differences in the hysteresis states).
+    fn play_hysteresis(&mut self, z: &mut DVector<f64>, p: &mut DMatrix<f64>) {
+        let n = self.n_model();
+        let (Some(played), Some(coordinate)) = (
+            self.played_m,
+            self.model.hysteresis_coordinate_m(&z.as_slice()[..n]),
+        ) else {
+            return;
+        };
+        let play = self.tuning.hysteresis_play_m;
+        let gap = coordinate - played;
+        let moved = if gap > play {
+            gap - play
+        } else if gap < -play {
+            gap + play
+        } else {
+            return;
+        };
+        let before: Vec<f64> = z.as_slice()[..n].to_vec();
+        let mut after = before.clone();
+        self.model.follow_hysteresis(&mut after, moved);
+        let m = z.len();
+        let mut jac = DMatrix::identity(m, m);
+        for &j in &self.hysteresis {
+            let d = Self::perturbation(before[j]);
+            let mut shifted = before.clone();
+            shifted[j] += d;
+            self.model.follow_hysteresis(&mut shifted, moved);
+            for &i in &self.hysteresis {
+                jac[(i, j)] = (shifted[i] - after[i]) / d;
+            }
+        }
+        for &i in &self.hysteresis {
+            z[i] = after[i];
+        }
+        *p = &jac * &*p * jac.transpose();
+        self.played_m = Some(played + moved);
+    }
+
     /// One filter cycle: predict over `dt` under the input `u` (held over the interval, as the
     /// logger recorded it), then correct with the reading taken at the end of it.
     pub fn step(
@@ -349,6 +496,15 @@ impl LoadEkf {
                 f[(i, j)] = (pj[i] - z_pred[i]) / d;
             }
         }
+        // The hysteresis is held through the prediction and moved after the correction
+        // (`play_hysteresis`).
+        let mut z_pred = z_pred;
+        for &i in &self.hysteresis {
+            z_pred[i] = z0[i];
+            for j in 0..m {
+                f[(i, j)] = if i == j { 1.0 } else { 0.0 };
+            }
+        }
         let mut q = DMatrix::zeros(m, m);
         let t = &self.tuning;
         q[(n, n)] = t.load_random_walk_kg_per_sqrt_s.powi(2) * dt;
@@ -357,6 +513,9 @@ impl LoadEkf {
         }
         for &i in &self.rate_indices {
             q[(i, i)] = t.rate_random_walk_per_sqrt_s.powi(2) * dt;
+        }
+        for &i in &self.hysteresis {
+            q[(i, i)] = 0.0;
         }
         if let Some(i) = self.amount_index {
             let flow = (z_pred[i] - z0[i]) / dt;
@@ -404,11 +563,21 @@ impl LoadEkf {
         } else {
             self.beyond_gate = 0;
         }
-        let k = &p_pred * h.transpose() * s_inv * trust;
+        let mut k = &p_pred * h.transpose() * s_inv * trust;
+        // The hysteresis states are considered, not estimated (a Schmidt-Kalman filter): at
+        // rest the wall friction and the load trade off exactly, so a reading cannot tell them
+        // apart, and corrections would push the friction beyond its range while the load
+        // steps. Their uncertainty still widens the load's through the covariance (the Joseph
+        // form below holds for any gain); they move only with the bellow (`play_hysteresis`).
+        for &i in &self.hysteresis {
+            k.row_mut(i).fill(0.0);
+        }
         let z_new = DVector::from_vec(z_pred) + &k * innovation;
         let i_kh = DMatrix::identity(m, m) - &k * &h;
         // Joseph form keeps P symmetric positive semi-definite.
         let p_new = &i_kh * &p_pred * i_kh.transpose() + &k * r * k.transpose();
+        let (mut z_new, mut p_new) = (z_new, p_new);
+        self.play_hysteresis(&mut z_new, &mut p_new);
         let p_new = (&p_new + p_new.transpose()) * 0.5;
         if z_new.iter().any(|v| !v.is_finite()) || p_new.iter().any(|v| !v.is_finite()) {
             return Err(AppError::FilterDiverged {

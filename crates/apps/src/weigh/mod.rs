@@ -21,7 +21,7 @@ use airsus_data::Run;
 use airsus_data::atomic::write_atomically;
 
 use crate::error::{AppError, invalid};
-pub use ekf::{EkfTuning, LoadEkf, weigh_ekf};
+pub use ekf::{EkfTuning, HysteresisStart, LoadEkf, weigh_ekf};
 pub use evaluate::{
     AccuracySummary, ErrorStats, StandstillRule, evaluate_weighing, standstill_indices,
 };
@@ -246,11 +246,36 @@ pub struct LinearCalibration {
     /// samples then get the standstill interval.
     pub settling_q95_kg: Option<f64>,
     pub valve_q95_kg: Option<f64>,
+    /// The part of a calibrated reading's standard deviation the estimator's own noise part
+    /// does not hold, kg: the smallest `σ_c` for which `1.96 √((g σ_meas)² + σ_c²)` held 95 %
+    /// of the known standstill loads (with `σ_meas` the estimate's own noise part, e.g. the
+    /// EKF's covariance, which is wide while the wall friction's state is unknown). Without
+    /// a noise part it is `q95 / 1.96`.
+    pub standstill_std_kg: f64,
+    /// The same for the samples flagged `settling` and `valve` (see
+    /// [`Self::settling_q95_kg`]); `None` with too few such samples.
+    pub settling_std_kg: Option<f64>,
+    pub valve_std_kg: Option<f64>,
     pub samples: usize,
     /// Terms the calibration runs could not determine, left at zero, each with the reason
     /// (`"height: collinear with the other terms on these runs (condition 63)"`). Printed
     /// by `weigh`.
     pub dropped: Vec<String>,
+}
+
+/// Which terms [`LinearCalibration::fit_weighed_runs`] fits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CalibrationTerms {
+    /// No correction, only the interval: for an estimator whose model already carries the
+    /// scale, the wall friction's hysteresis and the heights (the EKF on a study's model,
+    /// where a gain and an offset fitted on the calibration runs' few load levels, their
+    /// unknown-friction starts among them, moved the estimate away from the truth).
+    IntervalOnly,
+    /// A gain and an offset, as commercial on-board scales are set.
+    Scale,
+    /// Gain, offset, and the hysteresis and height terms where the runs determine them: for
+    /// the static law, which has neither.
+    ScaleHysteresisHeight,
 }
 
 /// One run of known loads for [`LinearCalibration::fit_runs`], SI units.
@@ -266,6 +291,8 @@ pub struct CalibrationRun<'a> {
     pub height_m: Option<&'a [f64]>,
     /// The run's quality flags ([`quality_flags`]), for the intervals away from standstill.
     pub quality: Option<&'a [WeighQuality]>,
+    /// The estimate's own noise part of its standard deviation ([`WeighSeries`]), kg.
+    pub measurement_std_kg: Option<&'a [f64]>,
 }
 
 /// The 95th percentile of non-negative values (sorted in place); `None` when empty.
@@ -276,6 +303,74 @@ fn q95(values: &mut [f64]) -> Option<f64> {
     values.sort_by(f64::total_cmp);
     let m = values.len() as f64;
     Some(values[((0.95 * m).ceil() as usize).clamp(1, values.len()) - 1])
+}
+
+/// The smallest `σ ≥ 0` with `|r_k| ≤ z √(s_k² + σ²)` for a fraction `coverage` of the
+/// samples (`r`: residuals, `s`: each sample's own standard deviation), by bisection: the
+/// fraction only grows with `σ`. `None` when empty.
+fn coverage_std(residual: &[f64], own_std: &[f64], coverage: f64, z: f64) -> Option<f64> {
+    if residual.is_empty() {
+        return None;
+    }
+    let covered = |sigma: f64| {
+        let inside = residual
+            .iter()
+            .zip(own_std)
+            .filter(|(r, s)| r.abs() <= z * s.hypot(sigma))
+            .count();
+        inside as f64 >= coverage * residual.len() as f64
+    };
+    if covered(0.0) {
+        return Some(0.0);
+    }
+    let mut hi = residual.iter().fold(0.0f64, |a, r| a.max(r.abs())) / z;
+    if !covered(hi) {
+        return Some(hi);
+    }
+    let mut lo = 0.0;
+    // 60 halvings: far below a gram.
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if covered(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Some(hi)
+}
+
+/// Two-sided 95 % quantile of the standard normal.
+const Z95: f64 = 1.96;
+
+/// The fewest samples of a class (a run's standstills, its settling or valve samples) that
+/// size an interval.
+const MIN_CLASS_SAMPLES: usize = 50;
+
+/// The interval's own part from `(run, residual, own std)` samples: [`coverage_std`] on each
+/// run with enough samples, the largest of them. Pooled, the runs that fit best (a levelling
+/// run's standstills are many and close) would narrow the interval below what the worst-fitting
+/// kind of run needs, and a validation run of that kind would then be covered far less than
+/// 95 %; each run must be held on its own. `None` without samples.
+fn per_run_coverage_std(samples: &[(usize, f64, f64)]) -> Option<f64> {
+    let runs = samples.iter().map(|s| s.0).max()? + 1;
+    let pooled = || {
+        let (r, own): (Vec<f64>, Vec<f64>) = samples.iter().map(|s| (s.1, s.2)).unzip();
+        coverage_std(&r, &own, 0.95, Z95)
+    };
+    (0..runs)
+        .filter_map(|i| {
+            let (r, own): (Vec<f64>, Vec<f64>) = samples
+                .iter()
+                .filter(|s| s.0 == i)
+                .map(|s| (s.1, s.2))
+                .unzip();
+            (r.len() >= MIN_CLASS_SAMPLES)
+                .then(|| coverage_std(&r, &own, 0.95, Z95))
+                .flatten()
+        })
+        .reduce(f64::max)
+        .or_else(pooled)
 }
 
 /// What [`fit_centred`] found: `(name, coefficient, the column's mean)` of the kept columns,
@@ -292,7 +387,18 @@ impl<'a> CalibrationRun<'a> {
             valve: &run.inputs.valve,
             height_m: Some(&run.measured()?.sensor_height_m),
             quality: None,
+            measurement_std_kg: (estimate.measurement_std_kg.len() == run.len())
+                .then_some(&estimate.measurement_std_kg[..]),
         })
+    }
+
+    /// The same run without its heights: the calibration then fits a gain and an offset only
+    /// (for an estimator whose model carries the hysteresis and the heights itself).
+    pub fn without_heights(self) -> Self {
+        Self {
+            height_m: None,
+            ..self
+        }
     }
 
     /// The same run with its quality flags ([`quality_flags`]).
@@ -408,6 +514,9 @@ impl LinearCalibration {
             residual_q95_kg: 0.0,
             settling_q95_kg: None,
             valve_q95_kg: None,
+            standstill_std_kg: 0.0,
+            settling_std_kg: None,
+            valve_std_kg: None,
             samples: 0,
             dropped: Vec::new(),
         }
@@ -438,6 +547,7 @@ impl LinearCalibration {
                 valve,
                 height_m,
                 quality: None,
+                measurement_std_kg: None,
             }],
             rule,
         )
@@ -448,9 +558,21 @@ impl LinearCalibration {
     /// run) separates the height term from the load, which a loading run alone cannot (its
     /// height falls as the load rises). Heights are used only when every run has them.
     pub fn fit_runs(runs: &[CalibrationRun<'_>], rule: &StandstillRule) -> Result<Self, AppError> {
+        Self::fit_runs_with(runs, rule, true)
+    }
+
+    /// [`Self::fit_runs`]; with `fit_scale` false nothing is corrected (gain 1, offset 0)
+    /// and only the intervals are sized.
+    fn fit_runs_with(
+        runs: &[CalibrationRun<'_>],
+        rule: &StandstillRule,
+        fit_scale: bool,
+    ) -> Result<Self, AppError> {
         let with_heights = !runs.is_empty() && runs.iter().all(|r| r.height_m.is_some());
-        let (mut estimate, mut known, mut z, mut height_mm) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut estimate, mut known, mut z, mut height_mm, mut own_std) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        // Which run each standstill sample came from.
+        let mut run_of = Vec::new();
         // Each run's wall-friction state, for the fit and the intervals away from standstill.
         let mut run_zs = Vec::with_capacity(runs.len());
         for (i, run) in runs.iter().enumerate() {
@@ -459,6 +581,7 @@ impl LinearCalibration {
                 || run.known_kg.len() != n
                 || run.valve.len() != n
                 || run.height_m.is_some_and(|h| h.len() != n)
+                || run.measurement_std_kg.is_some_and(|m| m.len() != n)
             {
                 return Err(invalid(
                     format!("calibration run {}", i + 1),
@@ -481,6 +604,8 @@ impl LinearCalibration {
             for &k in &idx {
                 estimate.push(run.estimate_kg[k]);
                 known.push(run.known_kg[k]);
+                own_std.push(run.measurement_std_kg.map_or(0.0, |m| m[k]));
+                run_of.push(i);
                 if let (Some(h), Some(rz)) = (heights, &run_z) {
                     z.push(rz[k]);
                     height_mm.push(h[k] * 1e3);
@@ -494,7 +619,16 @@ impl LinearCalibration {
             l.dedup();
             l.len()
         };
-        if levels < 2 {
+        if !fit_scale && levels == 0 {
+            return Err(invalid(
+                "calibration run",
+                format!(
+                    "it has no steady load with the valve closed for {} s to size the interval on",
+                    rule.settle_s
+                ),
+            ));
+        }
+        if fit_scale && levels < 2 {
             return Err(invalid(
                 "calibration run",
                 format!(
@@ -509,7 +643,14 @@ impl LinearCalibration {
             columns.push(("hysteresis", z.clone(), 0.05));
             columns.push(("height", height_mm.clone(), 0.1));
         }
-        let (coefficients, dropped) = fit_centred(&known, columns)?;
+        let (coefficients, dropped) = if fit_scale {
+            fit_centred(&known, columns)?
+        } else {
+            (
+                vec![("offset", 0.0, 0.0), ("estimate", 1.0, 0.0)],
+                Vec::new(),
+            )
+        };
         let mut cal = Self::identity();
         cal.dropped = dropped;
         cal.samples = known.len();
@@ -526,7 +667,7 @@ impl LinearCalibration {
                 }
             }
         }
-        let mut residuals: Vec<f64> = (0..known.len())
+        let residuals: Vec<f64> = (0..known.len())
             .map(|k| {
                 let (zk, hk) = if with_heights {
                     (z[k], height_mm[k] * 1e-3)
@@ -538,8 +679,14 @@ impl LinearCalibration {
             .collect();
         let m = residuals.len() as f64;
         cal.residual_rms_kg = (residuals.iter().map(|r| r * r).sum::<f64>() / m).sqrt();
-        cal.residual_q95_kg = q95(&mut residuals).unwrap_or(0.0);
-        (cal.settling_q95_kg, cal.valve_q95_kg) = cal.moving_air_q95(runs, &run_zs, rule);
+        cal.residual_q95_kg = q95(&mut residuals.clone()).unwrap_or(0.0);
+        let g = cal.gain.abs();
+        let own: Vec<f64> = own_std.iter().map(|s| g * s).collect();
+        let samples: Vec<(usize, f64, f64)> = (0..residuals.len())
+            .map(|k| (run_of[k], residuals[k], own[k]))
+            .collect();
+        cal.standstill_std_kg = per_run_coverage_std(&samples).unwrap_or(0.0);
+        cal.moving_air(runs, &run_zs, rule);
         Ok(cal)
     }
 
@@ -549,6 +696,7 @@ impl LinearCalibration {
     pub fn fit_weighed_runs(
         runs: &[(&Run, &WeighSeries)],
         rule: &StandstillRule,
+        terms: CalibrationTerms,
     ) -> Result<Self, AppError> {
         let detector = StandstillDetector::default();
         let flags = runs
@@ -559,22 +707,34 @@ impl LinearCalibration {
             .iter()
             .zip(&flags)
             .map(|((run, estimate), flags)| {
-                Ok(CalibrationRun::from_run(run, estimate)?.with_quality(flags))
+                let run = CalibrationRun::from_run(run, estimate)?.with_quality(flags);
+                Ok(match terms {
+                    CalibrationTerms::IntervalOnly | CalibrationTerms::Scale => {
+                        run.without_heights()
+                    }
+                    CalibrationTerms::ScaleHysteresisHeight => run,
+                })
             })
             .collect::<Result<Vec<_>, AppError>>()?;
-        Self::fit_runs(&calibration_runs, rule)
+        Self::fit_runs_with(
+            &calibration_runs,
+            rule,
+            terms != CalibrationTerms::IntervalOnly,
+        )
     }
 
-    /// The residuals' 95th percentiles of the samples flagged `settling` and `valve` (see
-    /// [`Self::settling_q95_kg`]).
-    fn moving_air_q95(
-        &self,
+    /// The residuals' 95th percentiles and the coverage's standard deviations of the samples
+    /// flagged `settling` and `valve` (see [`Self::settling_q95_kg`]).
+    fn moving_air(
+        &mut self,
         runs: &[CalibrationRun<'_>],
         run_zs: &[Option<Vec<f64>>],
         rule: &StandstillRule,
-    ) -> (Option<f64>, Option<f64>) {
+    ) {
+        // (run, residual, the estimate's own standard deviation) per class.
         let (mut settling, mut valve) = (Vec::new(), Vec::new());
-        for (run, z) in runs.iter().zip(run_zs) {
+        let g = self.gain.abs();
+        for (i, (run, z)) in runs.iter().zip(run_zs).enumerate() {
             let Some(quality) = run.quality.filter(|q| q.len() == run.time_s.len()) else {
                 continue;
             };
@@ -592,15 +752,24 @@ impl LinearCalibration {
                 if !r.is_finite() {
                     continue;
                 }
+                let own = g * run.measurement_std_kg.map_or(0.0, |m| m[k]);
                 match quality[k] {
-                    WeighQuality::Settling => settling.push(r),
-                    WeighQuality::Valve => valve.push(r),
+                    WeighQuality::Settling => settling.push((i, r, own)),
+                    WeighQuality::Valve => valve.push((i, r, own)),
                     WeighQuality::Standstill => {}
                 }
             }
         }
-        let enough = |mut v: Vec<f64>| if v.len() >= 50 { q95(&mut v) } else { None };
-        (enough(settling), enough(valve))
+        let fit = |v: Vec<(usize, f64, f64)>| -> (Option<f64>, Option<f64>) {
+            if v.len() < MIN_CLASS_SAMPLES {
+                return (None, None);
+            }
+            let std = per_run_coverage_std(&v);
+            let mut r: Vec<f64> = v.iter().map(|s| s.1).collect();
+            (q95(&mut r), std)
+        };
+        (self.settling_q95_kg, self.settling_std_kg) = fit(settling);
+        (self.valve_q95_kg, self.valve_std_kg) = fit(valve);
     }
 
     /// One calibrated reading from the estimate, the friction state and the sensor height (m).
@@ -617,13 +786,14 @@ impl LinearCalibration {
     ///
     /// The interval then comes from the data, not from assumed parameter errors: what is left
     /// at the calibration's known standstills (wall friction, hysteresis, the law's shape
-    /// between the levels, the noise) sets it, `σ = q95 / 1.96` with `q95` the residuals' 95th
-    /// percentile, and a sample noisier than the calibration's (a shorter average) widens it,
-    /// `σ = max(q95 / 1.96, g σ_meas)`. The assumed parameter part is dropped: the calibration
-    /// measured what it does. For the EKF, `σ_meas` is the filter's own standard deviation
-    /// (wide while it converges or while the load changes). Without the noise part (an
-    /// estimator that does not split it off), the standard deviation only scales with the
-    /// gain.
+    /// between the levels, the noise) sets it, `σ = √((g σ_meas)² + σ_c²)` with `σ_meas` the
+    /// estimate's own noise part and `σ_c` ([`Self::standstill_std_kg`]) the smallest part
+    /// that made the interval hold 95 % of the calibration's known loads. The assumed
+    /// parameter part is dropped: the calibration measured what it does. For the EKF,
+    /// `σ_meas` is the filter's own standard deviation (wide while it converges, while the
+    /// load changes, and while the wall friction's state is unknown). Without the noise part
+    /// (an estimator that does not split it off), the standard deviation only scales with
+    /// the gain.
     ///
     /// A calibration with a height or hysteresis term needs the run's sensor heights, one per
     /// sample: without them it is an error, not a silently different calibration.
@@ -651,15 +821,15 @@ impl LinearCalibration {
                 "the quality flags and the load samples differ in number",
             ));
         }
-        let q95_at = |k: usize| {
+        let class_std = |k: usize| {
             let class = quality.map(|q| q[k]);
             match class {
-                Some(WeighQuality::Settling) => self.settling_q95_kg,
-                Some(WeighQuality::Valve) => self.valve_q95_kg.or(self.settling_q95_kg),
+                Some(WeighQuality::Settling) => self.settling_std_kg,
+                Some(WeighQuality::Valve) => self.valve_std_kg.or(self.settling_std_kg),
                 _ => None,
             }
-            .unwrap_or(self.residual_q95_kg)
-            .max(self.residual_q95_kg)
+            .unwrap_or(self.standstill_std_kg)
+            .max(self.standstill_std_kg)
         };
         let (z, heights) = match height_m {
             Some(h) if h.len() == series.len() => (run_friction_state(&series.time_s, h), h),
@@ -686,7 +856,7 @@ impl LinearCalibration {
                 .measurement_std_kg
                 .iter()
                 .enumerate()
-                .map(|(k, s)| (g * s).max(q95_at(k) / 1.96))
+                .map(|(k, s)| (g * s).hypot(class_std(k)))
                 .collect()
         } else {
             series.std_kg.iter().map(|s| g * s).collect()
@@ -749,6 +919,7 @@ mod tests {
             valve: &s.valve,
             height_m: Some(&s.height_m),
             quality: None,
+            measurement_std_kg: None,
         }
     }
 
@@ -845,12 +1016,52 @@ mod tests {
                 Some(&[WeighQuality::Standstill, WeighQuality::Valve]),
             )
             .unwrap();
-        assert!((read.std_kg[1] - q / 1.96).abs() < 1e-9, "{read:?}");
+        // No own noise part in the calibration's estimates: the class's part is q95 / 1.96,
+        // and the reading's own part adds to it in quadrature.
+        let valve_std = cal.valve_std_kg.expect("enough valve samples");
+        assert!((valve_std - q / 1.96).abs() < 1e-6, "{cal:?}");
+        let own = cal.gain.abs() * 0.1;
+        assert!(
+            (read.std_kg[1] - own.hypot(valve_std)).abs() < 1e-9,
+            "{read:?}"
+        );
         assert!(read.std_kg[0] < 1.0, "{read:?}");
         assert!(
             cal.apply_with_quality(&s, Some(&h), Some(&[WeighQuality::Valve]))
                 .is_err()
         );
+    }
+
+    #[test]
+    fn the_interval_part_is_sized_to_cover_95_percent_beside_the_own_part() {
+        // Residuals of 2 kg where the estimate's own part is 1 kg: 1.96 √(1 + σ²) = 2.
+        let residual = vec![2.0; 100];
+        let own = vec![1.0; 100];
+        let sigma = coverage_std(&residual, &own, 0.95, Z95).unwrap();
+        assert!(
+            (sigma - ((2.0f64 / 1.96).powi(2) - 1.0).sqrt()).abs() < 1e-9,
+            "{sigma}"
+        );
+        // Already covered by the own part: nothing added.
+        assert_eq!(coverage_std(&residual, &[2.0; 100], 0.95, Z95), Some(0.0));
+        // 5 of 100 far out are allowed; the sixth is not.
+        let mut r: Vec<f64> = vec![1.0; 100];
+        r[..5].fill(50.0);
+        let s5 = coverage_std(&r, &[0.0; 100], 0.95, Z95).unwrap();
+        assert!((s5 - 1.0 / 1.96).abs() < 1e-9, "{s5}");
+        r[5] = 50.0;
+        let s6 = coverage_std(&r, &[0.0; 100], 0.95, Z95).unwrap();
+        assert!((s6 - 50.0 / 1.96).abs() < 1e-9, "{s6}");
+        assert_eq!(coverage_std(&[], &[], 0.95, Z95), None);
+        // Per run: the run that fits worst sets it, where the pooled samples would let the
+        // many close ones of the other run hide it.
+        let mut samples: Vec<(usize, f64, f64)> = (0..1900).map(|_| (0, 0.5, 0.0)).collect();
+        samples.extend((0..60).map(|_| (1, 4.0, 0.0)));
+        let per_run = per_run_coverage_std(&samples).unwrap();
+        assert!((per_run - 4.0 / 1.96).abs() < 1e-9, "{per_run}");
+        let (r, o): (Vec<f64>, Vec<f64>) = samples.iter().map(|s| (s.1, s.2)).unzip();
+        let pooled = coverage_std(&r, &o, 0.95, Z95).unwrap();
+        assert!(pooled < per_run / 4.0, "{pooled} {per_run}");
     }
 
     #[test]

@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use airsus_apps::weigh::{
-    EkfTuning, LinearCalibration, StandstillDetector, StandstillRule, StaticLaw, StaticWeigher,
-    WeighQuality, WeighingUncertainty, evaluate_weighing, quality_flags, weigh_ekf, weigh_static,
-    write_weigh_csv,
+    CalibrationTerms, EkfTuning, HysteresisStart, LinearCalibration, StandstillDetector,
+    StandstillRule, StaticLaw, StaticWeigher, WeighQuality, WeighingUncertainty, evaluate_weighing,
+    quality_flags, weigh_ekf, weigh_static, write_weigh_csv,
 };
 use airsus_data::{Outputs, RunSource, read_run, read_truck};
 
@@ -20,6 +20,27 @@ pub enum Method {
     Static,
     /// Extended Kalman filter on a model with the load as a random-walk state.
     Ekf,
+}
+
+/// How the truck came to the run's first reading (what its wall friction holds at the start).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum StartHysteresis {
+    /// Not known: the EKF's interval holds the friction's whole range until the bellow moves.
+    Unknown,
+    /// Lowered onto its height (a load set down, an exhaust): the friction holds it up.
+    Lowered,
+    /// Raised onto its height (a fill, a load taken off): the friction holds it down.
+    Raised,
+}
+
+impl From<StartHysteresis> for HysteresisStart {
+    fn from(s: StartHysteresis) -> Self {
+        match s {
+            StartHysteresis::Unknown => Self::Unknown,
+            StartHysteresis::Lowered => Self::Lowered,
+            StartHysteresis::Raised => Self::Raised,
+        }
+    }
 }
 
 /// Estimate the wheel load over time from the measured bellow pressure and height (the logged
@@ -41,14 +62,22 @@ pub struct WeighArgs {
     /// Model the EKF runs (`airsus models`).
     #[arg(long, default_value = "m2")]
     pub model: String,
+    /// How the truck came to the run's first reading, for the EKF on a model with wall
+    /// friction (`truck`): at rest the friction and the load trade off exactly, so until the
+    /// bellow first moves an unknown start is uncertain by the friction's whole range.
+    #[arg(long, value_enum, default_value_t = StartHysteresis::Unknown)]
+    pub start_hysteresis: StartHysteresis,
     /// Averaging window of the static method, s.
     #[arg(long, default_value_t = 2.0)]
     pub window_s: f64,
-    /// A run whose logged load is trusted at standstill (e.g. weighbridge loads): fit a
-    /// gain, an offset, the wall friction's hysteresis and a height term on it and apply them
-    /// (with the static method, the interval then comes from its residuals). Repeat it to fit
-    /// on several runs at once: a loading run and a run at one load with the valve moving the
-    /// height (a study's estimation runs) determine the height term, a loading run alone not.
+    /// A run whose logged load is trusted at standstill (e.g. weighbridge loads, a study's
+    /// estimation runs): the interval then comes from its residuals (the part the estimate's
+    /// own noise does not explain, sized to hold 95 % of its known loads). With the static
+    /// method a gain, an offset, the wall friction's hysteresis and a height term are fitted
+    /// on it and applied (the EKF's model carries all four itself and is not corrected).
+    /// Repeat it to fit on several runs at once: a loading run and a run at one load with the
+    /// valve moving the height determine the height term, a loading run alone not.
+    /// Calibration runs start with an unknown wall friction.
     #[arg(long, value_name = "C.csv")]
     pub calibration_run: Vec<PathBuf>,
     /// A run carrying the true load (the virtual truck's truth/ file): score the estimate.
@@ -88,16 +117,21 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
         anyhow::bail!("--window-s must be a non-negative number of seconds");
     }
     let window = ((args.window_s / run.sample_time_s).round() as usize).max(1);
-    let estimate = |run: &airsus_data::Run| -> anyhow::Result<_> {
+    let estimate = |run: &airsus_data::Run, start: HysteresisStart| -> anyhow::Result<_> {
         Ok(match args.method {
             Method::Static => weigh_static(run, &weigher, window)?,
             Method::Ekf => {
                 let model = airsus_truck::models::build_any_model(&args.model, &truck)?;
-                weigh_ekf(run, model, &weigher, &EkfTuning::default())?
+                let tuning = EkfTuning {
+                    start_hysteresis: start,
+                    ..EkfTuning::default()
+                };
+                weigh_ekf(run, model, &weigher, &tuning)?
             }
         })
     };
-    let mut series = estimate(&run).with_context(|| format!("weighing {}", args.run.display()))?;
+    let mut series = estimate(&run, args.start_hysteresis.into())
+        .with_context(|| format!("weighing {}", args.run.display()))?;
     let rule = StandstillRule::default();
     // How far each sample can be trusted, from the run alone.
     let quality = quality_flags(&run, &StandstillDetector::default())
@@ -106,8 +140,8 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
         let mut cal_runs = Vec::new();
         for path in &args.calibration_run {
             let cal_run = read_run_file(path, Outputs::Required, &source)?;
-            let cal_est =
-                estimate(&cal_run).with_context(|| format!("weighing {}", path.display()))?;
+            let cal_est = estimate(&cal_run, HysteresisStart::Unknown)
+                .with_context(|| format!("weighing {}", path.display()))?;
             cal_runs.push((cal_run, cal_est));
         }
         let runs: Vec<_> = cal_runs.iter().map(|(run, est)| (run, est)).collect();
@@ -117,10 +151,14 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             .map(|p| p.display().to_string())
             .collect::<Vec<_>>()
             .join(", ");
-        let cal = LinearCalibration::fit_weighed_runs(&runs, &rule)
+        let terms = match args.method {
+            Method::Static => CalibrationTerms::ScaleHysteresisHeight,
+            Method::Ekf => CalibrationTerms::IntervalOnly,
+        };
+        let cal = LinearCalibration::fit_weighed_runs(&runs, &rule, terms)
             .with_context(|| format!("calibrating on {names}"))?;
         println!(
-            "calibration on {names}: load = {:.5} x estimate {:+.1} kg {:+.1} kg x z (wall-friction state) {:+.2} kg/mm x (height - {:.1} mm) ({} standstill samples, residual rms {:.1} kg, 95 % within {:.1} kg)",
+            "calibration on {names}: load = {:.5} x estimate {:+.1} kg {:+.1} kg x z (wall-friction state) {:+.2} kg/mm x (height - {:.1} mm) ({} standstill samples, residual rms {:.1} kg, 95 % within {:.1} kg; interval σ {:.1} kg beside the estimate's own)",
             cal.gain,
             cal.offset_kg,
             cal.hysteresis_kg,
@@ -128,11 +166,14 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             cal.reference_height_mm,
             cal.samples,
             cal.residual_rms_kg,
-            cal.residual_q95_kg
+            cal.residual_q95_kg,
+            cal.standstill_std_kg
         );
         if let (Some(settling), Some(valve)) = (cal.settling_q95_kg, cal.valve_q95_kg) {
             println!(
-                "  away from standstill, 95 % within {settling:.1} kg settling, {valve:.1} kg with the valve open"
+                "  away from standstill, 95 % within {settling:.1} kg settling (σ {:.1} kg), {valve:.1} kg with the valve open (σ {:.1} kg)",
+                cal.settling_std_kg.unwrap_or(f64::NAN),
+                cal.valve_std_kg.unwrap_or(f64::NAN)
             );
         }
         for why in &cal.dropped {
