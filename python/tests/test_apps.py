@@ -101,6 +101,30 @@ def test_weigh_calibration_on_two_runs(reference: Path, tmp_path: Path, cli) -> 
     assert error.max() < 0.007
 
 
+def test_weigh_ekf_told_how_the_run_starts(reference: Path) -> None:
+    # The truck structure's file (the truth's here, as a study would write one), data-set 2
+    # starting after the truck was lowered: every standstill within 0.15 %; the calibration
+    # of an EKF only sizes the interval (gain 1, offset 0).
+    truck = reference / "truth" / "truck_structure.toml"
+    run = reference / "ds2.csv"
+    truth = airsus.read_run(reference / "truth" / "ds2.csv")["wheel_load_kg"]
+    load = airsus.weigh(
+        truck,
+        run,
+        "ekf",
+        model="truck",
+        start_hysteresis="lowered",
+        calibration_run=reference / "ds1.csv",
+    )
+    cal = load.attrs["calibration"]
+    assert (cal["gain"], cal["offset_kg"]) == (1.0, 0.0)
+    still = load["quality"] == "standstill"
+    error = (np.abs(load["wheel_load_kg"] - truth) / truth)[still]
+    assert error.max() < 0.0015
+    with pytest.raises(airsus.AirsusError, match="start_hysteresis"):
+        airsus.weigh(truck, run, "ekf", model="truck", start_hysteresis="sideways")
+
+
 def test_weigh_static_tracks_the_true_load(reference: Path) -> None:
     truck = airsus.Truck.load(reference / "truth" / "truck.toml")
     run = airsus.read_run(reference / "ds2.csv")
