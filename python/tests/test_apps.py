@@ -80,9 +80,11 @@ def test_weigh_calibration_on_two_runs(reference: Path, tmp_path: Path, cli) -> 
     # Data-set 3's valve pulses show what the estimate misses while the air moves.
     assert cal["valve_q95_kg"] is not None and cal["valve_q95_kg"] > 0
     # Away from standstill the interval is at least the standstill one, and that one is the
-    # part sized to hold 95 % of the known standstill loads (at most q95 / 1.96: the
-    # estimate's own noise part adds to it).
-    assert 0 < cal["standstill_std_kg"] <= cal["residual_q95_kg"] / 1.96 + 1e-9
+    # part sized to hold 95 % of each run's known standstill loads: near the pooled residuals'
+    # q95 / 1.96 (above it when one run fits worse than the pool, below it by the estimate's
+    # own noise part).
+    pooled = cal["residual_q95_kg"] / 1.96
+    assert 0.5 * pooled < cal["standstill_std_kg"] < 2.0 * pooled
     moving = load["quality"] != "standstill"
     assert (load["wheel_load_std_kg"][moving] >= cal["standstill_std_kg"] - 1e-9).all()
     # The command, with the same two runs, writes the same numbers.
