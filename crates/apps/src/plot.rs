@@ -42,26 +42,26 @@ fn plot_err(path: &Path, e: impl std::fmt::Display) -> AppError {
     }
 }
 
-/// Height (true) with target and band, valve command, and load of closed-loop runs of the
-/// same scenario side by side.
-pub fn plot_closed_loop(
+/// Renders into `path`, SVG (by the `.svg` extension, with `draw`) or PNG (with `draw_png`,
+/// the same drawing on the other backend: a closure cannot be generic over it), whole or not at
+/// all like every other output: into memory (SVG) or a temporary file beside the target (PNG:
+/// the encoder picks the format from the extension, so the temporary name ends in .png), then
+/// renamed.
+fn render(
     path: &Path,
-    runs: &[ClosedLoopRun],
-    tolerance_m: f64,
-    title: &str,
+    size: (u32, u32),
+    draw: impl Fn(&DrawingArea<SVGBackend<'_>, plotters::coord::Shift>) -> Result<(), String>,
+    draw_png: impl Fn(&DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Result<(), String>,
 ) -> Result<(), AppError> {
     register_font();
     let svg = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
-    // Whole or not at all, like every other output: render into memory (SVG) or a temporary
-    // file beside the target (PNG: the encoder picks the format from the extension, so the
-    // temporary name ends in .png), then rename.
     if svg {
         let mut text = String::new();
         {
-            let root = SVGBackend::with_string(&mut text, (1200, 900)).into_drawing_area();
-            draw_closed_loop(&root, runs, tolerance_m, title).map_err(|e| plot_err(path, e))?;
+            let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+            draw(&root).map_err(|e| plot_err(path, e))?;
             root.present().map_err(|e| plot_err(path, e))?;
         }
         airsus_data::atomic::write_text_atomically(path, &text).map_err(|e| plot_err(path, e))
@@ -76,8 +76,8 @@ pub fn plot_closed_loop(
             .unwrap_or_else(|| "plot".to_owned());
         let tmp = dir.join(format!(".{stem}.tmp-{}.png", std::process::id()));
         let drawn = (|| {
-            let root = BitMapBackend::new(&tmp, (1200, 900)).into_drawing_area();
-            draw_closed_loop(&root, runs, tolerance_m, title).map_err(|e| plot_err(path, e))?;
+            let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+            draw_png(&root).map_err(|e| plot_err(path, e))?;
             root.present().map_err(|e| plot_err(path, e))?;
             drop(root);
             std::fs::rename(&tmp, path).map_err(|e| plot_err(path, e))
@@ -87,6 +87,242 @@ pub fn plot_closed_loop(
         }
         drawn
     }
+}
+
+/// Height (true) with target and band, valve command, and load of closed-loop runs of the
+/// same scenario side by side.
+pub fn plot_closed_loop(
+    path: &Path,
+    runs: &[ClosedLoopRun],
+    tolerance_m: f64,
+    title: &str,
+) -> Result<(), AppError> {
+    render(
+        path,
+        (1200, 900),
+        |root| draw_closed_loop(root, runs, tolerance_m, title).map_err(|e| e.to_string()),
+        |root| draw_closed_loop(root, runs, tolerance_m, title).map_err(|e| e.to_string()),
+    )
+}
+
+/// What [`plot_weighing`] draws: the estimate over a run, its standard deviation, each
+/// sample's quality flag (`standstill`, `settling`, `valve`), and the true load where known.
+pub struct WeighingPlot<'a> {
+    pub time_s: &'a [f64],
+    pub wheel_load_kg: &'a [f64],
+    pub std_kg: &'a [f64],
+    pub standstill: &'a [bool],
+    pub truth_kg: Option<&'a [f64]>,
+    pub title: &'a str,
+}
+
+/// The wheel load over a run with its 95 % interval and the standstills marked; with the
+/// truth, a second panel of the error (%) against the interval's half-width.
+pub fn plot_weighing(path: &Path, plot: &WeighingPlot<'_>) -> Result<(), AppError> {
+    let n = plot.time_s.len();
+    if [
+        plot.wheel_load_kg.len(),
+        plot.std_kg.len(),
+        plot.standstill.len(),
+    ]
+    .iter()
+    .any(|&m| m != n)
+        || plot.truth_kg.is_some_and(|t| t.len() != n)
+    {
+        return Err(plot_err(
+            path,
+            "time, load, standard deviation, standstill flags and truth differ in length",
+        ));
+    }
+    if n < 2 {
+        return Err(plot_err(path, "fewer than two samples"));
+    }
+    render(
+        path,
+        (1200, 800),
+        |root| draw_weighing(root, plot).map_err(|e| e.to_string()),
+        |root| draw_weighing(root, plot).map_err(|e| e.to_string()),
+    )
+}
+
+/// At most this many points per drawn line: a 25-minute run at 100 ms has 15,001, which an SVG
+/// carries as megabytes of path and a reader cannot resolve anyway.
+const MAX_PLOTTED_POINTS: usize = 3000;
+
+fn draw_weighing<B: DrawingBackend>(
+    root: &DrawingArea<B, plotters::coord::Shift>,
+    plot: &WeighingPlot<'_>,
+) -> DrawResult<B> {
+    root.fill(&WHITE)?;
+    let root = root.titled(plot.title, ("sans-serif", 22))?;
+    let n = plot.time_s.len();
+    let stride = n.div_ceil(MAX_PLOTTED_POINTS).max(1);
+    let picked: Vec<usize> = (0..n).step_by(stride).collect();
+    let (t0, t1) = (plot.time_s[0], plot.time_s[n - 1]);
+    // The load axis spans the estimate and the truth, not the interval: it is hundreds of
+    // kilograms wide on the first sample, before the filter has read anything.
+    let finite = |v: &f64| v.is_finite();
+    let values = plot
+        .wheel_load_kg
+        .iter()
+        .chain(plot.truth_kg.unwrap_or(&[]))
+        .filter(|v| finite(v));
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+        (a.min(v), b.max(v))
+    });
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Ok(());
+    }
+    let pad = 0.05 * (hi - lo).max(10.0);
+    let (lo, hi) = (lo - pad, hi + pad);
+    let panels = if plot.truth_kg.is_some() {
+        root.split_evenly((2, 1))
+    } else {
+        vec![root.clone()]
+    };
+    let mut chart = ChartBuilder::on(&panels[0])
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(70)
+        .build_cartesian_2d(t0..t1, lo..hi)?;
+    chart
+        .configure_mesh()
+        .y_desc("wheel load (kg)")
+        .x_desc("time (s)")
+        .draw()?;
+    let c = COLOURS[0];
+    let clamp = |v: f64| v.clamp(lo, hi);
+    let mut band: Vec<(f64, f64)> = picked
+        .iter()
+        .map(|&k| {
+            (
+                plot.time_s[k],
+                clamp(plot.wheel_load_kg[k] + 1.96 * plot.std_kg[k]),
+            )
+        })
+        .collect();
+    band.extend(picked.iter().rev().map(|&k| {
+        (
+            plot.time_s[k],
+            clamp(plot.wheel_load_kg[k] - 1.96 * plot.std_kg[k]),
+        )
+    }));
+    chart
+        .draw_series(std::iter::once(Polygon::new(band, c.mix(0.2).filled())))?
+        .label("95 % interval")
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], c.mix(0.2).filled()));
+    chart
+        .draw_series(LineSeries::new(
+            picked
+                .iter()
+                .map(|&k| (plot.time_s[k], clamp(plot.wheel_load_kg[k]))),
+            c.stroke_width(2),
+        ))?
+        .label("estimate")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+    // The standstills (read the scale here) as a strip along the bottom.
+    let strip = lo + 0.01 * (hi - lo);
+    let green = COLOURS[2];
+    chart
+        .draw_series(
+            picked
+                .iter()
+                .filter(|&&k| plot.standstill[k])
+                .map(|&k| Circle::new((plot.time_s[k], strip), 1, green.filled())),
+        )?
+        .label("standstill")
+        .legend(move |(x, y)| Circle::new((x + 10, y), 3, green.filled()));
+    if let Some(truth) = plot.truth_kg {
+        chart
+            .draw_series(LineSeries::new(
+                picked.iter().map(|&k| (plot.time_s[k], clamp(truth[k]))),
+                BLACK.stroke_width(1),
+            ))?
+            .label("true load")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+
+    let Some(truth) = plot.truth_kg else {
+        return Ok(());
+    };
+    let percent = |k: usize, v: f64| 100.0 * v / truth[k];
+    // The error axis: the 99th percentile of the errors and the interval's half-widths over
+    // the standstills (every sample where the run has none), at least ±0.5 %: the first
+    // samples, before the filter has read anything, would set it otherwise.
+    let standstills = picked.iter().filter(|&&k| plot.standstill[k]).count();
+    let mut spread: Vec<f64> = picked
+        .iter()
+        .filter(|&&k| standstills == 0 || plot.standstill[k])
+        .flat_map(|&k| {
+            [
+                percent(k, (plot.wheel_load_kg[k] - truth[k]).abs()),
+                percent(k, 1.96 * plot.std_kg[k]),
+            ]
+        })
+        .filter(|v| v.is_finite())
+        .collect();
+    spread.sort_by(f64::total_cmp);
+    let p99 = spread
+        .get((0.99 * spread.len() as f64) as usize)
+        .or(spread.last())
+        .copied()
+        .unwrap_or(0.0);
+    let span = 1.2 * p99.max(0.5);
+    let mut error = ChartBuilder::on(&panels[1])
+        .margin(8)
+        .x_label_area_size(30)
+        .y_label_area_size(70)
+        .build_cartesian_2d(t0..t1, -span..span)?;
+    error
+        .configure_mesh()
+        .y_desc("error (% of the true load)")
+        .x_desc("time (s)")
+        .draw()?;
+    let clamp_e = |v: f64| v.clamp(-span, span);
+    let mut band: Vec<(f64, f64)> = picked
+        .iter()
+        .map(|&k| (plot.time_s[k], clamp_e(percent(k, 1.96 * plot.std_kg[k]))))
+        .collect();
+    band.extend(
+        picked
+            .iter()
+            .rev()
+            .map(|&k| (plot.time_s[k], clamp_e(-percent(k, 1.96 * plot.std_kg[k])))),
+    );
+    error
+        .draw_series(std::iter::once(Polygon::new(band, c.mix(0.2).filled())))?
+        .label("95 % interval")
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], c.mix(0.2).filled()));
+    let red = COLOURS[1];
+    error
+        .draw_series(LineSeries::new(
+            picked.iter().map(|&k| {
+                (
+                    plot.time_s[k],
+                    clamp_e(percent(k, plot.wheel_load_kg[k] - truth[k])),
+                )
+            }),
+            red.stroke_width(1),
+        ))?
+        .label("estimate - truth")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], red.stroke_width(1)));
+    error.draw_series(
+        picked
+            .iter()
+            .filter(|&&k| plot.standstill[k])
+            .map(|&k| Circle::new((plot.time_s[k], -0.97 * span), 1, green.filled())),
+    )?;
+    error
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
 }
 
 type DrawResult<B> = Result<(), DrawingAreaErrorKind<<B as DrawingBackend>::ErrorType>>;

@@ -151,17 +151,24 @@ fn weigh_static_and_ekf_are_scored_against_the_true_load() {
     // data-set 2 starts after the truck was lowered: the wall friction is read as the truck
     // holds it, every standstill within 0.1 % (measured 0.08 %). Unknown, the first
     // standstill reads the friction's 0.5 % light.
-    let ekf_truck = |start: &str, out: &str| {
-        ok(&airsus(&[
+    let (truck_file, run_file) = (p("truth/truck_structure.toml"), p("ds2.csv"));
+    let weigh_truck = |more: &[&str]| {
+        let mut args = vec![
             "weigh",
             "--truck",
-            &p("truth/truck_structure.toml"),
+            &truck_file,
             "--run",
-            &p("ds2.csv"),
+            &run_file,
             "--method",
             "ekf",
             "--model",
             "truck",
+        ];
+        args.extend_from_slice(more);
+        airsus(&args)
+    };
+    let ekf_truck = |start: &str, out: &str| {
+        ok(&weigh_truck(&[
             "--start-hysteresis",
             start,
             "--out",
@@ -176,6 +183,25 @@ fn weigh_static_and_ekf_are_scored_against_the_true_load() {
     let (_, worst_unknown, _) = ekf_truck("unknown", "w_truck_unknown.csv");
     println!("ekf, truck structure, unknown start: worst {worst_unknown:.3} %");
     assert!((0.3..0.8).contains(&worst_unknown), "{worst_unknown}");
+
+    // The plot: estimate with its interval, standstills, truth and the error panel.
+    let truth_file = p("truth/ds2.csv");
+    let plot_args = |plot: &str| weigh_truck(&["--truth", &truth_file, "--plot", plot]);
+    ok(&plot_args(&p("w.svg")));
+    let svg = std::fs::read_to_string(dir.path().join("w.svg")).unwrap();
+    for text in [
+        "wheel load (kg)",
+        "95 % interval",
+        "true load",
+        "error (% of the true load)",
+    ] {
+        assert!(svg.contains(text), "the plot lacks {text}");
+    }
+    // Never over an input.
+    let before = std::fs::read(dir.path().join("ds2.csv")).unwrap();
+    let refused = plot_args(&p("ds2.csv"));
+    assert!(!refused.status.success());
+    assert_eq!(std::fs::read(dir.path().join("ds2.csv")).unwrap(), before);
 }
 
 #[test]

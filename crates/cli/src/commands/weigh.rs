@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
+use airsus_apps::plot::{WeighingPlot, plot_weighing};
 use airsus_apps::weigh::{
     CalibrationTerms, EkfTuning, HysteresisStart, LinearCalibration, StandstillDetector,
     StandstillRule, StaticLaw, StaticWeigher, WeighQuality, WeighingUncertainty, evaluate_weighing,
@@ -83,6 +84,11 @@ pub struct WeighArgs {
     /// A run carrying the true load (the virtual truck's truth/ file): score the estimate.
     #[arg(long, value_name = "TRUTH.csv")]
     pub truth: Option<PathBuf>,
+    /// Plot of the estimate with its 95 % interval and the standstills marked (with --truth
+    /// also the true load and the error against the interval): SVG by the `.svg` extension,
+    /// PNG otherwise (written atomically).
+    #[arg(long, value_name = "W.svg")]
+    pub plot: Option<PathBuf>,
     /// Output CSV: time_s, wheel_load_kg, wheel_load_std_kg, quality (written atomically).
     #[arg(long, value_name = "W.csv")]
     pub out: Option<PathBuf>,
@@ -90,12 +96,12 @@ pub struct WeighArgs {
 
 pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     let source = args.source.source()?;
-    if let Some(out) = &args.out {
-        let mut inputs: Vec<&std::path::Path> = vec![&args.truck, &args.run];
-        inputs.extend(source.dbc.as_deref());
-        inputs.extend(args.calibration_run.iter().map(PathBuf::as_path));
-        inputs.extend(args.truth.as_deref());
-        refuse_overwriting_inputs(out, &inputs)?;
+    let mut inputs: Vec<&std::path::Path> = vec![&args.truck, &args.run];
+    inputs.extend(source.dbc.as_deref());
+    inputs.extend(args.calibration_run.iter().map(PathBuf::as_path));
+    inputs.extend(args.truth.as_deref());
+    for output in [&args.out, &args.plot].into_iter().flatten() {
+        refuse_overwriting_inputs(output, &inputs)?;
     }
     let loaded = read_truck(&args.truck)
         .with_context(|| format!("reading truck file {}", args.truck.display()))?;
@@ -227,16 +233,22 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             );
         }
     }
-    if let Some(path) = &args.truth {
-        let truth = read_run(path).with_context(|| format!("reading {}", path.display()))?;
-        if truth.len() != run.len() {
-            anyhow::bail!(
-                "{} has {} samples, the run {}",
-                path.display(),
-                truth.len(),
-                run.len()
-            );
+    let truth = match &args.truth {
+        Some(path) => {
+            let truth = read_run(path).with_context(|| format!("reading {}", path.display()))?;
+            if truth.len() != run.len() {
+                anyhow::bail!(
+                    "{} has {} samples, the run {}",
+                    path.display(),
+                    truth.len(),
+                    run.len()
+                );
+            }
+            Some(truth)
         }
+        None => None,
+    };
+    if let (Some(path), Some(truth)) = (&args.truth, &truth) {
         let acc = evaluate_weighing(
             &series.time_s,
             &series.wheel_load_kg,
@@ -279,6 +291,26 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
                 level, s.mean_error_percent, s.max_abs_error_percent, s.samples
             );
         }
+    }
+    if let Some(path) = &args.plot {
+        let standstill: Vec<bool> = quality
+            .iter()
+            .map(|&q| q == WeighQuality::Standstill)
+            .collect();
+        let title = format!("{}: wheel load, {method}", args.run.display());
+        plot_weighing(
+            path,
+            &WeighingPlot {
+                time_s: &series.time_s,
+                wheel_load_kg: &series.wheel_load_kg,
+                std_kg: &series.std_kg,
+                standstill: &standstill,
+                truth_kg: truth.as_ref().map(|t| &t.inputs.wheel_load_kg[..]),
+                title: &title,
+            },
+        )
+        .with_context(|| format!("plotting {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
     }
     if let Some(out) = &args.out {
         write_weigh_csv(out, &series, Some(&quality))
