@@ -91,6 +91,12 @@ fn cross_section_shape_from_a_closed_valve_run() {
         (fit.ratio_per_m - ratio).abs() <= 3.0 * fit.ratio_std_per_m,
         "{fit:?}"
     );
+    assert!(fit.validation_on_every_sample.is_empty(), "{fit:?}");
+    // The validation run holds its loads 90 s: 100 s after each change it has no settled
+    // sample, so it is scored on every sample, and named for it.
+    let fit = fit_cross_section(&est, &[&val], &start, &settled(100.0)).unwrap();
+    assert_eq!(fit.validation_on_every_sample, vec!["ds2".to_owned()]);
+    assert_eq!(fit.nrmse_validation_percent.len(), 1);
     // No hold lasts 130 s: no settled sample at three loads, said so.
     let err = fit_cross_section(&est, &[], &start, &settled(130.0))
         .unwrap_err()

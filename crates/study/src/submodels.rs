@@ -395,7 +395,15 @@ pub fn fit_submodels(
                                 est.name, fit.samples, fit.holds
                             ),
                             "a closed-valve run fixes only the shape A1/A0 of the volume law (SPEC §4); A0 is kept from the truck file".to_owned(),
-                        ],
+                        ]
+                        .into_iter()
+                        .chain((!fit.validation_on_every_sample.is_empty()).then(|| {
+                            format!(
+                                "validated on every sample of {} (loads not held {CROSS_SECTION_SETTLED_AFTER_S} s for settled ones)",
+                                fit.validation_on_every_sample.join(", ")
+                            )
+                        }))
+                        .collect(),
                         error: None,
                     });
                 }

@@ -315,7 +315,12 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                     fit.nrmse_estimation_percent
                 );
                 for (name, v) in &fit.nrmse_validation_percent {
-                    println!("                        validation {name}: {v:.2} %");
+                    let every = if fit.validation_on_every_sample.contains(name) {
+                        " (every sample: its loads are not held long enough for settled ones)"
+                    } else {
+                        ""
+                    };
+                    println!("                        validation {name}: {v:.2} %{every}");
                 }
             }
             fit.write_to(&mut truck);

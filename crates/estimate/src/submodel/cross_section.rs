@@ -102,6 +102,10 @@ pub struct CrossSectionFit {
     pub nrmse_estimation_percent: f64,
     /// Per validation run: name and NRMSE, percent.
     pub nrmse_validation_percent: Vec<(String, f64)>,
+    /// Validation runs scored on every sample because their loads were not held
+    /// [`CrossSectionOptions::settled_after_s`] long enough for settled ones (empty when every
+    /// sample is fitted anyway).
+    pub validation_on_every_sample: Vec<String>,
     pub converged: bool,
 }
 
@@ -356,10 +360,17 @@ pub fn fit_cross_section(
         }
     };
     let mut nrmse_validation_percent = Vec::new();
+    let mut validation_on_every_sample = Vec::new();
     for v in validation {
-        // A validation run whose loads are not held long enough is scored on every sample.
-        let (hv, pv, _) = heights_and_pressures(v, truck, options.settled_after_s)
-            .or_else(|_| heights_and_pressures(v, truck, None))?;
+        // A validation run whose loads are not held long enough is scored on every sample,
+        // and named.
+        let (hv, pv, _) = match heights_and_pressures(v, truck, options.settled_after_s) {
+            Ok(settled) => settled,
+            Err(_) => {
+                validation_on_every_sample.push(v.name.clone());
+                heights_and_pressures(v, truck, None)?
+            }
+        };
         let nrmse = best_constant(&hv, &pv, c)
             .and_then(|(cv, _)| {
                 let g = basis(&hv, c)?;
@@ -397,6 +408,7 @@ pub fn fit_cross_section(
         bellow_height_range_m: (h_min, h_max),
         nrmse_estimation_percent,
         nrmse_validation_percent,
+        validation_on_every_sample,
         converged,
     })
 }
