@@ -168,21 +168,35 @@ fn weigh_static_and_ekf_are_scored_against_the_true_load() {
         airsus(&args)
     };
     let ekf_truck = |start: &str, out: &str| {
-        ok(&weigh_truck(&[
+        let report = ok(&weigh_truck(&[
             "--start-hysteresis",
             start,
             "--out",
             &p(out),
         ]));
         let cols = columns(&dir.path().join(out), &["wheel_load_kg"]);
-        standstill_error_percent(&cols[0], &truth, 300)
+        (standstill_error_percent(&cols[0], &truth, 300), report)
     };
-    let (mean, worst, _) = ekf_truck("lowered", "w_truck.csv");
+    let ((mean, worst, _), report) = ekf_truck("lowered", "w_truck.csv");
     println!("ekf, truck structure, lowered: mean {mean:.3} %, worst {worst:.3} %");
     assert!(mean.abs() < 0.05 && worst < 0.15, "{mean} {worst}");
-    let (_, worst_unknown, _) = ekf_truck("unknown", "w_truck_unknown.csv");
+    assert!(!report.contains("unknown wall friction"), "{report}");
+    let ((_, worst_unknown, _), report) = ekf_truck("unknown", "w_truck_unknown.csv");
     println!("ekf, truck structure, unknown start: worst {worst_unknown:.3} %");
     assert!((0.3..0.8).contains(&worst_unknown), "{worst_unknown}");
+    // ... and says so, with when the first movement ended it (data-set 2's first load step
+    // is at 100 s).
+    let note = report
+        .lines()
+        .find(|l| l.contains("unknown wall friction"))
+        .unwrap_or_else(|| panic!("no note on the unknown start: {report}"));
+    let until_s: f64 = note
+        .split("first moved (")
+        .nth(1)
+        .and_then(|rest| rest.split(" s)").next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{note}"));
+    assert!((100.0..130.0).contains(&until_s), "{note}");
 
     // The plot: estimate with its interval, standstills, truth and the error panel.
     let truth_file = p("truth/ds2.csv");
