@@ -123,6 +123,9 @@ def test_weigh_ekf_told_how_the_run_starts(reference: Path) -> None:
     still = load["quality"] == "standstill"
     error = (np.abs(load["wheel_load_kg"] - truth) / truth)[still]
     assert error.max() < 0.0015
+    # Model 2 has no wall friction: its EKF gets the static law's terms.
+    m2 = airsus.weigh(reference / "truck.toml", run, "ekf", calibration_run=reference / "ds1.csv")
+    assert m2.attrs["calibration"]["gain"] != 1.0
     with pytest.raises(airsus.AirsusError, match="start_hysteresis"):
         airsus.weigh(truck, run, "ekf", model="truck", start_hysteresis="sideways")
 

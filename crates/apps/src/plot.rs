@@ -105,8 +105,9 @@ pub fn plot_closed_loop(
     )
 }
 
-/// What [`plot_weighing`] draws: the estimate over a run, its standard deviation, each
-/// sample's quality flag (`standstill`, `settling`, `valve`), and the true load where known.
+/// What [`plot_weighing`] draws: the estimate over a run, its standard deviation, whether
+/// each sample is at standstill (the `standstill` quality flag), and the true load where
+/// known.
 pub struct WeighingPlot<'a> {
     pub time_s: &'a [f64],
     pub wheel_load_kg: &'a [f64],
@@ -136,6 +137,16 @@ pub fn plot_weighing(path: &Path, plot: &WeighingPlot<'_>) -> Result<(), AppErro
     }
     if n < 2 {
         return Err(plot_err(path, "fewer than two samples"));
+    }
+    let (t0, t1) = (plot.time_s[0], plot.time_s[n - 1]);
+    if !(t0.is_finite() && t1.is_finite() && t1 > t0) {
+        return Err(plot_err(
+            path,
+            format!("the time axis must run forward over finite times, got {t0} to {t1} s"),
+        ));
+    }
+    if !plot.wheel_load_kg.iter().any(|m| m.is_finite()) {
+        return Err(plot_err(path, "no estimate is a number"));
     }
     render(
         path,

@@ -685,6 +685,9 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
             // An interval of a few kilograms (0.3 % of the load at most), not the 36-38 kg
             // the assumed parameter errors give.
             assert!(a.standstill.mean_std_kg < 12.0, "{who}: {a:?}");
+            // Each run's standstills mostly inside it (measured 0.74-1.00: a run's error is a
+            // few biased standstills, so single runs scatter about the pooled 95 %).
+            assert!(a.standstill.within_95_interval > 0.7, "{who}: {a:?}");
             covered += a.standstill.within_95_interval * a.standstill.samples as f64;
             standstills += a.standstill.samples;
         }

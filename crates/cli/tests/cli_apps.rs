@@ -142,6 +142,26 @@ fn weigh_static_and_ekf_are_scored_against_the_true_load() {
         "{mean} {worst}: {calibrated}"
     );
 
+    // The EKF on Model 2 (no wall friction) calibrated: it gets the static law's terms,
+    // which take out what its model lacks; the `truck` structure's EKF is only given its
+    // interval (below, and Python's test).
+    let calibrated_m2 = ok(&airsus(&[
+        "weigh",
+        "--truck",
+        &p("truck.toml"),
+        "--run",
+        &p("ds2.csv"),
+        "--method",
+        "ekf",
+        "--calibration-run",
+        &p("ds1.csv"),
+    ]));
+    assert!(
+        calibrated_m2.contains("load = ")
+            && !calibrated_m2.contains("load = 1.00000 x estimate +0.0 kg +0.0 kg"),
+        "{calibrated_m2}"
+    );
+
     // The README's EKF line.
     let (mean, worst, _) = weigh("truth/truck.toml", "ekf", "w_ekf.csv");
     println!("ekf, true truck: mean {mean:.2} %, worst {worst:.2} %");
@@ -181,6 +201,11 @@ fn weigh_static_and_ekf_are_scored_against_the_true_load() {
     println!("ekf, truck structure, lowered: mean {mean:.3} %, worst {worst:.3} %");
     assert!(mean.abs() < 0.05 && worst < 0.15, "{mean} {worst}");
     assert!(!report.contains("unknown wall friction"), "{report}");
+    let calibrated_truck = ok(&weigh_truck(&["--calibration-run", &p("ds1.csv")]));
+    assert!(
+        calibrated_truck.contains("load = 1.00000 x estimate +0.0 kg +0.0 kg"),
+        "{calibrated_truck}"
+    );
     let ((_, worst_unknown, _), report) = ekf_truck("unknown", "w_truck_unknown.csv");
     println!("ekf, truck structure, unknown start: worst {worst_unknown:.3} %");
     assert!((0.3..0.8).contains(&worst_unknown), "{worst_unknown}");

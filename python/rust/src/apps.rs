@@ -134,7 +134,13 @@ fn run_weigh(
             cal_runs.push((cal_run, cal_est));
         }
         let runs: Vec<_> = cal_runs.iter().map(|(run, est)| (run, est)).collect();
-        let terms = if method == "ekf" {
+        // As `airsus weigh`: an EKF whose model carries the wall friction is only given its
+        // interval; every other estimate gets the static law's terms.
+        let terms = if ekf
+            && !build_any_model(model_name, truck)?
+                .hysteresis_states()
+                .is_empty()
+        {
             CalibrationTerms::IntervalOnly
         } else {
             CalibrationTerms::ScaleHysteresisHeight

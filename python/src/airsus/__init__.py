@@ -875,12 +875,12 @@ def weigh(
         method: ``static`` (the static force balance inverted, averaged over ``window_s``) or
             ``ekf`` (an extended Kalman filter on ``model`` with the load as a random walk).
         calibration_run: a run whose logged load is trusted at standstill (weighbridge), or
-            a list of them: the interval is sized on their standstills; with the static method
-            a gain and offset are fitted on them and applied, with the wall friction's
-            hysteresis and a height term when the runs determine them (a loading run and a
-            run at one load with the valve moving the height do; a loading run alone cannot
-            tell the height from the load). The EKF's model carries all four and is not
-            corrected.
+            a list of them: the interval is sized on their standstills, and a gain and offset
+            are fitted on them and applied, with the wall friction's hysteresis and a height
+            term when the runs determine them (a loading run and a run at one load with the
+            valve moving the height do; a loading run alone cannot tell the height from the
+            load), except to the EKF on a model with wall friction (``truck``), which
+            carries all four and is not corrected.
         start_hysteresis: how the truck came to the run's first reading, for the EKF on a
             model with wall friction (``truck``): ``unknown`` (its interval holds the
             friction's whole range until the bellow moves), ``lowered`` (a load set down, an

@@ -53,7 +53,7 @@
 //!   widens the load's through the covariance;
 //! - started as said ([`HysteresisStart`]): an unknown start is uniform over the friction's
 //!   range, so the load's interval holds it until the first movement slides the friction to one
-//!   side (the movement's map shrinks its variance by `e^(−σ|Δ|/F_c)`).
+//!   side (the movement's map shrinks its standard deviation by `e^(−σ|Δ|/F_c)`).
 
 use airsus_model::{InitialCondition, InputSample, StateRole, SuspensionModel};
 use nalgebra::{DMatrix, DVector};
@@ -126,6 +126,10 @@ impl HysteresisStart {
 /// The spread of a known start's hysteresis, as a fraction of its half range: the last
 /// movement may not have slid the friction all the way.
 const KNOWN_START_SPREAD: f64 = 0.1;
+
+/// A travel of the hysteresis coordinate that slides it to its limit whichever way (a Dahl
+/// wall friction saturates within `F_c / σ`, millimetres).
+const SATURATING_TRAVEL_M: f64 = 1.0;
 
 impl Default for EkfTuning {
     fn default() -> Self {
@@ -252,6 +256,15 @@ impl LoadEkf {
                 ));
             }
         }
+        if !(tuning.hysteresis_play_m.is_finite() && tuning.hysteresis_play_m >= 0.0) {
+            return Err(invalid(
+                "filter tuning",
+                format!(
+                    "the hysteresis play must be a finite length of zero or more, got {}",
+                    tuning.hysteresis_play_m
+                ),
+            ));
+        }
         // Infinity is allowed: no gate.
         if tuning.innovation_gate_sigma.is_nan() || tuning.innovation_gate_sigma <= 0.0 {
             return Err(invalid(
@@ -309,31 +322,26 @@ impl LoadEkf {
         if let Some(i) = amount_index {
             p[(i, i)] = (0.01 * x0[i]).powi(2);
         }
-        // The hysteresis's start: its range is the span between the states preloaded one way
-        // and the other at the start's load; unknown history is uniform over it.
+        // The hysteresis's start: its range is where a long travel either way slides it (its
+        // law in closed form, so no equilibrium is needed); an unknown history is uniform
+        // over it.
         let hysteresis = model.hysteresis_states().to_vec();
         if !hysteresis.is_empty() {
-            let u = InputSample {
-                wheel_load_kg: load,
-                ..*first_input
+            let slid = |metres: f64| {
+                let mut x = x0.clone();
+                model.follow_hysteresis(&mut x, metres);
+                x
             };
-            let ic = InitialCondition::SensorHeight {
-                height_m: sensor_height_m,
-            };
-            if let (Ok(low), Ok(high)) = (
-                model.initial_state_with_hysteresis(&u, &ic, -1.0),
-                model.initial_state_with_hysteresis(&u, &ic, 1.0),
-            ) {
-                for &i in &hysteresis {
-                    let half_range = 0.5 * (high[i] - low[i]).abs();
-                    let std = match tuning.start_hysteresis {
-                        HysteresisStart::Unknown => half_range / 3f64.sqrt(),
-                        HysteresisStart::Lowered | HysteresisStart::Raised => {
-                            KNOWN_START_SPREAD * half_range
-                        }
-                    };
-                    p[(i, i)] = std.powi(2);
-                }
+            let (low, high) = (slid(-SATURATING_TRAVEL_M), slid(SATURATING_TRAVEL_M));
+            for &i in &hysteresis {
+                let half_range = 0.5 * (high[i] - low[i]).abs();
+                let std = match tuning.start_hysteresis {
+                    HysteresisStart::Unknown => half_range / 3f64.sqrt(),
+                    HysteresisStart::Lowered | HysteresisStart::Raised => {
+                        KNOWN_START_SPREAD * half_range
+                    }
+                };
+                p[(i, i)] = std.powi(2);
             }
         }
         p[(n, n)] = tuning.initial_load_std_kg.powi(2);
@@ -384,20 +392,31 @@ impl LoadEkf {
             (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let mut tmp = vec![0.0; n];
         let mut t = self.time_s;
+        // The hysteresis is held through the prediction (its rates zeroed in every stage) and
+        // moved after the correction (`play_hysteresis`).
+        let hold = |k: &mut [f64]| {
+            for &i in &self.hysteresis {
+                k[i] = 0.0;
+            }
+        };
         for _ in 0..self.tuning.substeps {
             self.model.rhs(t, &x, &u, &mut k1);
+            hold(&mut k1);
             for i in 0..n {
                 tmp[i] = x[i] + 0.5 * h * k1[i];
             }
             self.model.rhs(t + 0.5 * h, &tmp, &u, &mut k2);
+            hold(&mut k2);
             for i in 0..n {
                 tmp[i] = x[i] + 0.5 * h * k2[i];
             }
             self.model.rhs(t + 0.5 * h, &tmp, &u, &mut k3);
+            hold(&mut k3);
             for i in 0..n {
                 tmp[i] = x[i] + h * k3[i];
             }
             self.model.rhs(t + h, &tmp, &u, &mut k4);
+            hold(&mut k4);
             for i in 0..n {
                 x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
             }
@@ -494,15 +513,6 @@ impl LoadEkf {
             let pj = self.propagate(&zj, u, dt);
             for i in 0..m {
                 f[(i, j)] = (pj[i] - z_pred[i]) / d;
-            }
-        }
-        // The hysteresis is held through the prediction and moved after the correction
-        // (`play_hysteresis`).
-        let mut z_pred = z_pred;
-        for &i in &self.hysteresis {
-            z_pred[i] = z0[i];
-            for j in 0..m {
-                f[(i, j)] = if i == j { 1.0 } else { 0.0 };
             }
         }
         let mut q = DMatrix::zeros(m, m);

@@ -248,9 +248,10 @@ pub struct LinearCalibration {
     pub valve_q95_kg: Option<f64>,
     /// The part of a calibrated reading's standard deviation the estimator's own noise part
     /// does not hold, kg: the smallest `σ_c` for which `1.96 √((g σ_meas)² + σ_c²)` held 95 %
-    /// of the known standstill loads (with `σ_meas` the estimate's own noise part, e.g. the
-    /// EKF's covariance, which is wide while the wall friction's state is unknown). Without
-    /// a noise part it is `q95 / 1.96`.
+    /// of each calibration run's known standstill loads, the largest over the runs (runs of
+    /// fewer than 50 such samples taken together), with `σ_meas` the estimate's own noise
+    /// part (e.g. the EKF's covariance, which is wide while the wall friction's state is
+    /// unknown). Without a noise part, on one run, it is that run's `q95 / 1.96`.
     pub standstill_std_kg: f64,
     /// The same for the samples flagged `settling` and `valve` (see
     /// [`Self::settling_q95_kg`]); `None` with too few such samples.
@@ -309,6 +310,7 @@ fn q95(values: &mut [f64]) -> Option<f64> {
 /// samples (`r`: residuals, `s`: each sample's own standard deviation), by bisection: the
 /// fraction only grows with `σ`. `None` when empty.
 fn coverage_std(residual: &[f64], own_std: &[f64], coverage: f64, z: f64) -> Option<f64> {
+    debug_assert_eq!(residual.len(), own_std.len());
     if residual.is_empty() {
         return None;
     }
@@ -348,29 +350,35 @@ const Z95: f64 = 1.96;
 const MIN_CLASS_SAMPLES: usize = 50;
 
 /// The interval's own part from `(run, residual, own std)` samples: [`coverage_std`] on each
-/// run with enough samples, the largest of them. Pooled, the runs that fit best (a levelling
-/// run's standstills are many and close) would narrow the interval below what the worst-fitting
-/// kind of run needs, and a validation run of that kind would then be covered far less than
-/// 95 %; each run must be held on its own. `None` without samples.
+/// run with enough samples, and on the runs with fewer taken together, the largest of them.
+/// Pooled, the runs that fit best (a levelling run's standstills are many and close) would
+/// narrow the interval below what the worst-fitting kind of run needs, and a validation run
+/// of that kind would then be covered far less than 95 %; each run must be held on its own.
+/// `None` without samples.
 fn per_run_coverage_std(samples: &[(usize, f64, f64)]) -> Option<f64> {
     let runs = samples.iter().map(|s| s.0).max()? + 1;
-    let pooled = || {
-        let (r, own): (Vec<f64>, Vec<f64>) = samples.iter().map(|s| (s.1, s.2)).unzip();
-        coverage_std(&r, &own, 0.95, Z95)
+    let of = |keep: &dyn Fn(usize) -> bool| -> (Vec<f64>, Vec<f64>) {
+        samples
+            .iter()
+            .filter(|s| keep(s.0))
+            .map(|s| (s.1, s.2))
+            .unzip()
     };
-    (0..runs)
-        .filter_map(|i| {
-            let (r, own): (Vec<f64>, Vec<f64>) = samples
-                .iter()
-                .filter(|s| s.0 == i)
-                .map(|s| (s.1, s.2))
-                .unzip();
-            (r.len() >= MIN_CLASS_SAMPLES)
-                .then(|| coverage_std(&r, &own, 0.95, Z95))
-                .flatten()
-        })
+    let count = |i: usize| samples.iter().filter(|s| s.0 == i).count();
+    let large: Vec<usize> = (0..runs)
+        .filter(|&i| count(i) >= MIN_CLASS_SAMPLES)
+        .collect();
+    let mut groups: Vec<(Vec<f64>, Vec<f64>)> =
+        large.iter().map(|&i| of(&move |r| r == i)).collect();
+    let small = of(&|r| !large.contains(&r));
+    // Too few in every group: all of them together.
+    if small.0.len() >= MIN_CLASS_SAMPLES || groups.is_empty() {
+        groups.push(small);
+    }
+    groups
+        .iter()
+        .filter_map(|(r, own)| coverage_std(r, own, 0.95, Z95))
         .reduce(f64::max)
-        .or_else(pooled)
 }
 
 /// What [`fit_centred`] found: `(name, coefficient, the column's mean)` of the kept columns,
@@ -1062,6 +1070,18 @@ mod tests {
         let (r, o): (Vec<f64>, Vec<f64>) = samples.iter().map(|s| (s.1, s.2)).unzip();
         let pooled = coverage_std(&r, &o, 0.95, Z95).unwrap();
         assert!(pooled < per_run / 4.0, "{pooled} {per_run}");
+        // Runs too short to size an interval alone count together: two of 30 samples that
+        // fit badly are not dropped beside a long one that fits well.
+        let mut samples: Vec<(usize, f64, f64)> = (0..1900).map(|_| (0, 0.5, 0.0)).collect();
+        samples.extend((0..30).map(|_| (1, 4.0, 0.0)));
+        samples.extend((0..30).map(|_| (2, 4.0, 0.0)));
+        let with_short = per_run_coverage_std(&samples).unwrap();
+        assert!((with_short - 4.0 / 1.96).abs() < 1e-9, "{with_short}");
+        // Every run short: all of them together.
+        let short: Vec<(usize, f64, f64)> = (0..40).map(|k| (k % 2, 1.0, 0.0)).collect();
+        let all = per_run_coverage_std(&short).unwrap();
+        assert!((all - 1.0 / 1.96).abs() < 1e-9, "{all}");
+        assert_eq!(per_run_coverage_std(&[]), None);
     }
 
     #[test]

@@ -73,9 +73,9 @@ pub struct WeighArgs {
     pub window_s: f64,
     /// A run whose logged load is trusted at standstill (e.g. weighbridge loads, a study's
     /// estimation runs): the interval then comes from its residuals (the part the estimate's
-    /// own noise does not explain, sized to hold 95 % of its known loads). With the static
-    /// method a gain, an offset, the wall friction's hysteresis and a height term are fitted
-    /// on it and applied (the EKF's model carries all four itself and is not corrected).
+    /// own noise does not explain, sized to hold 95 % of each run's known loads). A gain, an
+    /// offset, the wall friction's hysteresis and a height term are fitted on it and applied,
+    /// except to the EKF on a model with wall friction (`truck`), which carries all four.
     /// Repeat it to fit on several runs at once: a loading run and a run at one load with the
     /// valve moving the height determine the height term, a loading run alone not.
     /// Calibration runs start with an unknown wall friction.
@@ -158,7 +158,13 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     };
     let mut series = estimate(&run, args.start_hysteresis.into())
         .with_context(|| format!("weighing {}", args.run.display()))?;
-    if args.method == Method::Ekf
+    // An EKF whose model carries the wall friction (the `truck` structure): its start matters,
+    // and a calibration only sizes its interval.
+    let model_has_friction = args.method == Method::Ekf
+        && !airsus_truck::models::build_any_model(&args.model, &truck)?
+            .hysteresis_states()
+            .is_empty();
+    if model_has_friction
         && args.start_hysteresis == StartHysteresis::Unknown
         && let Some((until_s, half_width_kg)) = unknown_friction_stretch(&series)
     {
@@ -185,9 +191,12 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             .map(|p| p.display().to_string())
             .collect::<Vec<_>>()
             .join(", ");
-        let terms = match args.method {
-            Method::Static => CalibrationTerms::ScaleHysteresisHeight,
-            Method::Ekf => CalibrationTerms::IntervalOnly,
+        // An EKF on a model without the wall friction (the thesis models) gets the static
+        // law's terms, which take out what its model lacks.
+        let terms = if model_has_friction {
+            CalibrationTerms::IntervalOnly
+        } else {
+            CalibrationTerms::ScaleHysteresisHeight
         };
         let cal = LinearCalibration::fit_weighed_runs(&runs, &rule, terms)
             .with_context(|| format!("calibrating on {names}"))?;
