@@ -120,6 +120,11 @@ def test_weigh_ekf_told_how_the_run_starts(reference: Path) -> None:
     )
     cal = load.attrs["calibration"]
     assert (cal["gain"], cal["offset_kg"]) == (1.0, 0.0)
+    # Told the start, the filter has nothing to say about it; not told, it says until when
+    # the friction held its interval up (data-set 2's first load step is at 100 s).
+    assert load.attrs["notes"] == []
+    unknown = airsus.weigh(truck, run, "ekf", model="truck")
+    assert len(unknown.attrs["notes"]) == 1 and "first moved (1" in unknown.attrs["notes"][0]
     still = load["quality"] == "standstill"
     error = (np.abs(load["wheel_load_kg"] - truth) / truth)[still]
     assert error.max() < 0.0015

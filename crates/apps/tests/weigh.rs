@@ -713,6 +713,14 @@ fn an_unknown_start_friction_widens_the_interval_until_the_bellow_moves() {
         weigh(HysteresisStart::Unknown),
         weigh(HysteresisStart::Lowered),
     );
+    // The filter says until when (the first load change, about 100 s in), only when unknown.
+    assert!(lowered.notes.is_empty(), "{:?}", lowered.notes);
+    assert_eq!(unknown.notes.len(), 1, "{:?}", unknown.notes);
+    assert!(
+        unknown.notes[0].contains("first moved (1"),
+        "{:?}",
+        unknown.notes
+    );
     let first_change = truth
         .iter()
         .position(|&m| (m - truth[0]).abs() > 1.0)

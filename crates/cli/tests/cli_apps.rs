@@ -222,6 +222,22 @@ fn weigh_static_and_ekf_are_scored_against_the_true_load() {
         .and_then(|v| v.parse().ok())
         .unwrap_or_else(|| panic!("{note}"));
     assert!((100.0..130.0).contains(&until_s), "{note}");
+    // A log that never leaves its first standstill (data-set 2's first 90 s) says so.
+    let text = std::fs::read_to_string(dir.path().join("ds2.csv")).unwrap();
+    let still: String = text.lines().take(901).map(|l| format!("{l}\n")).collect();
+    std::fs::write(dir.path().join("still.csv"), still).unwrap();
+    let report = ok(&airsus(&[
+        "weigh",
+        "--truck",
+        &truck_file,
+        "--run",
+        &p("still.csv"),
+        "--method",
+        "ekf",
+        "--model",
+        "truck",
+    ]));
+    assert!(report.contains("never moved far enough"), "{report}");
 
     // The plot: estimate with its interval, standstills, truth and the error panel.
     let truth_file = p("truth/ds2.csv");

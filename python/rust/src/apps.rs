@@ -206,6 +206,7 @@ pub fn weigh<'py>(
         .or_py()?;
     let out = PyDict::new(py);
     let s = weighed.series;
+    out.set_item("notes", s.notes)?;
     out.set_item("time_s", s.time_s.into_pyarray(py))?;
     out.set_item("wheel_load_kg", s.wheel_load_kg.into_pyarray(py))?;
     out.set_item("wheel_load_std_kg", s.std_kg.into_pyarray(py))?;

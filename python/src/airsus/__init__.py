@@ -890,7 +890,9 @@ def weigh(
         A DataFrame ``time_s, wheel_load_kg, wheel_load_std_kg, quality`` at full precision
         (the command's CSV rounds to 3 decimals). ``quality`` says how far a sample can be
         trusted, from the run alone: ``standstill`` (read the scale here), ``settling`` or
-        ``valve``. ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg,
+        ``valve``. ``df.attrs["notes"]`` lists what the estimator says about the run (the
+        EKF on ``truck`` with an unknown start: until when the friction held its interval
+        up). ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg,
         hysteresis_kg, height_kg_per_mm, reference_height_mm, samples, residual_rms_kg,
         residual_q95_kg, settling_q95_kg, valve_q95_kg, standstill_std_kg, settling_std_kg,
         valve_std_kg`` and ``dropped`` (the terms the runs did not determine, with why) when
@@ -929,6 +931,7 @@ def weigh(
     frame.attrs["calibration"] = (
         None if result["calibration"] is None else dict(result["calibration"])
     )
+    frame.attrs["notes"] = list(result["notes"])
     return frame
 
 

@@ -223,6 +223,11 @@ pub struct LoadEkf {
     played_m: Option<f64>,
     /// Indices of the model's hysteresis states.
     hysteresis: Vec<usize>,
+    /// The hysteresis states' standard deviations at the start (an unknown start's range).
+    hysteresis_start_std: Vec<f64>,
+    /// When every hysteresis state's standard deviation first fell below half its start:
+    /// the bellow's movement slid the friction to one side.
+    hysteresis_resolved_at_s: Option<f64>,
 }
 
 impl LoadEkf {
@@ -346,6 +351,7 @@ impl LoadEkf {
         }
         p[(n, n)] = tuning.initial_load_std_kg.powi(2);
         let played_m = model.hysteresis_coordinate_m(&x0);
+        let hysteresis_start_std = hysteresis.iter().map(|&i| p[(i, i)].sqrt()).collect();
         Ok(Self {
             model,
             tuning,
@@ -357,6 +363,8 @@ impl LoadEkf {
             beyond_gate: 0,
             played_m,
             hysteresis,
+            hysteresis_start_std,
+            hysteresis_resolved_at_s: None,
         })
     }
 
@@ -368,6 +376,17 @@ impl LoadEkf {
     pub fn load(&self) -> (f64, f64) {
         let n = self.n_model();
         (self.z[n], self.p[(n, n)].max(0.0).sqrt())
+    }
+
+    /// Whether the model has a hysteresis (a wall friction) the filter carries.
+    pub fn has_hysteresis(&self) -> bool {
+        !self.hysteresis.is_empty()
+    }
+
+    /// When the hysteresis's start stopped mattering: every hysteresis state's standard
+    /// deviation fell below half its start (`None` while it has not, or without one).
+    pub fn hysteresis_resolved_at_s(&self) -> Option<f64> {
+        self.hysteresis_resolved_at_s
     }
 
     /// The model part of the state estimate.
@@ -598,6 +617,16 @@ impl LoadEkf {
         self.z = z_new;
         self.p = p_new;
         self.time_s = time_s;
+        if self.hysteresis_resolved_at_s.is_none()
+            && !self.hysteresis.is_empty()
+            && self
+                .hysteresis
+                .iter()
+                .zip(&self.hysteresis_start_std)
+                .all(|(&i, &start)| self.p[(i, i)].max(0.0).sqrt() < 0.5 * start)
+        {
+            self.hysteresis_resolved_at_s = Some(time_s);
+        }
         Ok(self.load())
     }
 }
@@ -661,5 +690,42 @@ pub fn weigh_ekf(
         series.std_kg.push(s.hypot(parameter_std(k)));
         series.measurement_std_kg.push(s);
     }
+    if ekf.has_hysteresis() && tuning.start_hysteresis == HysteresisStart::Unknown {
+        series
+            .notes
+            .push(unknown_start_note(&series, ekf.hysteresis_resolved_at_s()));
+    }
     Ok(series)
 }
+
+/// What an unknown start friction did to the filter's interval: until when it held it up, and
+/// by how much (the filter's own 95 % half-width 10 s in, after its first readings).
+fn unknown_start_note(series: &WeighSeries, resolved_at_s: Option<f64>) -> String {
+    let t0 = series.time_s.first().copied().unwrap_or(0.0);
+    let k = series
+        .time_s
+        .iter()
+        .position(|&t| t - t0 >= UNKNOWN_START_READ_S)
+        .unwrap_or(series.len().saturating_sub(1));
+    let half_width_kg = 1.96
+        * series
+            .measurement_std_kg
+            .get(k)
+            .copied()
+            .unwrap_or(f64::NAN);
+    let what = "the run starts at rest with an unknown wall friction, which trades off exactly against the load";
+    let how = "--start-hysteresis lowered|raised (Python start_hysteresis=) says how the truck came to its first reading";
+    match resolved_at_s {
+        Some(t) => format!(
+            "{what}: until the bellow first moved ({:.0} s) the filter's own 95 % interval is about ±{half_width_kg:.0} kg wide for it; {how}",
+            t - t0
+        ),
+        None => format!(
+            "{what}, and the bellow never moved far enough to slide it to one side: the whole run's load is uncertain by it (the filter's own 95 % interval about ±{half_width_kg:.0} kg); {how}"
+        ),
+    }
+}
+
+/// When the unknown start's width is read: after the filter's first readings (its load prior
+/// is hundreds of kilograms wide on the first sample).
+const UNKNOWN_START_READ_S: f64 = 10.0;

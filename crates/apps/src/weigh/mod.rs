@@ -42,6 +42,9 @@ pub struct WeighSeries {
     /// The part of it the sensors' noise makes, kg (empty when the estimator does not split
     /// it off); the rest is the parameters' uncertainty.
     pub measurement_std_kg: Vec<f64>,
+    /// What the estimator has to say about the whole series (the EKF: how long an unknown
+    /// start friction held its interval up), one sentence each.
+    pub notes: Vec<String>,
 }
 
 impl WeighSeries {
@@ -879,6 +882,7 @@ impl LinearCalibration {
                 .collect(),
             std_kg,
             measurement_std_kg: series.measurement_std_kg.iter().map(|s| g * s).collect(),
+            notes: series.notes.clone(),
         })
     }
 }
@@ -973,6 +977,7 @@ mod tests {
             wheel_load_kg: vec![(3500.0 - 40.0 - 2.0 * (250.0 - 230.0)) / 1.05],
             std_kg: vec![1.0],
             measurement_std_kg: vec![1.0],
+            notes: Vec::new(),
         };
         let read = cal.apply(&s, Some(&[0.250])).unwrap();
         assert!((read.wheel_load_kg[0] - 3500.0).abs() < 1e-6, "{read:?}");
@@ -1015,6 +1020,7 @@ mod tests {
             wheel_load_kg: vec![3000.0, 3000.0],
             std_kg: vec![1.0, 1.0],
             measurement_std_kg: vec![0.1, 0.1],
+            notes: Vec::new(),
         };
         let h = [0.23, 0.23];
         let read = cal

@@ -94,26 +94,6 @@ pub struct WeighArgs {
     pub out: Option<PathBuf>,
 }
 
-/// Where an EKF run's own uncertainty is held up by an unknown start friction: the time its
-/// own standard deviation first falls below half of what it was 10 s in (after the filter has
-/// read its first readings), and the 95 % half-width of that own part there; `None` when it never stood out
-/// (a model without friction, a start the bellow leaves at once), i.e. when it was not at
-/// least twice the run's median.
-fn unknown_friction_stretch(series: &airsus_apps::weigh::WeighSeries) -> Option<(f64, f64)> {
-    let own = &series.measurement_std_kg;
-    let t0 = *series.time_s.first()?;
-    let k10 = series.time_s.iter().position(|&t| t - t0 >= 10.0)?;
-    let start = own.get(k10).copied()?;
-    let mut sorted: Vec<f64> = own.iter().copied().filter(|v| v.is_finite()).collect();
-    sorted.sort_by(f64::total_cmp);
-    let median = *sorted.get(sorted.len() / 2)?;
-    if start.is_nan() || start <= 2.0 * median {
-        return None;
-    }
-    let ends = own[k10..].iter().position(|&s| s < 0.5 * start)? + k10;
-    Some((series.time_s[ends], 1.96 * start))
-}
-
 pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     let source = args.source.source()?;
     let mut inputs: Vec<&std::path::Path> = vec![&args.truck, &args.run];
@@ -158,20 +138,15 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     };
     let mut series = estimate(&run, args.start_hysteresis.into())
         .with_context(|| format!("weighing {}", args.run.display()))?;
-    // An EKF whose model carries the wall friction (the `truck` structure): its start matters,
-    // and a calibration only sizes its interval.
+    for note in &series.notes {
+        eprintln!("note: {note}");
+    }
+    // An EKF whose model carries the wall friction (the `truck` structure) only has its
+    // interval sized by a calibration.
     let model_has_friction = args.method == Method::Ekf
         && !airsus_truck::models::build_any_model(&args.model, &truck)?
             .hysteresis_states()
             .is_empty();
-    if model_has_friction
-        && args.start_hysteresis == StartHysteresis::Unknown
-        && let Some((until_s, half_width_kg)) = unknown_friction_stretch(&series)
-    {
-        eprintln!(
-            "note: the run starts at rest with an unknown wall friction, which trades off exactly against the load: until the bellow first moved ({until_s:.0} s) the filter's own 95 % interval is about ±{half_width_kg:.0} kg wide for it; --start-hysteresis lowered|raised says how the truck came to its first reading"
-        );
-    }
     let rule = StandstillRule::default();
     // How far each sample can be trusted, from the run alone.
     let quality = quality_flags(&run, &StandstillDetector::default())
