@@ -134,17 +134,12 @@ fn run_weigh(
             cal_runs.push((cal_run, cal_est));
         }
         let runs: Vec<_> = cal_runs.iter().map(|(run, est)| (run, est)).collect();
-        // As `airsus weigh`: an EKF whose model carries the wall friction is only given its
-        // interval; every other estimate gets the static law's terms.
-        let terms = if ekf
-            && !build_any_model(model_name, truck)?
-                .hysteresis_states()
-                .is_empty()
-        {
-            CalibrationTerms::IntervalOnly
+        let ekf_model = if ekf {
+            Some(build_any_model(model_name, truck)?)
         } else {
-            CalibrationTerms::ScaleHysteresisHeight
+            None
         };
+        let terms = CalibrationTerms::for_estimate(ekf_model.as_deref());
         let cal =
             LinearCalibration::fit_weighed_runs(&runs, &rule, terms).context("calibrating")?;
         series = cal.apply_with_quality(

@@ -150,6 +150,7 @@ def weigh(
     model: str = "m2",
     window_s: float = 2.0,
     calibration_run: Union[None, RunLike, Sequence[RunLike]] = None,
+    start_hysteresis: str = "unknown",
 ) -> pd.DataFrame: ...
 def study(
     path: Optional[PathLike],

@@ -95,6 +95,7 @@ def weigh(
     model: Optional[str] = None,
     window_s: Optional[float] = None,
     calibration_run: Optional[List[_RunSpec]] = None,
+    start_hysteresis: Optional[str] = None,
 ) -> Dict[str, Any]: ...
 def study(
     study_file: Optional[str],

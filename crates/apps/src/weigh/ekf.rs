@@ -601,11 +601,10 @@ impl LoadEkf {
         for &i in &self.hysteresis {
             k.row_mut(i).fill(0.0);
         }
-        let z_new = DVector::from_vec(z_pred) + &k * innovation;
+        let mut z_new = DVector::from_vec(z_pred) + &k * innovation;
         let i_kh = DMatrix::identity(m, m) - &k * &h;
         // Joseph form keeps P symmetric positive semi-definite.
-        let p_new = &i_kh * &p_pred * i_kh.transpose() + &k * r * k.transpose();
-        let (mut z_new, mut p_new) = (z_new, p_new);
+        let mut p_new = &i_kh * &p_pred * i_kh.transpose() + &k * r * k.transpose();
         self.play_hysteresis(&mut z_new, &mut p_new);
         let p_new = (&p_new + p_new.transpose()) * 0.5;
         if z_new.iter().any(|v| !v.is_finite()) || p_new.iter().any(|v| !v.is_finite()) {

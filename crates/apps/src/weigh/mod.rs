@@ -275,11 +275,22 @@ pub enum CalibrationTerms {
     /// where a gain and an offset fitted on the calibration runs' few load levels, their
     /// unknown-friction starts among them, moved the estimate away from the truth).
     IntervalOnly,
-    /// A gain and an offset, as commercial on-board scales are set.
-    Scale,
     /// Gain, offset, and the hysteresis and height terms where the runs determine them: for
-    /// the static law, which has neither.
+    /// the static law, which has neither, and for an EKF on a model without wall friction.
     ScaleHysteresisHeight,
+}
+
+impl CalibrationTerms {
+    /// The terms for an estimate made by the EKF on `ekf_model`, or by the static law
+    /// (`None`): only a model that carries the wall friction's hysteresis (`truck`) is left
+    /// uncorrected; the thesis models get the static law's terms, which take out what they
+    /// lack.
+    pub fn for_estimate(ekf_model: Option<&dyn airsus_model::SuspensionModel>) -> Self {
+        match ekf_model {
+            Some(model) if !model.hysteresis_states().is_empty() => Self::IntervalOnly,
+            _ => Self::ScaleHysteresisHeight,
+        }
+    }
 }
 
 /// One run of known loads for [`LinearCalibration::fit_runs`], SI units.
@@ -360,23 +371,25 @@ const MIN_CLASS_SAMPLES: usize = 50;
 /// `None` without samples.
 fn per_run_coverage_std(samples: &[(usize, f64, f64)]) -> Option<f64> {
     let runs = samples.iter().map(|s| s.0).max()? + 1;
-    let of = |keep: &dyn Fn(usize) -> bool| -> (Vec<f64>, Vec<f64>) {
-        samples
-            .iter()
-            .filter(|s| keep(s.0))
-            .map(|s| (s.1, s.2))
-            .unzip()
-    };
-    let count = |i: usize| samples.iter().filter(|s| s.0 == i).count();
-    let large: Vec<usize> = (0..runs)
-        .filter(|&i| count(i) >= MIN_CLASS_SAMPLES)
-        .collect();
-    let mut groups: Vec<(Vec<f64>, Vec<f64>)> =
-        large.iter().map(|&i| of(&move |r| r == i)).collect();
-    let small = of(&|r| !large.contains(&r));
+    // (residuals, own standard deviations) of each run.
+    let mut by_run = vec![(Vec::new(), Vec::new()); runs];
+    for &(run, residual, own) in samples {
+        by_run[run].0.push(residual);
+        by_run[run].1.push(own);
+    }
+    let (mut groups, short): (Vec<_>, Vec<_>) = by_run
+        .into_iter()
+        .partition(|(residuals, _)| residuals.len() >= MIN_CLASS_SAMPLES);
+    let short = short
+        .into_iter()
+        .fold((Vec::new(), Vec::new()), |(mut r, mut o), (rs, os)| {
+            r.extend(rs);
+            o.extend(os);
+            (r, o)
+        });
     // Too few in every group: all of them together.
-    if small.0.len() >= MIN_CLASS_SAMPLES || groups.is_empty() {
-        groups.push(small);
+    if short.0.len() >= MIN_CLASS_SAMPLES || groups.is_empty() {
+        groups.push(short);
     }
     groups
         .iter()
@@ -403,8 +416,8 @@ impl<'a> CalibrationRun<'a> {
         })
     }
 
-    /// The same run without its heights: the calibration then fits a gain and an offset only
-    /// (for an estimator whose model carries the hysteresis and the heights itself).
+    /// The same run without its heights: the calibration then has no hysteresis or height
+    /// term (for an estimator whose model carries both itself).
     pub fn without_heights(self) -> Self {
         Self {
             height_m: None,
@@ -678,7 +691,7 @@ impl LinearCalibration {
                 }
             }
         }
-        let residuals: Vec<f64> = (0..known.len())
+        let mut residuals: Vec<f64> = (0..known.len())
             .map(|k| {
                 let (zk, hk) = if with_heights {
                     (z[k], height_mm[k] * 1e-3)
@@ -690,13 +703,12 @@ impl LinearCalibration {
             .collect();
         let m = residuals.len() as f64;
         cal.residual_rms_kg = (residuals.iter().map(|r| r * r).sum::<f64>() / m).sqrt();
-        cal.residual_q95_kg = q95(&mut residuals.clone()).unwrap_or(0.0);
         let g = cal.gain.abs();
-        let own: Vec<f64> = own_std.iter().map(|s| g * s).collect();
         let samples: Vec<(usize, f64, f64)> = (0..residuals.len())
-            .map(|k| (run_of[k], residuals[k], own[k]))
+            .map(|k| (run_of[k], residuals[k], g * own_std[k]))
             .collect();
         cal.standstill_std_kg = per_run_coverage_std(&samples).unwrap_or(0.0);
+        cal.residual_q95_kg = q95(&mut residuals).unwrap_or(0.0);
         cal.moving_air(runs, &run_zs, rule);
         Ok(cal)
     }
@@ -720,9 +732,7 @@ impl LinearCalibration {
             .map(|((run, estimate), flags)| {
                 let run = CalibrationRun::from_run(run, estimate)?.with_quality(flags);
                 Ok(match terms {
-                    CalibrationTerms::IntervalOnly | CalibrationTerms::Scale => {
-                        run.without_heights()
-                    }
+                    CalibrationTerms::IntervalOnly => run.without_heights(),
                     CalibrationTerms::ScaleHysteresisHeight => run,
                 })
             })

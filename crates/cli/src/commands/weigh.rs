@@ -141,12 +141,6 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     for note in &series.notes {
         eprintln!("note: {note}");
     }
-    // An EKF whose model carries the wall friction (the `truck` structure) only has its
-    // interval sized by a calibration.
-    let model_has_friction = args.method == Method::Ekf
-        && !airsus_truck::models::build_any_model(&args.model, &truck)?
-            .hysteresis_states()
-            .is_empty();
     let rule = StandstillRule::default();
     // How far each sample can be trusted, from the run alone.
     let quality = quality_flags(&run, &StandstillDetector::default())
@@ -166,13 +160,11 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             .map(|p| p.display().to_string())
             .collect::<Vec<_>>()
             .join(", ");
-        // An EKF on a model without the wall friction (the thesis models) gets the static
-        // law's terms, which take out what its model lacks.
-        let terms = if model_has_friction {
-            CalibrationTerms::IntervalOnly
-        } else {
-            CalibrationTerms::ScaleHysteresisHeight
+        let ekf_model = match args.method {
+            Method::Static => None,
+            Method::Ekf => Some(airsus_truck::models::build_any_model(&args.model, &truck)?),
         };
+        let terms = CalibrationTerms::for_estimate(ekf_model.as_deref());
         let cal = LinearCalibration::fit_weighed_runs(&runs, &rule, terms)
             .with_context(|| format!("calibrating on {names}"))?;
         println!(
