@@ -27,8 +27,9 @@ SPEC_NAMES = [
     "rflow2",
     "ksd",
 ]
-# Ours after the SPEC's: the area-integral volume law's dead volume, the damper table's scale.
-NAMES = [*SPEC_NAMES, "vd", "dscl"]
+# Ours after the SPEC's: the area-integral volume law's dead volume, the damper table's scale,
+# the tire's damping.
+NAMES = [*SPEC_NAMES, "vd", "dscl", "cw"]
 
 
 def test_the_reference_truck_has_the_spec_values() -> None:
@@ -97,7 +98,7 @@ def test_a_truck_under_the_area_integral_volume_law(tmp_path: Path) -> None:
     text = re.sub(r"cross_section_m2 = \[[^\]]*\][^\n]*\n", "", text)
     text += '\n[bellow.gas_volume]\nlaw = "area_integral"\ndead_volume_m3 = 0.05\n'
     truck = airsus.Truck.from_toml(text)
-    assert truck["vd"] == 0.05 and truck["dscl"] == 1.0
+    assert truck["vd"] == 0.05 and truck["dscl"] == 1.0 and truck["cw"] == 0.0
     with pytest.raises(airsus.AirsusError, match="its gas-volume law `area_integral`"):
         truck["a0"]
     assert "vd=0.05" in repr(truck) and "a0=" not in repr(truck)

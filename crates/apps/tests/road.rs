@@ -2,6 +2,7 @@
 
 use airsus_apps::road::*;
 use airsus_data::{TruckParameters, ValveState};
+use airsus_model::submodels::Tire;
 use airsus_model::{InitialCondition, InputSample, Model2, SuspensionModel};
 
 /// The reference truck with a damper of one slope through zero (22.5 kN s/m up to 0.1 m/s):
@@ -28,12 +29,13 @@ fn linear_error(truck: &TruckParameters, height: f64) -> (f64, f64, f64) {
         valve: ValveState::Closed,
         supply_gauge_pa: 850e3,
         road_height_m: 0.0,
+        road_rate_m_s: 0.0,
     };
     let x0 = model
         .initial_state(&u0, &InitialCondition::SensorHeight { height_m: 0.24 })
         .unwrap();
     let axle = AxleGeometry::of(&model, truck).unwrap();
-    let lin = linearize(&model, &axle, truck.tire.stiffness_n_per_m, &x0, &u0).unwrap();
+    let lin = linearize(&model, &axle, &Tire::new(&truck.tire), &x0, &u0).unwrap();
     let time = time_axis(3.0, 0.002).unwrap();
     let road = bump_road(&time, 10.0, height);
     let nl = simulate_road(&model, truck, &time, &road, load, 0.24).unwrap();
@@ -73,6 +75,28 @@ fn linearised_model_2_matches_for_a_small_bump_and_not_for_a_large_one() {
     let (h_ref, f_ref, _) = linear_error(&TruckParameters::reference(), 0.002);
     println!("2 mm bump, reference damper: height error {h_ref:.4}, tire force error {f_ref:.4}");
     assert!(h_ref > h_small);
+}
+
+/// A tire with a damper beside its spring (#13 item 2): the linearised model, which takes the
+/// road's rate as an input of its own, follows the simulator, which feeds each road segment's
+/// slope to the tire; and the damper takes energy out of the wheel hop, so the tire force
+/// swings less over the same bump.
+#[test]
+fn a_damped_tire_is_followed_linearised_and_calms_the_wheel_hop() {
+    let mut damped = symmetric_damper_truck();
+    damped.tire.damping_n_s_per_m = 4000.0;
+    let (h, f, _) = linear_error(&damped, 0.002);
+    println!("2 mm bump, damped tire: height error {h:.4}, tire force error {f:.4}");
+    assert!(h < 0.01 && f < 0.01, "{h} {f}");
+    let swing = |truck: &TruckParameters| {
+        let time = time_axis(3.0, 0.002).unwrap();
+        let road = bump_road(&time, 10.0, 0.02);
+        let r = simulate_road(&Model2::new(truck), truck, &time, &road, 3390.0, 0.24).unwrap();
+        r.summary.dynamic_load_coefficient
+    };
+    let (plain, calmed) = (swing(&symmetric_damper_truck()), swing(&damped));
+    println!("20 mm bump: dynamic load coefficient {plain:.4} plain, {calmed:.4} damped tire");
+    assert!(calmed < 0.95 * plain, "{plain} {calmed}");
 }
 
 /// ISO 8608:2016 Table 1, `Gd(n0)` at n0 = 0.1 cycles/m, geometric mean of each class, in

@@ -49,6 +49,10 @@ pub struct ParameterInfo {
     pub field: Option<Field>,
     /// What data determine it, for the message when a run set does not (empty: not said).
     pub needs: &'static str,
+    /// The magnitude its values usually have, in its unit, for a parameter whose file value
+    /// may be 0 (an effect the thesis leaves out): the estimator's scale where it starts from
+    /// 0. `None`: a thousandth of the range.
+    pub typical: Option<f64>,
 }
 
 impl ParameterInfo {
@@ -67,12 +71,19 @@ impl ParameterInfo {
             upper,
             field,
             needs: "",
+            typical: None,
         }
     }
 
     /// The same, saying what data determine it.
     pub const fn needing(mut self, needs: &'static str) -> Self {
         self.needs = needs;
+        self
+    }
+
+    /// The same, with the magnitude its values usually have ([`Self::typical`]).
+    pub const fn typically(mut self, magnitude: f64) -> Self {
+        self.typical = Some(magnitude);
         self
     }
 
@@ -93,6 +104,8 @@ pub enum Field {
     LeverInertia,
     HingeFriction,
     TireStiffness,
+    /// `cw`: the tire's damping.
+    TireDamping,
     /// `dscl`: the damper table's scale.
     DamperScale,
     LeverCompliance,
@@ -129,6 +142,7 @@ impl Field {
             Self::LeverInertia => ("mass", "lever_inertia_kg_m2", None),
             Self::HingeFriction => ("bellow", "hinge_friction_n_s_per_m", None),
             Self::TireStiffness => ("tire", "stiffness_n_per_m", None),
+            Self::TireDamping => ("tire", "damping_n_s_per_m", None),
             Self::DamperScale => ("damper", "scale", None),
             Self::LeverCompliance => ("geometry", "lever_compliance_m_per_n", None),
             Self::FillResistance => ("valve", "fill_resistance_pa_s_per_mol", None),
@@ -200,6 +214,8 @@ pub const LEVER_MODEL_FIELDS: &[Field] = &[
     // references; the models built on them shift theirs by one, and an FMU's configuration
     // names parameters, not references).
     Field::DamperScale,
+    // After the damper's scale, for the same reason.
+    Field::TireDamping,
 ];
 
 /// One named parameter: its description and its home in the truck parameters.
@@ -213,6 +229,12 @@ impl Param {
     /// The same, saying what data determine it.
     pub const fn needing(mut self, needs: &'static str) -> Self {
         self.info.needs = needs;
+        self
+    }
+
+    /// The same, with the magnitude its values usually have ([`ParameterInfo::typical`]).
+    pub const fn typically(mut self, magnitude: f64) -> Self {
+        self.info.typical = Some(magnitude);
         self
     }
 }
@@ -356,6 +378,17 @@ pub const CATALOG: &[Param] = &[
         1e8,
     )
     .needing("road input (the tire compresses)"),
+    param(
+        Field::TireDamping,
+        "cw",
+        "N s/m",
+        "tire damping c_w beside eq 3.15's spring (0: the thesis' tire)",
+        0.0,
+        1e5,
+    )
+    .needing("road input (the tire compresses fast)")
+    // A truck tire damps its wheel hop by a few kN s/m; the thesis' tire by none.
+    .typically(3000.0),
     param(
         Field::DamperScale,
         "dscl",
@@ -610,6 +643,7 @@ pub fn get(truck: &TruckParameters, field: Field) -> f64 {
             Field::LeverInertia => Some(truck.mass.lever_inertia_kg_m2),
             Field::HingeFriction => Some(truck.bellow.hinge_friction_n_s_per_m),
             Field::TireStiffness => Some(truck.tire.stiffness_n_per_m),
+            Field::TireDamping => Some(truck.tire.damping_n_s_per_m),
             Field::DamperScale => Some(truck.damper.scale),
             Field::LeverCompliance => Some(truck.geometry.lever_compliance_m_per_n),
             Field::SlowForceScale => truck.slow_dynamics.force_scale,
@@ -639,6 +673,7 @@ pub fn set(truck: &mut TruckParameters, field: Field, value: f64) -> bool {
             Field::LeverInertia => &mut truck.mass.lever_inertia_kg_m2,
             Field::HingeFriction => &mut truck.bellow.hinge_friction_n_s_per_m,
             Field::TireStiffness => &mut truck.tire.stiffness_n_per_m,
+            Field::TireDamping => &mut truck.tire.damping_n_s_per_m,
             Field::DamperScale => &mut truck.damper.scale,
             Field::LeverCompliance => &mut truck.geometry.lever_compliance_m_per_n,
             Field::SlowForceScale => {

@@ -80,6 +80,10 @@ pub struct MassParameters {
 pub struct TireParameters {
     /// `k_w`, N/m (eq 3.15).
     pub stiffness_n_per_m: f64,
+    /// `c_w`, N s/m: the tire's own damping beside eq 3.15's spring (key
+    /// `tire.damping_n_s_per_m`, default 0, the thesis' tire). A rolling tire dissipates
+    /// energy in its rubber; it damps the wheel-hop mode, which only a road excites.
+    pub damping_n_s_per_m: f64,
 }
 
 /// Damper force against extension velocity (+ = extension/rebound), piecewise affine.
@@ -278,6 +282,7 @@ impl TruckParameters {
             },
             tire: TireParameters {
                 stiffness_n_per_m: 1.8e6,
+                damping_n_s_per_m: 0.0,
             },
             damper: DamperTable::new(
                 vec![-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0],
@@ -341,7 +346,8 @@ enum Presence {
     /// The file may leave it out; the model then uses its own default.
     Optional,
     /// The file may leave it out; the reference truck's value is then used without a word:
-    /// a neutral value (a scale of 1) that leaves the file's other values as they are.
+    /// a neutral value (a scale of 1, a damping of 0) that leaves the file's other values as
+    /// they are.
     Neutral,
 }
 
@@ -355,6 +361,11 @@ const DECLARED_KEYS: &[(Field, Presence, &str)] = &[
     (Field::Unsprung, Presence::Estimable, "m2 (est)"),
     (Field::LeverInertia, Presence::Estimable, "I_g (est)"),
     (Field::TireStiffness, Presence::Required, "k_w"),
+    (
+        Field::TireDamping,
+        Presence::Neutral,
+        "c_w: tire damping, 0 = the thesis' tire",
+    ),
     (Field::HingeFriction, Presence::Estimable, "k_f (est)"),
     (
         Field::DamperScale,
@@ -1557,6 +1568,33 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         let err = parse(&scaled.replace("scale = 1.2", "scale = -1.0")).unwrap_err();
         assert!(err.to_string().contains("damper.scale"), "{err}");
         assert_eq!(err.location.line, find_key_line(&scaled, "damper", "scale"));
+    }
+
+    #[test]
+    fn tire_damping_defaults_to_zero_silently_is_range_checked_and_round_trips() {
+        let loaded = parse(SPEC_EXAMPLE).unwrap();
+        assert_eq!(loaded.parameters.tire.damping_n_s_per_m, 0.0);
+        assert!(
+            loaded.defaulted.iter().all(|d| !d.key.starts_with("tire")),
+            "{:?}",
+            loaded.defaulted
+        );
+        let damped = SPEC_EXAMPLE.replace(
+            "stiffness_n_per_m = 1.8e6                # k_w\n",
+            "stiffness_n_per_m = 1.8e6\ndamping_n_s_per_m = 2500.0\n",
+        );
+        assert_ne!(damped, SPEC_EXAMPLE, "the example's tire reads differently");
+        let loaded = parse(&damped).unwrap();
+        assert_eq!(loaded.parameters.tire.damping_n_s_per_m, 2500.0);
+        let text = truck_to_toml(&loaded.parameters);
+        assert!(text.contains("damping_n_s_per_m = 2500.0"), "{text}");
+        assert_eq!(parse(&text).unwrap().parameters, loaded.parameters);
+        let err = parse(&damped.replace("2500.0", "-1.0")).unwrap_err();
+        assert!(err.to_string().contains("tire.damping_n_s_per_m"), "{err}");
+        assert_eq!(
+            err.location.line,
+            find_key_line(&damped, "tire", "damping_n_s_per_m")
+        );
     }
 
     #[test]

@@ -168,6 +168,7 @@ pub fn default_inputs() -> InputSample {
         valve: ValveState::Closed,
         supply_gauge_pa: DEFAULT_SUPPLY_KPA * airsus_data::units::PA_PER_KPA,
         road_height_m: m_from_mm(DEFAULT_ROAD_MM),
+        road_rate_m_s: 0.0,
     }
 }
 

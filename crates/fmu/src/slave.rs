@@ -110,6 +110,7 @@ impl Inputs {
             valve: self.valve,
             supply_gauge_pa: self.supply_kpa * PA_PER_KPA,
             road_height_m: m_from_mm(self.road_mm),
+            road_rate_m_s: 0.0,
         }
     }
 }

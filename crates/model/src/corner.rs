@@ -6,7 +6,8 @@ use airsus_data::{EffectiveAreaLaw, GasVolumeLaw, TruckParameters, ValveFlowLaw}
 
 use crate::model::{InitialCondition, InputSample, ModelError};
 use crate::submodels::{
-    Damper, air_amount_mol, first_upward_crossing_m, lever_gain, pressure_abs_pa, sensor_height_m,
+    Damper, Tire, air_amount_mol, first_upward_crossing_m, lever_gain, pressure_abs_pa,
+    sensor_height_m,
 };
 
 /// Smallest sprung mass a model uses, kg. A wheel load below the unsprung mass (a wheel
@@ -39,7 +40,7 @@ pub(crate) struct Corner {
     pub lever_compliance_m_per_n: f64,
     pub unsprung_kg: f64,
     pub lever_inertia_kg_m2: f64,
-    pub tire_n_per_m: f64,
+    pub tire: Tire,
     pub friction_n_s_per_m: f64,
     pub area: EffectiveAreaLaw,
     pub volume: GasVolumeLaw,
@@ -74,7 +75,7 @@ impl Corner {
             lever_compliance_m_per_n: g.lever_compliance_m_per_n,
             unsprung_kg: truck.mass.unsprung_kg,
             lever_inertia_kg_m2: truck.mass.lever_inertia_kg_m2,
-            tire_n_per_m: truck.tire.stiffness_n_per_m,
+            tire: Tire::new(&truck.tire),
             friction_n_s_per_m: truck.bellow.hinge_friction_n_s_per_m,
             area: truck.bellow.effective_area.clone(),
             volume: truck.bellow.gas_volume.clone(),
@@ -279,7 +280,7 @@ impl Corner {
         Ok(Equilibrium {
             bellow_height_m,
             amount_mol: air_amount_mol(p_abs, volume, 1.0, self.rt_j_mol),
-            tire_compression_m: load * self.gravity_m_s2 / self.tire_n_per_m,
+            tire_compression_m: self.tire.static_compression_m(load * self.gravity_m_s2),
             bellow_gauge_pa: gauge_pa,
         })
     }

@@ -37,7 +37,6 @@ use crate::model::{
     SuspensionModel,
 };
 use crate::params::{Field, TruckParams};
-use crate::submodels::tire_force_n;
 
 const NAME: &str = "m1";
 const STATES: &[StateInfo] = &[
@@ -64,6 +63,7 @@ const FIELDS: &[Field] = &[
     Field::FillResistance,
     Field::ExhaustResistance,
     Field::DamperScale,
+    Field::TireDamping,
 ];
 
 /// Model 1 (QCM 1). Build with [`Model1::new`] or `build_model("m1", ..)`.
@@ -127,7 +127,9 @@ impl SuspensionModel for Model1 {
         let v_rel = x[2] - x[3];
         let f_damper = c.damper_gain * c.damper.force_n(c.damper_gain * v_rel);
         let f_friction = c.friction_n_s_per_m * v_rel;
-        let f_tire = tire_force_n(c.tire_n_per_m, u.road_height_m - x[1]);
+        let f_tire = c
+            .tire
+            .force_n(u.road_height_m - x[1], u.road_rate_m_s - x[3]);
         let internal = c.lever_gain * f_ab - f_damper - f_friction;
         dx[0] = x[2];
         dx[1] = x[3];

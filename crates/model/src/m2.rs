@@ -96,7 +96,6 @@ use crate::model::{
     SuspensionModel,
 };
 use crate::params::{Field, TruckParams};
-use crate::submodels::tire_force_n;
 
 /// Sprung mass at the thesis' initial condition (data-set 1; SPEC §5), kg: the load at which
 /// the default `k_sd` of `m2x` is one tenth of the bellow force (thesis Table 5.9).
@@ -325,7 +324,11 @@ impl SuspensionModel for Model2 {
         let (f_ab, p_abs) = c.bellow_force_n(h_b, x[4]);
         let f_slow = self.slow_force_n(x, u);
         let axle_height_m = x[0] - c.h0_m - c.l1_m * sin_a;
-        let f_tire = tire_force_n(c.tire_n_per_m, u.road_height_m - axle_height_m);
+        let axle_velocity_m_s = x[2] - c.l1_m * cos_a * alpha_dot;
+        let f_tire = c.tire.force_n(
+            u.road_height_m - axle_height_m,
+            u.road_rate_m_s - axle_velocity_m_s,
+        );
         let f_damper = c.damper.force_n(c.l13_m * cos_a * alpha_dot);
         let f_friction = c.friction_n_s_per_m * c.l1_m * cos_a * alpha_dot;
         let forces = LeverForces {

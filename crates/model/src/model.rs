@@ -11,7 +11,8 @@
 use airsus_data::{LawFamily, TruckParameters, ValveState};
 
 /// Inputs at one instant (SPEC §3: `m_tot`, `u`, `p_supply`, `z_r`). The simulator holds them
-/// constant between samples (zero-order hold) and restarts the solver where they jump.
+/// constant between samples (zero-order hold) and restarts the solver where they jump; the
+/// road it follows linearly by default, and then gives its rate too.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InputSample {
     /// `m_tot`: the mass a scale under the wheel shows, kg.
@@ -21,6 +22,9 @@ pub struct InputSample {
     pub supply_gauge_pa: f64,
     /// Road height under the wheel, m (0 = level road).
     pub road_height_m: f64,
+    /// Rate of the road height, m/s: what a tire's damper feels (0 where the road is held
+    /// between samples or not known, as in a single sample).
+    pub road_rate_m_s: f64,
 }
 
 /// The two measured quantities a model predicts.

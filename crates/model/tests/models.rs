@@ -39,7 +39,7 @@ fn each_model_exposes_its_parameter_subset_with_units_and_bounds() {
         names(m1.as_ref()),
         [
             "p0", "p1", "p2", "p3", "p4", "a0", "a1", "m2", "kf", "kw", "kscl", "rflow1", "rflow2",
-            "dscl"
+            "dscl", "cw"
         ]
     );
     let m2 = build_model("m2", &truck).unwrap();

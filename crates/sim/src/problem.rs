@@ -128,6 +128,9 @@ impl<'a> InputSeries<'a> {
             valve: self.valve[k],
             supply_gauge_pa: self.supply_gauge_pa[k],
             road_height_m: self.road_height_m[k],
+            // Held, the road does not move between samples; followed linearly, the solver
+            // gives the rate of the segment it is in.
+            road_rate_m_s: 0.0,
         }
     }
 }

@@ -430,13 +430,18 @@ struct Polyline<'a> {
 
 impl Polyline<'_> {
     fn value_at(&self, t: f64) -> f64 {
+        self.value_and_rate_at(t).0
+    }
+
+    /// The value and its rate (the slope of the segment `t` lies in; 0 beyond the ends).
+    fn value_and_rate_at(&self, t: f64) -> (f64, f64) {
         let (ts, hs) = (self.time_s, self.values);
         let last = ts.len() - 1;
         if t <= ts[0] {
-            return hs[0];
+            return (hs[0], 0.0);
         }
         if t >= ts[last] {
-            return hs[last];
+            return (hs[last], 0.0);
         }
         let mut k = self.cursor.get().min(last - 1);
         while k > 0 && ts[k] > t {
@@ -446,8 +451,9 @@ impl Polyline<'_> {
             k += 1;
         }
         self.cursor.set(k);
-        let w = (t - ts[k]) / (ts[k + 1] - ts[k]);
-        hs[k] + w * (hs[k + 1] - hs[k])
+        let (span, rise) = (ts[k + 1] - ts[k], hs[k + 1] - hs[k]);
+        let w = (t - ts[k]) / span;
+        (hs[k] + w * rise, rise / span)
     }
 }
 
@@ -456,7 +462,7 @@ impl<M: SuspensionModel + ?Sized> Shared<'_, M> {
         self.rhs_calls.set(self.rhs_calls.get() + 1);
         let mut input = self.input.get();
         if let Some(road) = &self.road {
-            input.road_height_m = road.value_at(t);
+            (input.road_height_m, input.road_rate_m_s) = road.value_and_rate_at(t);
         }
         if let Some(load) = &self.load {
             input.wheel_load_kg = load.value_at(t);
@@ -791,6 +797,7 @@ mod tests {
             valve,
             supply_gauge_pa: supply,
             road_height_m: road,
+            road_rate_m_s: 0.0,
         }
     }
 
@@ -851,19 +858,21 @@ mod tests {
             values: &h,
             cursor: Cell::new(0),
         };
-        for (at, want) in [
-            (-1.0, 0.0),
-            (0.05, 0.005),
-            (0.15, 0.0),
-            (0.25, -0.005),
-            (0.1, 0.01),
-            (0.02, 0.002),
-            (9.0, 0.0),
+        // (time, height, rate): the rate is the slope of the segment the time lies in, the
+        // one ahead at a sample, and 0 beyond the ends.
+        for (at, want, rate) in [
+            (-1.0, 0.0, 0.0),
+            (0.05, 0.005, 0.1),
+            (0.15, 0.0, -0.2),
+            (0.25, -0.005, 0.1),
+            (0.1, 0.01, -0.2),
+            (0.02, 0.002, 0.1),
+            (9.0, 0.0, 0.0),
         ] {
+            let (value, slope) = road.value_and_rate_at(at);
             assert!(
-                (road.value_at(at) - want).abs() < 1e-15,
-                "{at}: {}",
-                road.value_at(at)
+                (value - want).abs() < 1e-15 && (slope - rate).abs() < 1e-12,
+                "{at}: {value} {slope}"
             );
         }
     }

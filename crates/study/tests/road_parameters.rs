@@ -23,6 +23,7 @@ fn true_start(truck: &TruckParameters, run: &Run, wall_friction_n: f64) -> Initi
         valve: run.inputs.valve[0],
         supply_gauge_pa: run.inputs.supply_gauge_pa[0],
         road_height_m: run.inputs.road_height_m[0],
+        road_rate_m_s: 0.0,
     };
     let height = InitialCondition::SensorHeight {
         height_m: START_SENSOR_HEIGHT_M,
@@ -42,6 +43,39 @@ fn scores(model: &dyn SuspensionModel, run: &Run, start: &InitialState) -> [f64;
     [
         airsus_validate::nrmse_percent(&out.sensor_height_m, &sim.sensor_height_m).unwrap(),
         airsus_validate::nrmse_percent(&out.bellow_gauge_pa, &sim.bellow_gauge_pa).unwrap(),
+    ]
+}
+
+/// `name` of `model` fitted alone to `run` from `start`: the fit, which must have determined it.
+fn fit_one(
+    model: &dyn SuspensionModel,
+    name: &str,
+    run: &Run,
+    start: InitialState,
+) -> airsus_estimate::GreyboxEstimate {
+    let mut problem = GreyboxProblem::new(model, &[run], &[name]);
+    problem.start_states = vec![Some(start)];
+    let fit = estimate(&problem, &GreyboxOptions::default(), &mut NoProgress).unwrap();
+    assert!(!fit.is_not_identifiable(name), "{fit}");
+    fit
+}
+
+/// Held-out scores `[height, pressure]` of `model` as the file has it, with `name` set to
+/// `value`, and of the truck's truth: before, after, ceiling.
+fn held_out(
+    model: &dyn SuspensionModel,
+    (name, value): (&str, f64),
+    truth: &TruckParameters,
+    run: &Run,
+    start: &InitialState,
+) -> [[f64; 2]; 3] {
+    let mut fitted = model.box_clone();
+    fitted.set_parameter(name, value).unwrap();
+    let truth = build_any_model("truck", truth).unwrap();
+    [
+        scores(model, run, start),
+        scores(&*fitted, run, start),
+        scores(&*truth, run, start),
     ]
 }
 
@@ -75,9 +109,7 @@ fn a_road_run_determines_the_damper_scale_of_a_truck_whose_damper_differs_from_i
     // The damper takes no force at rest: the start does not depend on its scale.
     let start1 = true_start(&file, &road1.logged, -friction);
     let start2 = true_start(&file, &road2.logged, friction);
-    let mut problem = GreyboxProblem::new(&*model, &[&road1.logged], &["dscl"]);
-    problem.start_states = vec![Some(start1)];
-    let fit = estimate(&problem, &GreyboxOptions::default(), &mut NoProgress).unwrap();
+    let fit = fit_one(&*model, "dscl", &road1.logged, start1);
     let scale = fit.parameter("dscl").unwrap().estimate;
     // Measured: 1.1954 estimated, 1.1948 true.
     assert!(
@@ -87,17 +119,83 @@ fn a_road_run_determines_the_damper_scale_of_a_truck_whose_damper_differs_from_i
 
     // On the held-out ISO road the estimated scale brings the fit to the truth's. Measured
     // (height, pressure): 83.1, 84.3 % with the file's table; 96.7, 98.5 % estimated and true.
-    let mut fitted = model.box_clone();
-    fitted.set_parameter("dscl", scale).unwrap();
-    let before = scores(&*model, &road2.logged, &start2);
-    let after = scores(&*fitted, &road2.logged, &start2);
-    let truth = build_any_model("truck", &truck.physical).unwrap();
-    let ceiling = scores(&*truth, &road2.logged, &start2);
+    let [before, after, ceiling] = held_out(
+        &*model,
+        ("dscl", scale),
+        &truck.physical,
+        &road2.logged,
+        &start2,
+    );
     for (i, output) in ["height", "pressure"].iter().enumerate() {
         assert!(
             after[i] > ceiling[i] - 0.2 && after[i] > before[i] + 5.0,
             "road 2 {output}: {:.1} % with the file's table, {:.1} % estimated, truth {:.1} %",
             before[i],
+            after[i],
+            ceiling[i]
+        );
+    }
+}
+
+/// The tire's damping (#13 item 2), estimated from a road run of a truck whose tires damp
+/// (`c_w` 4 kN s/m, a damping ratio of about 0.07 on the wheel hop) where its file says they
+/// do not. The `truck` structure starts from the variant's truth except for the tire's
+/// damping, which the file leaves at the thesis' 0. Before the estimator scaled a parameter
+/// that starts from 0 by its usual magnitude (`ParameterInfo::typical`), its finite-difference
+/// step was 0.01 N s/m, below the solver's tolerance, and the fit stopped at 28 N s/m.
+#[test]
+fn a_road_run_determines_the_tire_damping_of_a_truck_whose_tires_damp() {
+    let mut truck = VirtualTruck::variant(1);
+    let true_damping = 4000.0;
+    truck.physical.tire.damping_n_s_per_m = true_damping;
+    let m2 = truck.physical.mass.unsprung_kg;
+    let friction = truck.effect_parameters.friction_force_n;
+    let road1 = run_experiment(&truck, &road_1(m2, 1), -friction, 7).unwrap();
+    let road2 = run_experiment(&truck, &road_2(m2, 1).unwrap(), friction, 8).unwrap();
+    truck.resolve_laws();
+    let mut file = truck.physical.clone();
+    file.tire.damping_n_s_per_m = 0.0;
+    let model = build_any_model("truck", &file).unwrap();
+    let start1 = true_start(&file, &road1.logged, -friction);
+    let start2 = true_start(&file, &road2.logged, friction);
+
+    // On a level road the tire's damper does nothing: the screen says so and what would.
+    let mut level = road1.logged.clone();
+    level.inputs.road_height_m.fill(0.0);
+    let mut standing = GreyboxProblem::new(&*model, &[&level], &["cw"]);
+    standing.start_states = vec![Some(start1.clone())];
+    let fit = estimate(&standing, &GreyboxOptions::default(), &mut NoProgress).unwrap();
+    assert!(fit.is_not_identifiable("cw"), "{fit}");
+    assert!(fit.to_string().contains("road input"), "{fit}");
+
+    let fit = fit_one(&*model, "cw", &road1.logged, start1);
+    println!("{fit}");
+    let damping = fit.parameter("cw").unwrap().estimate;
+    // Measured: 3,704 N s/m (4,141-4,151 with finite-difference steps 10-1000 times larger:
+    // the default step still leaves the fit short of the loss's minimum near 4,100).
+    assert!(
+        (damping / true_damping - 1.0).abs() < 0.15,
+        "tire damping {damping:.0} N s/m, true {true_damping}"
+    );
+
+    // On the held-out ISO road the estimate brings the fit to the truth's. Measured (height,
+    // pressure): 96.84, 97.92 % with the file's undamped tire; 97.12, 98.58 % estimated;
+    // 97.12, 98.59 % true.
+    let [before, after, ceiling] = held_out(
+        &*model,
+        ("cw", damping),
+        &truck.physical,
+        &road2.logged,
+        &start2,
+    );
+    println!(
+        "tire damping {damping:.0} N s/m (true {true_damping}); road 2 {before:.2?} with the file's tire, {after:.2?} estimated, {ceiling:.2?} true"
+    );
+    assert!(after[1] > before[1] + 0.5, "{before:?} {after:?}");
+    for (i, output) in ["height", "pressure"].iter().enumerate() {
+        assert!(
+            after[i] > ceiling[i] - 0.1,
+            "road 2 {output}: {:.2} % estimated, truth {:.2} %",
             after[i],
             ceiling[i]
         );

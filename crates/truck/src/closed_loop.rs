@@ -221,6 +221,7 @@ pub fn simulate_closed_loop(
         valve,
         supply_gauge_pa: config.supply_gauge_pa,
         road_height_m: scenario.road_height_m.get(k).copied().unwrap_or(0.0),
+        road_rate_m_s: 0.0,
     };
     let mut x = model.initial_state(
         &input(0, ValveState::Closed),

@@ -241,6 +241,7 @@ fn input_at(scenario: &Scenario, k: usize) -> InputSample {
         valve: scenario.valve[k],
         supply_gauge_pa: START_SUPPLY_GAUGE_PA,
         road_height_m: scenario.road_height_m[k],
+        road_rate_m_s: 0.0,
     }
 }
 

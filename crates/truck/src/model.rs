@@ -21,9 +21,7 @@
 use airsus_data::{EffectiveAreaLaw, GasVolumeLaw, TruckParameters, ValveFlowLaw, ValveState};
 use airsus_model::mechanics::{LeverBody, LeverForces, lever_accelerations};
 use airsus_model::params::{Field, LEVER_MODEL_FIELDS, TruckParams};
-use airsus_model::submodels::{
-    Damper, first_upward_crossing_m, lever_gain, sensor_height_m, tire_force_n,
-};
+use airsus_model::submodels::{Damper, Tire, first_upward_crossing_m, lever_gain, sensor_height_m};
 use airsus_model::{
     InitialCondition, InputSample, MIN_SPRUNG_MASS_KG, ModelError, NamedParameters, OutputSample,
     StateInfo, StateRole, SuspensionModel,
@@ -108,7 +106,7 @@ struct Consts {
     compliance: f64,
     unsprung_kg: f64,
     inertia: f64,
-    tire: f64,
+    tire: Tire,
     friction: f64,
     area: EffectiveAreaLaw,
     volume: GasVolumeLaw,
@@ -145,7 +143,7 @@ impl Consts {
             compliance: g.lever_compliance_m_per_n,
             unsprung_kg: p.mass.unsprung_kg,
             inertia: p.mass.lever_inertia_kg_m2,
-            tire: p.tire.stiffness_n_per_m,
+            tire: Tire::new(&p.tire),
             friction: p.bellow.hinge_friction_n_s_per_m,
             area: p.bellow.effective_area.clone(),
             volume: p.bellow.gas_volume.clone(),
@@ -246,7 +244,7 @@ impl TruckModel {
                 reason: "the lever cannot reach it".to_owned(),
             });
         }
-        let tire_compression = u.wheel_load_kg * c.g / c.tire;
+        let tire_compression = c.tire.static_compression_m(u.wheel_load_kg * c.g);
         let axle = u.road_height_m - tire_compression;
         let n = (gauge_pa + c.ambient_pa) * c.volume.volume_m3(&c.area, h_b) / c.rt;
         let supply_abs = u.supply_gauge_pa + c.ambient_pa;
@@ -378,8 +376,12 @@ impl SuspensionModel for TruckModel {
         let bellow = p_gauge * c.effective_area_m2(h_b, p_gauge) + creep_force - x[7];
 
         let axle_height_m = x[0] - c.h0_m - c.l1_m * sin_a;
+        let axle_velocity_m_s = x[2] - c.l1_m * cos_a * alpha_dot;
         let forces = LeverForces {
-            tire_n: tire_force_n(c.tire, u.road_height_m - axle_height_m),
+            tire_n: c.tire.force_n(
+                u.road_height_m - axle_height_m,
+                u.road_rate_m_s - axle_velocity_m_s,
+            ),
             bellow_n: bellow,
             damper_n: c.damper.force_n(c.l13_m * cos_a * alpha_dot),
             friction_n: c.friction * c.l1_m * cos_a * alpha_dot,

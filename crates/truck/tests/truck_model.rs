@@ -12,6 +12,7 @@ fn sample(load: f64, valve: ValveState) -> InputSample {
         valve,
         supply_gauge_pa: 850e3,
         road_height_m: 0.0,
+        road_rate_m_s: 0.0,
     }
 }
 

@@ -14,9 +14,9 @@ use crate::error::OrPy;
 
 /// The SPEC §5 short names, fixed so that scripts keep working. `ksd` is the slow-force scale
 /// of Model 2 extended (`slow_dynamics.force_scale_n_per_m`), its SPEC meaning.
-pub const TRUCK_NAMES: [&str; 17] = [
+pub const TRUCK_NAMES: [&str; 18] = [
     "p0", "p1", "p2", "p3", "p4", "a0", "a1", "m2", "ig", "kf", "kw", "kscl", "rflow1", "rflow2",
-    "ksd", "vd", "dscl",
+    "ksd", "vd", "dscl", "cw",
 ];
 
 /// The catalogue entry of a SPEC short name (the first entry of that name: for `ksd`, the

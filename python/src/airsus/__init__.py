@@ -275,7 +275,8 @@ class Truck:
     The names are ``p0``..``p4`` (effective area), ``a0``, ``a1`` (gas-volume
     cross-section), ``m2``, ``ig``, ``kf``, ``kw``, ``kscl``, ``rflow1``, ``rflow2``,
     ``ksd`` (slow-force scale of Model 2 extended; NaN when the file has none), ``vd`` (dead
-    volume of the ``area_integral`` volume law) and ``dscl`` (the damper table's scale). A
+    volume of the ``area_integral`` volume law), ``dscl`` (the damper table's scale) and
+    ``cw`` (the tire's damping, N s/m; 0 when the file has none, the thesis' tire). A
     name of a law the truck does not have (``a0`` under the area integral, ``vd`` under the
     thesis' law) reads as an error, and as NaN in :meth:`parameters`. Every other key of the
     file is kept as loaded and written back by :meth:`save`.
@@ -630,7 +631,8 @@ def greybox(
             :func:`read_run`), else ``run1``, ``run2``, ...
         free: the short names to estimate, a list or a comma-separated string (``p0``..``p4``,
             ``a0``, ``a1``, ``m2``, ``ig``, ``kf``, ``kw``, ``kscl``, ``rflow1``, ``rflow2``,
-            ``ksd``; ``tsd`` for ``m2xh``; ``dscl``, the damper table's scale). ``None``: the
+            ``ksd``; ``tsd`` for ``m2xh``; ``dscl``, the damper table's scale; ``cw``, the
+            tire's damping). ``None``: the
             model's default set (the ``default_free`` column of :func:`models`), plus the flow
             parameters and the gas volume's scale ``a0`` (``valve_free``) when a run has valve
             action, and ``road_free`` (the damper table's scale) when a run has road input.

@@ -268,6 +268,7 @@ impl TruckSimulator {
             valve,
             supply_gauge_pa: START_SUPPLY_GAUGE_PA,
             road_height_m: plan.road_height_m[k],
+            road_rate_m_s: 0.0,
         }
     }
 

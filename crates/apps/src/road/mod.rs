@@ -26,7 +26,7 @@ use std::path::Path;
 
 use airsus_data::atomic::write_atomically;
 use airsus_data::{TruckParameters, ValveState};
-use airsus_model::submodels::tire_force_n;
+use airsus_model::submodels::Tire;
 use airsus_model::{InitialCondition, SuspensionModel};
 use airsus_sim::{InitialState, InputSeries, Method, SimulationProblem, SolverOptions, simulate};
 
@@ -39,9 +39,10 @@ pub use profile::{
 /// Where the axle sits in a model's state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum AxleGeometry {
-    /// Model 1: the axle height is state `x2_m`.
-    Direct { index: usize },
-    /// Model 2 family and the truck: `y = x - h0 - l1 sin α`.
+    /// Model 1: the axle height is state `x2_m`, its velocity `v2_m_s`.
+    Direct { index: usize, velocity_index: usize },
+    /// Model 2 family and the truck: `y = x - h0 - l1 sin α` (states 0 and 1, their rates 2
+    /// and 3).
     Lever { h0_m: f64, l1_m: f64 },
 }
 
@@ -49,10 +50,14 @@ impl AxleGeometry {
     /// The axle geometry of `model` (by its state names), or an error for models without one.
     pub fn of(model: &dyn SuspensionModel, truck: &TruckParameters) -> Result<Self, AppError> {
         let names = model.state_names();
-        if let Some(index) = names.iter().position(|s| *s == "x2_m") {
-            return Ok(Self::Direct { index });
+        let at = |name: &str| names.iter().position(|s| *s == name);
+        if let (Some(index), Some(velocity_index)) = (at("x2_m"), at("v2_m_s")) {
+            return Ok(Self::Direct {
+                index,
+                velocity_index,
+            });
         }
-        if names.first() == Some(&"x_m") && names.get(1) == Some(&"alpha_rad") {
+        if names.starts_with(&["x_m", "alpha_rad", "xdot_m_s", "alphadot_rad_s"]) {
             return Ok(Self::Lever {
                 h0_m: truck.geometry.h0_m,
                 l1_m: truck.geometry.l1_m,
@@ -68,9 +73,35 @@ impl AxleGeometry {
 
     pub fn axle_height_m(&self, x: &[f64]) -> f64 {
         match *self {
-            Self::Direct { index } => x[index],
+            Self::Direct { index, .. } => x[index],
             Self::Lever { h0_m, l1_m } => x[0] - h0_m - l1_m * x[1].sin(),
         }
+    }
+
+    /// The axle's vertical velocity, m/s: `ẏ = ẋ - l1 cos α α̇` on the lever.
+    pub fn axle_velocity_m_s(&self, x: &[f64]) -> f64 {
+        match *self {
+            Self::Direct { velocity_index, .. } => x[velocity_index],
+            Self::Lever { l1_m, .. } => x[2] - l1_m * x[1].cos() * x[3],
+        }
+    }
+
+    /// The force `tire` puts on the axle in state `x` over a road at `road_m` moving at
+    /// `road_rate_m_s`, N.
+    pub fn tire_force_n(&self, tire: &Tire, x: &[f64], road_m: f64, road_rate_m_s: f64) -> f64 {
+        tire.force_n(
+            road_m - self.axle_height_m(x),
+            road_rate_m_s - self.axle_velocity_m_s(x),
+        )
+    }
+}
+
+/// The rate of a road sampled at `time_s` at sample `k`, m/s: the slope of the segment ahead,
+/// as the simulator follows it (0 at the last sample).
+pub fn road_rate_at(time_s: &[f64], road_m: &[f64], k: usize) -> f64 {
+    match (time_s.get(k..=k + 1), road_m.get(k..=k + 1)) {
+        (Some(t), Some(z)) => (z[1] - z[0]) / (t[1] - t[0]),
+        _ => 0.0,
     }
 }
 
@@ -156,11 +187,11 @@ pub fn simulate_road(
         .states
         .as_ref()
         .ok_or_else(|| invalid("simulation", "no states were recorded"))?;
-    let k_w = truck.tire.stiffness_n_per_m;
+    let wheel = Tire::new(&truck.tire);
     let tire: Vec<f64> = (0..n)
         .map(|k| {
             states.at(k).map_or(f64::NAN, |x| {
-                tire_force_n(k_w, road_m[k] - axle.axle_height_m(x))
+                axle.tire_force_n(&wheel, x, road_m[k], road_rate_at(time_s, road_m, k))
             })
         })
         .collect();

@@ -653,6 +653,7 @@ pub fn weigh_ekf(
         valve: run.inputs.valve[k],
         supply_gauge_pa: run.inputs.supply_gauge_pa[k],
         road_height_m: run.inputs.road_height_m[k],
+        road_rate_m_s: 0.0,
     };
     let mut ekf = LoadEkf::new(
         model,

@@ -28,4 +28,4 @@ pub use lever::{
     axle_height_from_bellow_m, bellow_height_from_angle_m, bellow_height_from_axle_m,
     bellow_height_from_sensor_m, lever_gain, sensor_height_m,
 };
-pub use tire::tire_force_n;
+pub use tire::Tire;

@@ -17,6 +17,7 @@ pub fn input(wheel_load_kg: f64) -> InputSample {
         valve: ValveState::Closed,
         supply_gauge_pa: 850e3,
         road_height_m: 0.0,
+        road_rate_m_s: 0.0,
     }
 }
 
