@@ -34,8 +34,9 @@ pub mod vr {
     pub const HEIGHT_MM: u32 = 3;
     pub const PRESSURE_KPA: u32 = 4;
     pub const INITIAL_HEIGHT_MM: u32 = 5;
+    pub const ROAD_RATE_MM_S: u32 = 6;
     /// The model's parameters follow in registry order.
-    pub const FIRST_PARAMETER: u32 = 6;
+    pub const FIRST_PARAMETER: u32 = 7;
     /// The only Integer.
     pub const VALVE: u32 = 0;
 }
@@ -46,6 +47,7 @@ pub const DEFAULT_WHEEL_LOAD_KG: f64 = 3390.0;
 pub const DEFAULT_VALVE: i32 = 0;
 pub const DEFAULT_SUPPLY_KPA: f64 = 850.0;
 pub const DEFAULT_ROAD_MM: f64 = 0.0;
+pub const DEFAULT_ROAD_RATE_MM_S: f64 = 0.0;
 
 /// The log categories the library offers (standard names, FMI 2.0 §2.2.4).
 pub const LOG_CATEGORIES: &[(&str, &str)] = &[
@@ -79,6 +81,8 @@ pub enum Role {
     Valve,
     Supply,
     Road,
+    /// The road height's rate: what a damped tire feels.
+    RoadRate,
     Height,
     Pressure,
     InitialHeight,
@@ -154,11 +158,11 @@ pub struct Variable {
 }
 
 /// Which inputs each output depends on at a communication point (direct feed-through), in
-/// input order `[wheel_load_kg, valve, supply_kpa, road_mm]`.
+/// input order `[wheel_load_kg, valve, supply_kpa, road_mm, road_rate_mm_s]`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Feedthrough {
-    pub height: [bool; 4],
-    pub pressure: [bool; 4],
+    pub height: [bool; 5],
+    pub pressure: [bool; 5],
 }
 
 /// The inputs' start values as a model input sample (SI units).
@@ -168,12 +172,12 @@ pub fn default_inputs() -> InputSample {
         valve: ValveState::Closed,
         supply_gauge_pa: DEFAULT_SUPPLY_KPA * airsus_data::units::PA_PER_KPA,
         road_height_m: m_from_mm(DEFAULT_ROAD_MM),
-        road_rate_m_s: 0.0,
+        road_rate_m_s: m_from_mm(DEFAULT_ROAD_RATE_MM_S),
     }
 }
 
 /// The FMU's variables in `<ModelVariables>` order (the ScalarVariable index of the n-th is
-/// n + 1): the four inputs, the two outputs, `initial_height_mm`, the model's parameters.
+/// n + 1): the five inputs, the two outputs, `initial_height_mm`, the model's parameters.
 pub fn variables(model: &dyn SuspensionModel, initial_height_mm: f64) -> Vec<Variable> {
     let real = |name: &str,
                 value_reference: u32,
@@ -245,6 +249,18 @@ pub fn variables(model: &dyn SuspensionModel, initial_height_mm: f64) -> Vec<Var
                 "mm",
             )
         },
+        Variable {
+            start: Some(DEFAULT_ROAD_RATE_MM_S),
+            ..real(
+                "road_rate_mm_s",
+                vr::ROAD_RATE_MM_S,
+                Causality::Input,
+                Variability::Continuous,
+                Role::RoadRate,
+                "Rate of the road height (its derivative): the road moves at it over a step; 0 holds the road",
+                "mm/s",
+            )
+        },
         real(
             "height_mm",
             vr::HEIGHT_MM,
@@ -305,8 +321,8 @@ pub fn variables(model: &dyn SuspensionModel, initial_height_mm: f64) -> Vec<Var
 /// when `kscl` happens to be 0, since a host may tune it).
 pub fn feedthrough(model: &dyn SuspensionModel, initial_height_mm: f64) -> Feedthrough {
     let mut ft = Feedthrough {
-        height: [true, false, false, false],
-        pressure: [false; 4],
+        height: [true, false, false, false, false],
+        pressure: [false; 5],
     };
     let u0 = default_inputs();
     let ic = InitialCondition::SensorHeight {
@@ -331,6 +347,10 @@ pub fn feedthrough(model: &dyn SuspensionModel, initial_height_mm: f64) -> Feedt
         },
         InputSample {
             road_height_m: u0.road_height_m + 0.01,
+            ..u0
+        },
+        InputSample {
+            road_rate_m_s: u0.road_rate_m_s + 0.1,
             ..u0
         },
     ];
@@ -450,8 +470,9 @@ pub fn model_description(
         index_of(Role::Valve),
         index_of(Role::Supply),
         index_of(Role::Road),
+        index_of(Role::RoadRate),
     ];
-    let dependencies = |flags: &[bool; 4]| {
+    let dependencies = |flags: &[bool; 5]| {
         let mut list: Vec<usize> = inputs
             .iter()
             .zip(flags)
@@ -574,17 +595,18 @@ mod tests {
             .join("\n");
         assert!(output.contains("initial=\"calculated\""), "{output}");
         assert!(!output.contains("start="), "{output}");
-        // Height feeds through from the wheel load (index 1) only, pressure from nothing.
+        // Height (index 6, after the five inputs) feeds through from the wheel load (index 1)
+        // only, pressure from nothing; neither from the road's rate (index 5).
         assert!(
-            xml.contains("<Unknown index=\"5\" dependencies=\"1\"/>"),
+            xml.contains("<Unknown index=\"6\" dependencies=\"1\"/>"),
             "{xml}"
         );
         assert!(
-            xml.contains("<Unknown index=\"6\" dependencies=\"\"/>"),
+            xml.contains("<Unknown index=\"7\" dependencies=\"\"/>"),
             "{xml}"
         );
         assert!(xml.contains(
-            "<InitialUnknowns>\n      <Unknown index=\"5\"/>\n      <Unknown index=\"6\"/>"
+            "<InitialUnknowns>\n      <Unknown index=\"6\"/>\n      <Unknown index=\"7\"/>"
         ));
         // Every unit is defined.
         for v in &p.variables {

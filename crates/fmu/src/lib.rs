@@ -26,6 +26,7 @@
 //! | `valve` | input | Integer | – | 0 closed, 1 fill, 2 exhaust |
 //! | `supply_kpa` | input | Real | kPa | supply (actuator tank) gauge pressure |
 //! | `road_mm` | input | Real | mm | road height under the wheel |
+//! | `road_rate_mm_s` | input | Real | mm/s | the road height's rate (default 0: held) |
 //! | `height_mm` | output | Real | mm | axle-to-chassis height (the sensor) |
 //! | `pressure_kpa` | output | Real | kPa | bellow gauge pressure |
 //! | `initial_height_mm` | parameter, fixed | Real | mm | sensor height of the starting equilibrium |
@@ -34,7 +35,10 @@
 //! ## Semantics
 //!
 //! * Inputs are held constant over a communication step (zero-order hold, as `airsus simulate`
-//!   holds a run's samples). Outputs are computed from the state and the current inputs (the
+//!   holds a run's samples), but for the road, which moves at `road_rate_mm_s` from `road_mm`
+//!   over the step (a host that feeds its road signal's derivative gets the road followed
+//!   linearly, as `airsus simulate` follows a run's road, and a damped tire, `cw`, feels the
+//!   rate; 0, the default, holds it). Outputs are computed from the state and the current inputs (the
 //!   sensor height feeds the wheel load through the lever flex, eq 3.14).
 //! * `fmi2ExitInitializationMode` puts the model in static equilibrium at `initial_height_mm`
 //!   under the inputs set at that moment — `airsus simulate --initial-height-mm`, i.e. what

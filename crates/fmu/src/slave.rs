@@ -32,7 +32,8 @@ use airsus_sim::{
 
 use crate::config::Prepared;
 use crate::description::{
-    DEFAULT_ROAD_MM, DEFAULT_SUPPLY_KPA, DEFAULT_WHEEL_LOAD_KG, Role, VarType, Variable,
+    DEFAULT_ROAD_MM, DEFAULT_ROAD_RATE_MM_S, DEFAULT_SUPPLY_KPA, DEFAULT_WHEEL_LOAD_KG, Role,
+    VarType, Variable,
 };
 
 /// Relative tolerance of every step: that of `airsus simulate`. A host's `fmi2SetupExperiment`
@@ -91,6 +92,9 @@ struct Inputs {
     valve: ValveState,
     supply_kpa: f64,
     road_mm: f64,
+    /// mm/s: the road moves at it over a step from `road_mm` (first-order extrapolation of a
+    /// host's road signal by its derivative); 0 holds the road.
+    road_rate_mm_s: f64,
 }
 
 impl Inputs {
@@ -100,6 +104,7 @@ impl Inputs {
             valve: ValveState::Closed,
             supply_kpa: DEFAULT_SUPPLY_KPA,
             road_mm: DEFAULT_ROAD_MM,
+            road_rate_mm_s: DEFAULT_ROAD_RATE_MM_S,
         }
     }
 
@@ -110,7 +115,7 @@ impl Inputs {
             valve: self.valve,
             supply_gauge_pa: self.supply_kpa * PA_PER_KPA,
             road_height_m: m_from_mm(self.road_mm),
-            road_rate_m_s: 0.0,
+            road_rate_m_s: m_from_mm(self.road_rate_mm_s),
         }
     }
 }
@@ -329,7 +334,12 @@ impl Slave {
         let load = [u.wheel_load_kg; 2];
         let valve = [u.valve; 2];
         let supply = [u.supply_gauge_pa; 2];
-        let road = [u.road_height_m; 2];
+        // The road from where the host set it, moving at its rate: the simulator follows it
+        // linearly over the step and hands the tire that rate (a held road when it is 0).
+        let road = [
+            u.road_height_m,
+            u.road_height_m + u.road_rate_m_s * (end - t),
+        ];
         let inputs =
             InputSeries::new(&times, &load, &valve, &supply, &road).map_err(|e| e.to_string())?;
         let options = SolverOptions::default()
@@ -363,6 +373,7 @@ impl Slave {
             Role::WheelLoad => Ok(self.d.inputs.wheel_load_kg),
             Role::Supply => Ok(self.d.inputs.supply_kpa),
             Role::Road => Ok(self.d.inputs.road_mm),
+            Role::RoadRate => Ok(self.d.inputs.road_rate_mm_s),
             Role::Height => Ok(mm_from_m(self.outputs()?.sensor_height_m)),
             Role::Pressure => Ok(self.outputs()?.bellow_gauge_pa / PA_PER_KPA),
             Role::InitialHeight => Ok(self.d.initial_height_mm),
@@ -393,7 +404,7 @@ impl Slave {
         let var = self.variable(VarType::Real, vr)?;
         let (role, name) = (var.role, var.name.clone());
         match role {
-            Role::WheelLoad | Role::Supply | Role::Road => {
+            Role::WheelLoad | Role::Supply | Role::Road | Role::RoadRate => {
                 self.require_input_phase(&name)?;
                 if !value.is_finite() || (role == Role::WheelLoad && value < 0.0) {
                     return Err(Failure::error(format!(
@@ -408,7 +419,8 @@ impl Slave {
                 match role {
                     Role::WheelLoad => self.d.inputs.wheel_load_kg = value,
                     Role::Supply => self.d.inputs.supply_kpa = value,
-                    _ => self.d.inputs.road_mm = value,
+                    Role::Road => self.d.inputs.road_mm = value,
+                    _ => self.d.inputs.road_rate_mm_s = value,
                 }
                 Ok(())
             }
@@ -667,6 +679,74 @@ mod tests {
                 "{model}: height {fh} %, pressure {fp} %"
             );
         }
+    }
+
+    /// A tire that damps feels the road's rate: given `road_rate_mm_s`, the FMU follows the
+    /// road as the simulator does (linearly between the host's samples) and matches it; with
+    /// the rate left at 0 it holds the road over each step, and the tire's damper never sees
+    /// the road move.
+    #[test]
+    fn a_damped_tire_follows_the_road_by_its_rate_as_the_simulator_does() {
+        let mut truck = TruckParameters::reference();
+        truck.tire.damping_n_s_per_m = 4000.0;
+        let config = ExportConfig::new("m2", &truck, DEFAULT_INITIAL_HEIGHT_MM).unwrap();
+        let dt = 0.01;
+        let n = 301;
+        let time: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+        // A 30 mm half-sine bump over 0.3 s from 0.5 s on.
+        let road_mm: Vec<f64> = time
+            .iter()
+            .map(|&t| {
+                let phase = (t - 0.5) / 0.3;
+                if (0.0..=1.0).contains(&phase) {
+                    30.0 * (std::f64::consts::PI * phase).sin()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let fmu_height = |with_rate: bool| {
+            let mut s = Slave::new(Prepared::new(config.clone()).unwrap());
+            initialise(&mut s);
+            let mut height = Vec::new();
+            for (k, &t) in time.iter().enumerate() {
+                s.set_real(vr::ROAD_MM, road_mm[k]).unwrap();
+                let rate = road_mm
+                    .get(k + 1)
+                    .map_or(0.0, |next| (next - road_mm[k]) / dt);
+                s.set_real(vr::ROAD_RATE_MM_S, if with_rate { rate } else { 0.0 })
+                    .unwrap();
+                height.push(s.get_real(vr::HEIGHT_MM).unwrap());
+                if k + 1 < n {
+                    s.do_step(t, dt).unwrap();
+                }
+            }
+            height
+        };
+        let load = vec![DEFAULT_WHEEL_LOAD_KG; n];
+        let valve = vec![ValveState::Closed; n];
+        let supply = vec![DEFAULT_SUPPLY_KPA * 1e3; n];
+        let road_m: Vec<f64> = road_mm.iter().map(|&z| m_from_mm(z)).collect();
+        let inputs = InputSeries::new(&time, &load, &valve, &supply, &road_m).unwrap();
+        let reference = Prepared::new(config.clone()).unwrap().model;
+        let problem = SimulationProblem::new(
+            &*reference,
+            inputs,
+            InitialState::Equilibrium(InitialCondition::SensorHeight {
+                height_m: m_from_mm(DEFAULT_INITIAL_HEIGHT_MM),
+            }),
+        );
+        let r = simulate(&problem).unwrap();
+        let h_ref: Vec<f64> = r.sensor_height_m.iter().map(|h| h * 1e3).collect();
+        let (followed, held) = (
+            nrmse_percent(&h_ref, &fmu_height(true)),
+            nrmse_percent(&h_ref, &fmu_height(false)),
+        );
+        assert!(followed > 99.9, "with the rate: {followed} %");
+        assert!(
+            held < followed - 1.0,
+            "held {held} %, followed {followed} %"
+        );
     }
 
     /// NRMSE in percent (eq 3.33), here to keep `airsus-validate` out of the dependencies.

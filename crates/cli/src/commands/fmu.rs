@@ -95,7 +95,7 @@ pub fn run(args: &FmuArgs) -> anyhow::Result<()> {
         size as f64 / 1e6,
         prepared.guid
     );
-    eprintln!("  inputs: wheel_load_kg, valve (0/1/2), supply_kpa, road_mm");
+    eprintln!("  inputs: wheel_load_kg, valve (0/1/2), supply_kpa, road_mm, road_rate_mm_s");
     eprintln!("  outputs: height_mm, pressure_kpa");
     eprintln!(
         "  parameters: initial_height_mm = {} (fixed); tunable: {}",
