@@ -659,17 +659,7 @@ mod tests {
                 }
             }
             let inputs = InputSeries::new(&time, &load, &valve, &supply, &road).unwrap();
-            let reference = s.prepared().model.clone();
-            let problem = SimulationProblem::new(
-                &*reference,
-                inputs,
-                InitialState::Equilibrium(InitialCondition::SensorHeight {
-                    height_m: m_from_mm(DEFAULT_INITIAL_HEIGHT_MM),
-                }),
-            );
-            let r = simulate(&problem).unwrap();
-            let h_ref: Vec<f64> = r.sensor_height_m.iter().map(|h| h * 1e3).collect();
-            let p_ref: Vec<f64> = r.bellow_gauge_pa.iter().map(|p| p / 1e3).collect();
+            let (h_ref, p_ref) = simulated(&*s.prepared().model, inputs);
             let (fh, fp) = (
                 nrmse_percent(&h_ref, &height),
                 nrmse_percent(&p_ref, &pressure),
@@ -728,16 +718,7 @@ mod tests {
         let supply = vec![DEFAULT_SUPPLY_KPA * 1e3; n];
         let road_m: Vec<f64> = road_mm.iter().map(|&z| m_from_mm(z)).collect();
         let inputs = InputSeries::new(&time, &load, &valve, &supply, &road_m).unwrap();
-        let reference = Prepared::new(config.clone()).unwrap().model;
-        let problem = SimulationProblem::new(
-            &*reference,
-            inputs,
-            InitialState::Equilibrium(InitialCondition::SensorHeight {
-                height_m: m_from_mm(DEFAULT_INITIAL_HEIGHT_MM),
-            }),
-        );
-        let r = simulate(&problem).unwrap();
-        let h_ref: Vec<f64> = r.sensor_height_m.iter().map(|h| h * 1e3).collect();
+        let (h_ref, _) = simulated(&*Prepared::new(config.clone()).unwrap().model, inputs);
         let (followed, held) = (
             nrmse_percent(&h_ref, &fmu_height(true)),
             nrmse_percent(&h_ref, &fmu_height(false)),
@@ -747,6 +728,23 @@ mod tests {
             held < followed - 1.0,
             "held {held} %, followed {followed} %"
         );
+    }
+
+    /// Height (mm) and pressure (kPa) of one simulation of `inputs` from the FMU's default
+    /// start: what stepping the FMU must reproduce.
+    fn simulated(model: &dyn SuspensionModel, inputs: InputSeries<'_>) -> (Vec<f64>, Vec<f64>) {
+        let problem = SimulationProblem::new(
+            model,
+            inputs,
+            InitialState::Equilibrium(InitialCondition::SensorHeight {
+                height_m: m_from_mm(DEFAULT_INITIAL_HEIGHT_MM),
+            }),
+        );
+        let r = simulate(&problem).unwrap();
+        (
+            r.sensor_height_m.iter().map(|h| h * 1e3).collect(),
+            r.bellow_gauge_pa.iter().map(|p| p / 1e3).collect(),
+        )
     }
 
     /// NRMSE in percent (eq 3.33), here to keep `airsus-validate` out of the dependencies.
