@@ -410,7 +410,14 @@ impl LoadEkf {
         let (mut k1, mut k2, mut k3, mut k4) =
             (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let mut tmp = vec![0.0; n];
-        let mut t = self.time_s;
+        let t0 = self.time_s;
+        let mut t = t0;
+        // The road moves at its rate over the interval (linear between the logged samples, as
+        // the simulator follows it); the other inputs are held.
+        let at = |t: f64| InputSample {
+            road_height_m: u.road_height_m + u.road_rate_m_s * (t - t0),
+            ..u
+        };
         // The hysteresis is held through the prediction (its rates zeroed in every stage) and
         // moved after the correction (`play_hysteresis`).
         let hold = |k: &mut [f64]| {
@@ -419,22 +426,22 @@ impl LoadEkf {
             }
         };
         for _ in 0..self.tuning.substeps {
-            self.model.rhs(t, &x, &u, &mut k1);
+            self.model.rhs(t, &x, &at(t), &mut k1);
             hold(&mut k1);
             for i in 0..n {
                 tmp[i] = x[i] + 0.5 * h * k1[i];
             }
-            self.model.rhs(t + 0.5 * h, &tmp, &u, &mut k2);
+            self.model.rhs(t + 0.5 * h, &tmp, &at(t + 0.5 * h), &mut k2);
             hold(&mut k2);
             for i in 0..n {
                 tmp[i] = x[i] + 0.5 * h * k2[i];
             }
-            self.model.rhs(t + 0.5 * h, &tmp, &u, &mut k3);
+            self.model.rhs(t + 0.5 * h, &tmp, &at(t + 0.5 * h), &mut k3);
             hold(&mut k3);
             for i in 0..n {
                 tmp[i] = x[i] + h * k3[i];
             }
-            self.model.rhs(t + h, &tmp, &u, &mut k4);
+            self.model.rhs(t + h, &tmp, &at(t + h), &mut k4);
             hold(&mut k4);
             for i in 0..n {
                 x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
@@ -502,7 +509,8 @@ impl LoadEkf {
     }
 
     /// One filter cycle: predict over `dt` under the input `u` (held over the interval, as the
-    /// logger recorded it), then correct with the reading taken at the end of it.
+    /// logger recorded it, but for the road, which moves at `u.road_rate_m_s` from
+    /// `u.road_height_m`), then correct with the reading taken at the end of it.
     pub fn step(
         &mut self,
         dt: f64,
@@ -648,12 +656,17 @@ pub fn weigh_ekf(
     if run.is_empty() {
         return Err(invalid("run", "it has no samples"));
     }
+    let road = &run.inputs.road_height_m;
+    // The inputs over (t_k, t_k+1]: the road from its sample k towards sample k+1.
     let input = |k: usize| InputSample {
         wheel_load_kg: 0.0,
         valve: run.inputs.valve[k],
         supply_gauge_pa: run.inputs.supply_gauge_pa[k],
-        road_height_m: run.inputs.road_height_m[k],
-        road_rate_m_s: 0.0,
+        road_height_m: road[k],
+        road_rate_m_s: match (road.get(k + 1), run.time_s.get(k + 1)) {
+            (Some(next), Some(t_next)) => (next - road[k]) / (t_next - run.time_s[k]),
+            _ => 0.0,
+        },
     };
     let mut ekf = LoadEkf::new(
         model,
