@@ -50,7 +50,7 @@ DEFAULT_MODELS = ("m1", "m2", "truck")
 # constant term (eq 5.1), present in every lever model; +10 % changes the pressure swing of a
 # valve pulse by about as much.
 PARAMETER = ("a0", "bellow", "cross_section_m2", 0, 1.10)
-INPUTS = ("wheel_load_kg", "valve", "supply_kpa", "road_mm")
+INPUTS = ("wheel_load_kg", "valve", "supply_kpa", "road_mm", "road_rate_mm_s")
 OUTPUTS = ("height_mm", "pressure_kpa")
 
 
@@ -79,6 +79,11 @@ def read_run(path: Path) -> dict[str, np.ndarray]:
             run[name] = np.array([float(r[name]) for r in rows])
     run["valve"] = np.array([int(float(r["valve"])) for r in rows], dtype=np.int32)
     run.setdefault("road_mm", np.zeros(len(rows)))
+    # The FMU moves the road at this rate over a step: the slope towards the next sample, as
+    # `airsus simulate` follows a run's road (0 at the last sample).
+    rate = np.zeros(len(rows))
+    rate[:-1] = np.diff(run["road_mm"]) / np.diff(run["time_s"])
+    run["road_rate_mm_s"] = rate
     return run
 
 
@@ -98,6 +103,7 @@ def input_signals(run: dict[str, np.ndarray]) -> np.ndarray:
         ("valve", np.int32),
         ("supply_kpa", np.float64),
         ("road_mm", np.float64),
+        ("road_rate_mm_s", np.float64),
     ]
     signals = np.zeros(len(run["time_s"]), dtype=dtype)
     signals["time"] = run["time_s"]

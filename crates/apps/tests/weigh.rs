@@ -702,7 +702,7 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
 /// class C road at 50 km/h), at a steady load, on seeds the study did not see. The filter
 /// follows the road linearly between the logged samples, as the simulator and the truck do;
 /// held as a staircase, each 100 ms road sample was a step into the tire, and the load read
-/// 4.5-7.4 % off on the variants' seed-1 road runs.
+/// up to 8.5 % off (variant 0's road 1 here; 4.5-7.4 % on the variants' seed-1 road runs).
 #[test]
 fn ekf_weighs_a_driving_truck_over_humps_and_a_rough_road() {
     use airsus_truck::scenario::{road_1, road_2};
@@ -725,16 +725,7 @@ fn ekf_weighs_a_driving_truck_over_humps_and_a_rough_road() {
             ),
         ];
         for (name, run, start, max_percent) in runs {
-            let weighed = variant.ekf(&run.logged, start);
-            let truth = &run.truth.inputs.wheel_load_kg;
-            let errors: Vec<f64> = weighed
-                .wheel_load_kg
-                .iter()
-                .zip(truth)
-                .map(|(w, t)| 100.0 * (w - t) / t)
-                .collect();
-            let max = errors.iter().fold(0.0_f64, |m, e| m.max(e.abs()));
-            let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+            let (max, rms) = percent_errors(&variant.ekf(&run.logged, start), &run);
             println!("variant {k}, {name}: max {max:.3} %, rms {rms:.3} %");
             assert!(
                 max < max_percent && rms < 0.5,
@@ -742,6 +733,44 @@ fn ekf_weighs_a_driving_truck_over_humps_and_a_rough_road() {
             );
         }
     }
+}
+
+/// Max and rms of the error (% of the true load) over every sample of `run`.
+fn percent_errors(
+    weighed: &WeighSeries,
+    run: &airsus_truck::experiments::GeneratedRun,
+) -> (f64, f64) {
+    let errors: Vec<f64> = weighed
+        .wheel_load_kg
+        .iter()
+        .zip(&run.truth.inputs.wheel_load_kg)
+        .map(|(w, t)| 100.0 * (w - t) / t)
+        .collect();
+    let max = errors.iter().fold(0.0_f64, |m, e| m.max(e.abs()));
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+    (max, rms)
+}
+
+/// A truck whose tires damp (4 kN s/m), driving on a rough road: the filter whose model knows the
+/// tire's damping, fed the road's rate, reads the load closer than one whose tire is the
+/// thesis' undamped spring (the rate reaches the tire through the filter's prediction).
+#[test]
+fn ekf_with_a_damped_tire_feels_the_road_rate() {
+    use airsus_truck::scenario::road_2;
+    let mut variant = StudiedVariant::new(0);
+    variant.truck.physical.tire.damping_n_s_per_m = 4000.0;
+    let (m2, friction) = (variant.unsprung_kg, variant.friction_n);
+    let run = run_experiment(&variant.truck, &road_2(m2, 5).unwrap(), friction, 5).unwrap();
+    let undamped = percent_errors(&variant.ekf(&run.logged, HysteresisStart::Raised), &run);
+    variant.estimate.tire.damping_n_s_per_m = 4000.0;
+    let damped = percent_errors(&variant.ekf(&run.logged, HysteresisStart::Raised), &run);
+    println!(
+        "undamped filter: max {:.3} % rms {:.3} %; damped: max {:.3} % rms {:.3} %",
+        undamped.0, undamped.1, damped.0, damped.1
+    );
+    // Measured (rms): 0.055 % against 0.079 % undamped; 0.063 % when the filter's tire is
+    // damped but not told the road's rate.
+    assert!(damped.1 < 0.75 * undamped.1, "{damped:?} {undamped:?}");
 }
 
 /// A run that starts at rest with an unknown wall friction: the friction and the load trade off

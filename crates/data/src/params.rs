@@ -50,8 +50,9 @@ pub struct ParameterInfo {
     /// What data determine it, for the message when a run set does not (empty: not said).
     pub needs: &'static str,
     /// The magnitude its values usually have, in its unit, for a parameter whose file value
-    /// may be 0 (an effect the thesis leaves out): the estimator's scale where it starts from
-    /// 0. `None`: a thousandth of the range.
+    /// may be 0 (an effect the thesis leaves out): the floor of the estimator's scale and of
+    /// its multi-start spread. `None`: the nominal value's magnitude, or a thousandth of the
+    /// range where that is 0.
     pub typical: Option<f64>,
 }
 

@@ -981,7 +981,7 @@ pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
         unsupported(
             c,
             "fmi2SetRealInputDerivatives",
-            "canInterpolateInputs is false: inputs are held constant over each step",
+            "canInterpolateInputs is false: inputs are held over each step (the road moves at road_rate_mm_s)",
         )
     }
 }

@@ -36,9 +36,9 @@
 //!
 //! * Inputs are held constant over a communication step (zero-order hold, as `airsus simulate`
 //!   holds a run's samples), but for the road, which moves at `road_rate_mm_s` from `road_mm`
-//!   over the step (a host that feeds its road signal's derivative gets the road followed
-//!   linearly, as `airsus simulate` follows a run's road, and a damped tire, `cw`, feels the
-//!   rate; 0, the default, holds it). Outputs are computed from the state and the current inputs (the
+//!   over the step (a host that feeds the slope towards its next road sample gets the road
+//!   followed linearly, as `airsus simulate` follows a run's road, and a damped tire, `cw`,
+//!   feels the rate; 0, the default, holds it). Outputs are computed from the state and the current inputs (the
 //!   sensor height feeds the wheel load through the lever flex, eq 3.14).
 //! * `fmi2ExitInitializationMode` puts the model in static equilibrium at `initial_height_mm`
 //!   under the inputs set at that moment — `airsus simulate --initial-height-mm`, i.e. what
@@ -74,10 +74,10 @@ pub const MODEL_IDENTIFIER: &str = "airsus_fmu";
 
 /// Bumped whenever the variables, value references or resources format change, so that a
 /// binary and an exporter of different layouts never pass for each other.
-pub const LAYOUT_VERSION: u32 = 1;
+pub const LAYOUT_VERSION: u32 = 2;
 
 /// A string the FMU library carries and `airsus fmu` looks for before packing a library: the
 /// crate version and the layout. (`LAYOUT_VERSION` is repeated literally here: `concat!` takes
 /// literals only.)
 pub const BUILD_MARKER: &str =
-    concat!("airsus-fmu-build:", env!("CARGO_PKG_VERSION"), ":layout-1;");
+    concat!("airsus-fmu-build:", env!("CARGO_PKG_VERSION"), ":layout-2;");

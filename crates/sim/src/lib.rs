@@ -15,9 +15,11 @@
 //! ```
 //!
 //! Integration uses diffsol's adaptive solvers (BDF by default). Inputs are held constant
-//! between samples (zero-order hold); the solver restarts cleanly where an input that matters
-//! changes: wheel load, road height, valve state always; supply pressure only while the valve
-//! fills (see [`SupplyRelevance`] and the [`solve`] module docs).
+//! between samples (zero-order hold), but for the road, which is followed linearly and gives
+//! the model its rate (`RoadInput::Linear`, the default); the solver restarts cleanly where an
+//! input that matters changes: wheel load and valve state always, the road where it starts or
+//! stops moving, supply pressure only while the valve fills (see [`SupplyRelevance`] and the
+//! [`solve`] module docs).
 //!
 //! [`tank`] simulates the lab's tank discharge (the rig and the orifice fit share it).
 //!

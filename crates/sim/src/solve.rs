@@ -433,15 +433,25 @@ impl Polyline<'_> {
         self.value_and_rate_at(t).0
     }
 
-    /// The value and its rate (the slope of the segment `t` lies in; 0 beyond the ends).
+    /// The value and its rate: the slope of the segment `t` lies in (at a sample, the one
+    /// ahead; at the first and last sample, the first and last segment's), 0 beyond the ends.
     fn value_and_rate_at(&self, t: f64) -> (f64, f64) {
         let (ts, hs) = (self.time_s, self.values);
         let last = ts.len() - 1;
+        let slope = |k: usize| {
+            if last == 0 {
+                0.0
+            } else {
+                (hs[k + 1] - hs[k]) / (ts[k + 1] - ts[k])
+            }
+        };
+        // The ends give the sample's own value (exactly, not interpolated); their rate is
+        // that of the road there, which a two-sample series (an FMU step) sees at both ends.
         if t <= ts[0] {
-            return (hs[0], 0.0);
+            return (hs[0], if t == ts[0] { slope(0) } else { 0.0 });
         }
         if t >= ts[last] {
-            return (hs[last], 0.0);
+            return (hs[last], if t == ts[last] { slope(last - 1) } else { 0.0 });
         }
         let mut k = self.cursor.get().min(last - 1);
         while k > 0 && ts[k] > t {
@@ -859,9 +869,11 @@ mod tests {
             cursor: Cell::new(0),
         };
         // (time, height, rate): the rate is the slope of the segment the time lies in, the
-        // one ahead at a sample, and 0 beyond the ends.
+        // one ahead at a sample, the end segments' at the ends, and 0 beyond them.
         for (at, want, rate) in [
             (-1.0, 0.0, 0.0),
+            (0.0, 0.0, 0.1),
+            (0.3, 0.0, 0.1),
             (0.05, 0.005, 0.1),
             (0.15, 0.0, -0.2),
             (0.25, -0.005, 0.1),

@@ -401,7 +401,8 @@ impl LoadEkf {
         }
     }
 
-    /// `Φ(z)`: RK4 over `dt` with the input held; the load is constant.
+    /// `Φ(z)`: RK4 over `dt` with the input held but for the road, which moves at its rate;
+    /// the load is constant.
     fn propagate(&self, z: &[f64], u: &InputSample, dt: f64) -> Vec<f64> {
         let n = z.len() - 1;
         let u = self.input_with_load(u, z);

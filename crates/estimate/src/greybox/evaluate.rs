@@ -187,15 +187,16 @@ impl<'a> Evaluator<'a> {
                     "the nominal value {nominal} lies outside the bounds [{lower}, {upper}]"
                 )));
             }
-            // Relative to the nominal, or where that is 0 (an effect the file leaves out) to
-            // the parameter's usual magnitude: a scale that is a sliver of it makes the
-            // finite-difference step move the outputs less than the solver's tolerance, and
-            // the screen's "undetermined" threshold meaningless (the tire's damping from 0:
-            // a step of 0.01 N s/m, and a fit that stopped at 28 N s/m of a true 4000).
-            let scale = if nominal != 0.0 {
-                nominal.abs()
-            } else {
-                info.typical.unwrap_or(1e-3 * (upper - lower))
+            // Relative to the nominal, but never below the parameter's usual magnitude where it
+            // declares one (an effect a file may leave at or near 0): a scale that is a sliver
+            // of it makes the finite-difference step move the outputs less than the solver's
+            // tolerance, and the screen's "undetermined" threshold meaningless (the tire's
+            // damping from 0 with a thousandth of its range: a step of 0.01 N s/m, and a fit
+            // that stopped at 28 N s/m of a true 4000).
+            let scale = match info.typical {
+                Some(typical) => nominal.abs().max(typical),
+                None if nominal != 0.0 => nominal.abs(),
+                None => 1e-3 * (upper - lower),
             };
             params.push(Resolved {
                 name: free.name.clone(),

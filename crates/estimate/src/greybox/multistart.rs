@@ -71,7 +71,13 @@ fn design(problem: &GreyboxProblem<'_>, ms: &MultiStart) -> Vec<Vec<(String, f64
         };
         let lower = free.lower.unwrap_or(info.lower);
         let upper = free.upper.unwrap_or(info.upper);
-        let half = ms.spread * nominal.abs().max(1e-3 * (upper - lower));
+        // As the estimator scales it (`Evaluator::new`): by its usual magnitude where one is
+        // declared, else by the nominal, floored at a thousandth of the range.
+        let scale = match info.typical {
+            Some(typical) => nominal.abs().max(typical),
+            None => nominal.abs().max(1e-3 * (upper - lower)),
+        };
+        let half = ms.spread * scale;
         let (lo, hi) = ((nominal - half).max(lower), (nominal + half).min(upper));
         // One stratum per start after the nominal one, in random order.
         let n = ms.count - 1;
