@@ -40,6 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 &s.std_kg,
                 &truth.inputs.wheel_load_kg,
                 &run.inputs.valve,
+                Some(&run.inputs.road_height_m),
                 &rule,
             )?;
             let t0 = Instant::now();
@@ -56,6 +57,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 &e.std_kg,
                 &truth.inputs.wheel_load_kg,
                 &run.inputs.valve,
+                Some(&run.inputs.road_height_m),
                 &rule,
             )?;
             for (m, acc) in [("static", &a), ("ekf", &b)] {

@@ -66,6 +66,7 @@ fn score(run: &Run, truth: &[f64], s: &WeighSeries) -> AccuracySummary {
         &s.std_kg,
         truth,
         &run.inputs.valve,
+        Some(&run.inputs.road_height_m),
         &StandstillRule::default(),
     )
     .unwrap()

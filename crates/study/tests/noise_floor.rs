@@ -142,6 +142,7 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
             &series.std_kg,
             &truth.inputs.wheel_load_kg,
             &logged.inputs.valve,
+            Some(&logged.inputs.road_height_m),
             &StandstillRule::default(),
         )
         .unwrap();

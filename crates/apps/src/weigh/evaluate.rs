@@ -6,7 +6,10 @@
 //! was open at some time in the `after_valve_window_s` before that settling period, and
 //! **quiet** otherwise. A sample is **during valve activity** when the valve is open or closed
 //! less than `settle_s` ago while the load has been steady for `load_settle_s` (a levelling
-//! controller at work after a load change: what the estimate reads while the air moves).
+//! controller at work after a load change: what the estimate reads while the air moves). A
+//! sample is **driving** when the road under the wheel moved less than `settle_s` ago while
+//! the load has been steady for `load_settle_s` (when the run logs the road): it is no
+//! standstill, whatever the valve did.
 
 use airsus_data::ValveState;
 
@@ -64,6 +67,8 @@ pub struct AccuracySummary {
     pub after_valve: ErrorStats,
     /// Samples with the valve open or closed less than `settle_s` ago, the load steady.
     pub valve_activity: ErrorStats,
+    /// Samples with the road moving or moved less than `settle_s` ago, the load steady.
+    pub driving: ErrorStats,
     /// Mean standstill error per true load level (rounded to 10 kg): `(load_kg, stats)`.
     pub by_load_level: Vec<(f64, ErrorStats)>,
 }
@@ -101,23 +106,26 @@ fn stats(idx: &[usize], est: &[f64], truth: &[f64], std: &[f64]) -> ErrorStats {
     s
 }
 
-/// Scores `estimate_kg` (with its standard deviation `std_kg`) against `true_kg`.
+/// Scores `estimate_kg` (with its standard deviation `std_kg`) against `true_kg`; `road_m`,
+/// the road under the wheel where the run logs it, tells driving from standing.
 pub fn evaluate_weighing(
     time_s: &[f64],
     estimate_kg: &[f64],
     std_kg: &[f64],
     true_kg: &[f64],
     valve: &[ValveState],
+    road_m: Option<&[f64]>,
     rule: &StandstillRule,
 ) -> Result<AccuracySummary, AppError> {
     let n = time_s.len();
     if [estimate_kg.len(), std_kg.len(), true_kg.len(), valve.len()]
         .iter()
+        .chain(road_m.map(<[f64]>::len).as_ref())
         .any(|&l| l != n)
     {
         return Err(invalid(
             "evaluation signals",
-            "time, estimate, std, true load and valve must have the same length",
+            "time, estimate, std, true load, valve and road must have the same length",
         ));
     }
     if let Some(k) = true_kg.iter().position(|m| !(m.is_finite() && *m > 0.0)) {
@@ -131,7 +139,8 @@ pub fn evaluate_weighing(
         quiet,
         after,
         valve_activity,
-    } = classify(time_s, true_kg, valve, rule);
+        driving,
+    } = classify(time_s, true_kg, valve, road_m, rule);
     let all: Vec<usize> = (0..n).collect();
     let mut levels: Vec<(f64, Vec<usize>)> = Vec::new();
     for &k in &standstill {
@@ -148,6 +157,7 @@ pub fn evaluate_weighing(
         quiet_standstill: stats(&quiet, estimate_kg, true_kg, std_kg),
         after_valve: stats(&after, estimate_kg, true_kg, std_kg),
         valve_activity: stats(&valve_activity, estimate_kg, true_kg, std_kg),
+        driving: stats(&driving, estimate_kg, true_kg, std_kg),
         by_load_level: levels
             .into_iter()
             .map(|(l, idx)| (l, stats(&idx, estimate_kg, true_kg, std_kg)))
@@ -162,7 +172,7 @@ pub fn standstill_indices(
     valve: &[ValveState],
     rule: &StandstillRule,
 ) -> Vec<usize> {
-    classify(time_s, load_kg, valve, rule).standstill
+    classify(time_s, load_kg, valve, None, rule).standstill
 }
 
 /// At every sample, the time the load last moved by more than `rule.steady_tolerance_kg`
@@ -193,12 +203,18 @@ struct Classes {
     quiet: Vec<usize>,
     after: Vec<usize>,
     valve_activity: Vec<usize>,
+    driving: Vec<usize>,
 }
+
+/// The least change of the logged road between samples that counts as the road moving, m: a
+/// hundredth of a millimetre, the file's resolution.
+const ROAD_MOVES_M: f64 = 1e-5;
 
 fn classify(
     time_s: &[f64],
     true_kg: &[f64],
     valve: &[ValveState],
+    road_m: Option<&[f64]>,
     rule: &StandstillRule,
 ) -> Classes {
     let n = time_s.len().min(true_kg.len()).min(valve.len());
@@ -206,19 +222,31 @@ fn classify(
     let mut quiet = Vec::new();
     let mut after = Vec::new();
     let mut valve_activity = Vec::new();
-    // Last time the load changed or the valve was open, scanning forward.
+    let mut driving = Vec::new();
+    // Last time the load changed, the valve was open or the road moved, scanning forward.
     let load_changed_s = last_load_change_s(&time_s[..n], &true_kg[..n], rule);
     let mut last_valve_s = f64::NEG_INFINITY;
+    let mut last_road_s = f64::NEG_INFINITY;
     for k in 0..n {
         let t = time_s[k];
         let last_change_s = load_changed_s[k];
         if valve[k] != ValveState::Closed {
             last_valve_s = t;
         }
+        if let Some(road) = road_m
+            && k > 0
+            && (road[k] - road[k - 1]).abs() > ROAD_MOVES_M
+        {
+            last_road_s = t;
+        }
         let since_start = t - time_s[0];
-        let rested = t - last_change_s.max(last_valve_s);
-        if t - last_valve_s < rule.settle_s && t - last_change_s >= rule.load_settle_s {
+        let rested = t - last_change_s.max(last_valve_s).max(last_road_s);
+        let load_steady = t - last_change_s >= rule.load_settle_s;
+        if t - last_valve_s < rule.settle_s && load_steady {
             valve_activity.push(k);
+        }
+        if t - last_road_s < rule.settle_s && load_steady {
+            driving.push(k);
         }
         if since_start >= rule.settle_s && rested >= rule.settle_s {
             standstill.push(k);
@@ -234,5 +262,68 @@ fn classify(
         quiet,
         after,
         valve_activity,
+        driving,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 300 s at 1 s, a steady load, the valve closed, the road moving from 100 to 150 s.
+    #[test]
+    fn a_moving_road_is_driving_not_standstill() {
+        let time: Vec<f64> = (0..=300).map(f64::from).collect();
+        let n = time.len();
+        let truth = vec![3000.0; n];
+        let estimate: Vec<f64> = (0..n)
+            .map(|k| {
+                if (100..150).contains(&k) {
+                    3030.0
+                } else {
+                    3001.0
+                }
+            })
+            .collect();
+        let std = vec![10.0; n];
+        let valve = vec![ValveState::Closed; n];
+        let road: Vec<f64> = time
+            .iter()
+            .map(|&t| {
+                if (100.0..150.0).contains(&t) {
+                    0.01 * (t * 0.7).sin()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let rule = StandstillRule::default();
+        let scored = |road: Option<&[f64]>| {
+            evaluate_weighing(&time, &estimate, &std, &truth, &valve, road, &rule).unwrap()
+        };
+        let with_road = scored(Some(&road));
+        // Driving: from the road's first move (100 s) to 30 s after its last (150 s, back on
+        // the level).
+        assert_eq!(with_road.driving.samples, 180 - 100, "{with_road:?}");
+        assert!((with_road.driving.max_abs_error_kg - 30.0).abs() < 1e-9);
+        // The standstills are the rest after the first 30 s: the driving error stays out.
+        assert_eq!(with_road.standstill.samples, (100 - 30) + (301 - 180));
+        assert!((with_road.standstill.max_abs_error_kg - 1.0).abs() < 1e-9);
+        // Without the road the whole run after its first 30 s reads as standing.
+        let without = scored(None);
+        assert_eq!(without.driving.samples, 0);
+        assert_eq!(without.standstill.samples, 301 - 30);
+        assert!((without.standstill.max_abs_error_kg - 30.0).abs() < 1e-9);
+        // A road of another length is an error.
+        let err = evaluate_weighing(
+            &time,
+            &estimate,
+            &std,
+            &truth,
+            &valve,
+            Some(&road[1..]),
+            &rule,
+        );
+        assert!(err.is_err());
     }
 }

@@ -259,10 +259,11 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             &series.std_kg,
             &truth.inputs.wheel_load_kg,
             &run.inputs.valve,
+            Some(&run.inputs.road_height_m),
             &rule,
         )?;
         println!(
-            "  error against the true load ({}; standstill = load steady and valve closed for {:.0} s):",
+            "  error against the true load ({}; standstill = load steady, valve closed and road still for {:.0} s):",
             path.display(),
             rule.settle_s
         );
@@ -276,7 +277,12 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             ("  quiet", acc.quiet_standstill),
             ("  after valve activity", acc.after_valve),
             ("valve at work", acc.valve_activity),
+            ("driving", acc.driving),
         ] {
+            // A run that never drives has no such row.
+            if name == "driving" && s.samples == 0 {
+                continue;
+            }
             println!(
                 "    {:<24} {:>8} {:>+10.3} {:>10.3} {:>10.1} {:>8.1}% {:>9.1} {:>8.1}%",
                 name,
