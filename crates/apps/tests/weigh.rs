@@ -834,3 +834,55 @@ fn an_unknown_start_friction_widens_the_interval_until_the_bellow_moves() {
     assert!(err(&lowered, first).abs() < 0.3 * friction / 9.81);
     assert!(e_last.abs() < 0.2e-2 * truth[n - 1], "{e_last}");
 }
+
+/// An unknown start whose first movement is the valve's (a valve run at one load, as a truck
+/// levels itself after standing): the load did not change until the friction was known, so
+/// the offline filter takes the load it reads after the movement back to the start, and reads
+/// as if it had been told how the truck came there. Variant 2 (the widest friction, 183 N).
+/// Where the first movement is a load change the start stays open (the test above).
+#[test]
+fn an_unknown_start_resolved_backwards_when_the_valve_moved_first() {
+    let variant = StudiedVariant::new(2);
+    let scenario = data_set_4(variant.unsprung_kg, 9);
+    let run = run_experiment(&variant.truck, &scenario, variant.friction_n, 9).unwrap();
+    let truth = &run.truth.inputs.wheel_load_kg;
+    let unknown = variant.ekf(&run.logged, HysteresisStart::Unknown);
+    let raised = variant.ekf(&run.logged, HysteresisStart::Raised);
+    assert_eq!(unknown.notes.len(), 1, "{:?}", unknown.notes);
+    assert!(
+        unknown.notes[0].contains("taken back"),
+        "{:?}",
+        unknown.notes
+    );
+    let (a, b) = (
+        score(&run.logged, truth, &unknown),
+        score(&run.logged, truth, &raised),
+    );
+    println!(
+        "standstill max: unknown start {:.3} %, told raised {:.3} %",
+        a.standstill.max_abs_error_percent, b.standstill.max_abs_error_percent
+    );
+    // Measured: 0.290 % against 0.301 % told (0.827 % without taking the load back: the
+    // unknown start's first standstill; on the study's seed-1 run 0.362 % both, 0.843 %).
+    assert!(
+        (a.standstill.max_abs_error_percent - b.standstill.max_abs_error_percent).abs() < 0.05,
+        "{a:?} {b:?}"
+    );
+    // Before the valve first opens the load reads within 0.2 % (the friction's 183 N is
+    // 0.55 % of it).
+    let k_valve = run
+        .logged
+        .inputs
+        .valve
+        .iter()
+        .position(|&v| v != ValveState::Closed)
+        .unwrap();
+    for ((estimate, known), t) in unknown.wheel_load_kg[..k_valve]
+        .iter()
+        .zip(truth)
+        .zip(&run.logged.time_s)
+    {
+        let error = 100.0 * (estimate - known) / known;
+        assert!(error.abs() < 0.2, "{t} s: {error:.3} %");
+    }
+}

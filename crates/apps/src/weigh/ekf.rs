@@ -705,11 +705,70 @@ pub fn weigh_ekf(
         series.measurement_std_kg.push(s);
     }
     if ekf.has_hysteresis() && tuning.start_hysteresis == HysteresisStart::Unknown {
-        series
-            .notes
-            .push(unknown_start_note(&series, ekf.hysteresis_resolved_at_s()));
+        let resolved_at_s = ekf.hysteresis_resolved_at_s();
+        let note = match resolve_start_backwards(&mut series, &run.inputs.valve, resolved_at_s) {
+            Some(note) => note,
+            None => unknown_start_note(&series, resolved_at_s),
+        };
+        series.notes.push(note);
     }
     Ok(series)
+}
+
+/// How long after the unknown start friction was resolved the filter is given to settle
+/// before its load is read for the samples before (it corrects over several seconds once the
+/// friction slid), and how long it is averaged over then, s.
+const BACKWARDS_SETTLE_S: f64 = 5.0;
+const BACKWARDS_WINDOW_S: f64 = 10.0;
+
+/// An offline smoothing of an unknown start (the whole run is at hand): where the bellow's
+/// first movement was the valve's (the valve opened before the filter saw the bellow move
+/// beyond its play, so no load change moved it), the load was the same before that movement
+/// as just after it, when the friction is known. The samples before take the load the filter
+/// reads after it settled, with its standard deviation there; the note says so. `None` (the
+/// series untouched) where the first movement was not the valve's (a load change: the load
+/// before it is another), or the friction was never resolved.
+fn resolve_start_backwards(
+    series: &mut WeighSeries,
+    valve: &[airsus_data::ValveState],
+    resolved_at_s: Option<f64>,
+) -> Option<String> {
+    let resolved_at_s = resolved_at_s?;
+    let t = &series.time_s;
+    let t0 = *t.first()?;
+    let k_valve = valve
+        .iter()
+        .position(|&v| v != airsus_data::ValveState::Closed)?;
+    if t[k_valve] > resolved_at_s {
+        return None;
+    }
+    let from = resolved_at_s + BACKWARDS_SETTLE_S;
+    let window: Vec<usize> = (0..series.len())
+        .filter(|&k| t[k] >= from && t[k] < from + BACKWARDS_WINDOW_S)
+        .collect();
+    if window.is_empty() {
+        return None;
+    }
+    let mean = |v: &[f64]| window.iter().map(|&k| v[k]).sum::<f64>() / window.len() as f64;
+    let load_kg = mean(&series.wheel_load_kg);
+    let std_kg = mean(&series.std_kg);
+    let own_std_kg =
+        (series.measurement_std_kg.len() == series.len()).then(|| mean(&series.measurement_std_kg));
+    let first = window[0];
+    for k in 0..first {
+        series.wheel_load_kg[k] = load_kg;
+        series.std_kg[k] = std_kg;
+        if let Some(own) = own_std_kg {
+            series.measurement_std_kg[k] = own;
+        }
+    }
+    Some(format!(
+        "the run starts at rest with an unknown wall friction, which trades off exactly against the load; its first movement was the valve's ({:.0} s, the friction known from {:.0} s) at a load no movement had changed: the load read after it ({load_kg:.0} kg, {:.0}-{:.0} s) is taken back to the start",
+        t[k_valve] - t0,
+        resolved_at_s - t0,
+        from - t0,
+        from + BACKWARDS_WINDOW_S - t0,
+    ))
 }
 
 /// What an unknown start friction did to the filter's interval: until when it held it up, and
