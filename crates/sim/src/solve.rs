@@ -237,16 +237,10 @@ fn simulate_with<M: SuspensionModel + ?Sized>(
     let shared = Shared {
         model,
         input: Cell::new(u0),
-        road: (options.road == RoadInput::Linear && road_moves).then(|| Polyline {
-            time_s: inputs.time_s(),
-            values: inputs.road_height_m(),
-            cursor: Cell::new(0),
-        }),
-        load: (options.load == LoadInput::Linear && load_moves).then(|| Polyline {
-            time_s: inputs.time_s(),
-            values: inputs.wheel_load_kg(),
-            cursor: Cell::new(0),
-        }),
+        road: (options.road == RoadInput::Linear && road_moves)
+            .then(|| Polyline::new(inputs.time_s(), inputs.road_height_m())),
+        load: (options.load == LoadInput::Linear && load_moves)
+            .then(|| Polyline::new(inputs.time_s(), inputs.wheel_load_kg())),
         epoch: Cell::new(0),
         rhs_calls: Cell::new(0),
         jacobian: RefCell::new(FdJacobian::new(n, scales)),
@@ -426,15 +420,28 @@ struct Polyline<'a> {
     /// The interval of the last lookup: the solver asks for nearby times, so the search
     /// starts there.
     cursor: Cell<usize>,
+    /// Where the solver's current segment ends, s: a sample there closes the segment before
+    /// it, so its rate is that segment's (the one ahead begins after the restart).
+    segment_end_s: Cell<f64>,
 }
 
-impl Polyline<'_> {
+impl<'a> Polyline<'a> {
+    fn new(time_s: &'a [f64], values: &'a [f64]) -> Self {
+        Self {
+            time_s,
+            values,
+            cursor: Cell::new(0),
+            segment_end_s: Cell::new(f64::INFINITY),
+        }
+    }
+
     fn value_at(&self, t: f64) -> f64 {
         self.value_and_rate_at(t).0
     }
 
     /// The value and its rate: the slope of the segment `t` lies in (at a sample, the one
-    /// ahead; at the first and last sample, the first and last segment's), 0 beyond the ends.
+    /// ahead, but the one behind where the solver's segment ends there; at the first and last
+    /// sample, the first and last segment's), 0 beyond the ends.
     fn value_and_rate_at(&self, t: f64) -> (f64, f64) {
         let (ts, hs) = (self.time_s, self.values);
         let last = ts.len() - 1;
@@ -463,7 +470,9 @@ impl Polyline<'_> {
         self.cursor.set(k);
         let (span, rise) = (ts[k + 1] - ts[k], hs[k + 1] - hs[k]);
         let w = (t - ts[k]) / span;
-        (hs[k] + w * rise, rise / span)
+        let closing = k > 0 && t == ts[k] && t == self.segment_end_s.get();
+        let rate = if closing { slope(k - 1) } else { rise / span };
+        (hs[k] + w * rise, rate)
     }
 }
 
@@ -708,6 +717,9 @@ where
             }
             let last = r.min(len - 1);
             let t_end = times[last];
+            if let Some(road) = &self.shared.road {
+                road.segment_end_s.set(t_end);
+            }
             solver
                 .set_stop_time(t_end)
                 .map_err(|e| self.fail(&solver, &e))?;
@@ -750,6 +762,10 @@ where
                 // Clean restart at t_r under the new inputs.
                 held = inputs.sample(r);
                 self.shared.hold(held);
+                // The restart begins the next segment: the road's rate there is the one ahead.
+                if let Some(road) = &self.shared.road {
+                    road.segment_end_s.set(f64::INFINITY);
+                }
                 let order = solver.order();
                 {
                     let mut state = solver.state_mut();
@@ -863,11 +879,7 @@ mod tests {
     #[test]
     fn a_sampled_road_is_a_polyline() {
         let (t, h) = ([0.0, 0.1, 0.2, 0.3], [0.0, 0.01, -0.01, 0.0]);
-        let road = Polyline {
-            time_s: &t,
-            values: &h,
-            cursor: Cell::new(0),
-        };
+        let road = Polyline::new(&t, &h);
         // (time, height, rate): the rate is the slope of the segment the time lies in, the
         // one ahead at a sample, the end segments' at the ends, and 0 beyond them.
         for (at, want, rate) in [
@@ -887,6 +899,15 @@ mod tests {
                 "{at}: {value} {slope}"
             );
         }
+        // Where the solver's segment ends at a sample, the rate there is the segment behind's.
+        road.segment_end_s.set(0.1);
+        let (value, rate) = road.value_and_rate_at(0.1);
+        assert!(
+            value == 0.01 && (rate - 0.1).abs() < 1e-12,
+            "{value} {rate}"
+        );
+        // Elsewhere the segment ahead still: at 0.2 s, 0.1 m/s (not the -0.2 behind).
+        assert!((road.value_and_rate_at(0.2).1 - 0.1).abs() < 1e-12);
     }
 
     #[test]
