@@ -885,8 +885,10 @@ def weigh(
             carries all four and is not corrected.
         start_hysteresis: how the truck came to the run's first reading, for the EKF on a
             model with wall friction (``truck``): ``unknown`` (its interval holds the
-            friction's whole range until the bellow moves), ``lowered`` (a load set down, an
-            exhaust) or ``raised`` (a fill, a load taken off).
+            friction's whole range until the bellow moves; where the valve moved it first,
+            the load read after that movement is taken back to the start, and
+            ``df.attrs["notes"]`` says so), ``lowered`` (a load set down, an exhaust) or
+            ``raised`` (a fill, a load taken off).
 
     Returns:
         A DataFrame ``time_s, wheel_load_kg, wheel_load_std_kg, quality`` at full precision
