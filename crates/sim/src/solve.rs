@@ -420,9 +420,11 @@ struct Polyline<'a> {
     /// The interval of the last lookup: the solver asks for nearby times, so the search
     /// starts there.
     cursor: Cell<usize>,
-    /// Where the solver's current segment ends, s: a sample there closes the segment before
-    /// it, so its rate is that segment's (the one ahead begins after the restart).
-    segment_end_s: Cell<f64>,
+    /// The samples the solver's current segment runs between (first, last): the rate is
+    /// taken from the polyline's segments between them, so a segment's last evaluations (at
+    /// its stop time, or a rounding error past it) get the slope behind and a restart's first
+    /// the slope ahead, whichever side of the sample the solver's clock lands on.
+    segment: Cell<(usize, usize)>,
 }
 
 impl<'a> Polyline<'a> {
@@ -431,7 +433,7 @@ impl<'a> Polyline<'a> {
             time_s,
             values,
             cursor: Cell::new(0),
-            segment_end_s: Cell::new(f64::INFINITY),
+            segment: Cell::new((0, time_s.len().saturating_sub(1))),
         }
     }
 
@@ -440,8 +442,8 @@ impl<'a> Polyline<'a> {
     }
 
     /// The value and its rate: the slope of the segment `t` lies in (at a sample, the one
-    /// ahead, but the one behind where the solver's segment ends there; at the first and last
-    /// sample, the first and last segment's), 0 beyond the ends.
+    /// ahead), within the solver's current segment ([`Self::segment`]); at the first and last
+    /// sample, the first and last segment's; 0 beyond the ends.
     fn value_and_rate_at(&self, t: f64) -> (f64, f64) {
         let (ts, hs) = (self.time_s, self.values);
         let last = ts.len() - 1;
@@ -470,8 +472,13 @@ impl<'a> Polyline<'a> {
         self.cursor.set(k);
         let (span, rise) = (ts[k + 1] - ts[k], hs[k + 1] - hs[k]);
         let w = (t - ts[k]) / span;
-        let closing = k > 0 && t == ts[k] && t == self.segment_end_s.get();
-        let rate = if closing { slope(k - 1) } else { rise / span };
+        let (first, last_sample) = self.segment.get();
+        let within = k.clamp(first, last_sample.saturating_sub(1).max(first));
+        let rate = if within == k {
+            rise / span
+        } else {
+            slope(within)
+        };
         (hs[k] + w * rise, rate)
     }
 }
@@ -681,6 +688,8 @@ where
         let mut dx = vec![0.0; n];
         let mut held = inputs.sample(0);
         let mut next = 1;
+        // The sample the current solver segment starts at.
+        let mut segment_start = 0usize;
         let mut steps = 0usize;
         let mut restarts = 0usize;
         // A load followed linearly still ends a segment where it starts or stops moving: a
@@ -718,7 +727,7 @@ where
             let last = r.min(len - 1);
             let t_end = times[last];
             if let Some(road) = &self.shared.road {
-                road.segment_end_s.set(t_end);
+                road.segment.set((segment_start, last));
             }
             solver
                 .set_stop_time(t_end)
@@ -763,8 +772,9 @@ where
                 held = inputs.sample(r);
                 self.shared.hold(held);
                 // The restart begins the next segment: the road's rate there is the one ahead.
+                segment_start = last;
                 if let Some(road) = &self.shared.road {
-                    road.segment_end_s.set(f64::INFINITY);
+                    road.segment.set((segment_start, len - 1));
                 }
                 let order = solver.order();
                 {
@@ -899,13 +909,21 @@ mod tests {
                 "{at}: {value} {slope}"
             );
         }
-        // Where the solver's segment ends at a sample, the rate there is the segment behind's.
-        road.segment_end_s.set(0.1);
-        let (value, rate) = road.value_and_rate_at(0.1);
-        assert!(
-            value == 0.01 && (rate - 0.1).abs() < 1e-12,
-            "{value} {rate}"
-        );
+        // Where the solver's segment ends at a sample, the rate there, and a rounding error
+        // past it, is the segment behind's; the next segment's start gets the one ahead.
+        road.segment.set((0, 1));
+        for at in [0.1, 0.1 + 1e-15] {
+            let (value, rate) = road.value_and_rate_at(at);
+            assert!(
+                (value - 0.01).abs() < 1e-15 && (rate - 0.1).abs() < 1e-12,
+                "{at}: {value} {rate}"
+            );
+        }
+        road.segment.set((1, 3));
+        for at in [0.1, 0.1 - 1e-15] {
+            assert!((road.value_and_rate_at(at).1 + 0.2).abs() < 1e-12, "{at}");
+        }
+        road.segment.set((0, 3));
         // Elsewhere the segment ahead still: at 0.2 s, 0.1 m/s (not the -0.2 behind).
         assert!((road.value_and_rate_at(0.2).1 - 0.1).abs() < 1e-12);
     }

@@ -706,7 +706,7 @@ pub fn weigh_ekf(
     }
     if ekf.has_hysteresis() && tuning.start_hysteresis == HysteresisStart::Unknown {
         let resolved_at_s = ekf.hysteresis_resolved_at_s();
-        let note = match resolve_start_backwards(&mut series, &run.inputs.valve, resolved_at_s) {
+        let note = match resolve_start_backwards(&mut series, run, tuning, resolved_at_s) {
             Some(note) => note,
             None => unknown_start_note(&series, resolved_at_s),
         };
@@ -715,38 +715,64 @@ pub fn weigh_ekf(
     Ok(series)
 }
 
-/// How long after the unknown start friction was resolved the filter is given to settle
-/// before its load is read for the samples before (it corrects over several seconds once the
-/// friction slid), and how long it is averaged over then, s.
+/// How long after the first valve episode closed (and the unknown start friction was resolved)
+/// the filter is given to settle before its load is read for the samples before, and how long
+/// it is averaged over then, s.
 const BACKWARDS_SETTLE_S: f64 = 5.0;
 const BACKWARDS_WINDOW_S: f64 = 10.0;
 
-/// An offline smoothing of an unknown start (the whole run is at hand): where the bellow's
-/// first movement was the valve's (the valve opened before the filter saw the bellow move
-/// beyond its play, so no load change moved it), the load was the same before that movement
-/// as just after it, when the friction is known. The samples before take the load the filter
-/// reads after it settled, with its standard deviation there; the note says so. `None` (the
-/// series untouched) where the first movement was not the valve's (a load change: the load
-/// before it is another), or the friction was never resolved.
+/// How soon after the valve first opened the friction must be resolved for the valve to have
+/// moved the bellow, s (a valve slides the friction within seconds of opening).
+const BACKWARDS_VALVE_LEAD_S: f64 = 10.0;
+
+/// An offline smoothing of an unknown start (the whole run is at hand), where the bellow's
+/// first movement was the valve's: the logged height and pressure stayed steady (within
+/// eight of the sensors' standard deviations, at least 1.5 mm and 3 kPa) until the valve first
+/// opened, and the friction was resolved after it opened and within
+/// [`BACKWARDS_VALVE_LEAD_S`]. Then no load change moved the bellow before, and the load read
+/// after that valve episode, when the friction is known, is the load of the samples before
+/// the valve opened: they take it, with its standard deviation. Assumed: the load did not
+/// change while the valve worked (a valve opened at rest, as a truck levels itself after
+/// standing). The samples from the valve's opening on keep the filter's own reading. `None`
+/// (the series untouched) otherwise, or where the run ends before the reading.
 fn resolve_start_backwards(
     series: &mut WeighSeries,
-    valve: &[airsus_data::ValveState],
+    run: &airsus_data::Run,
+    tuning: &EkfTuning,
     resolved_at_s: Option<f64>,
 ) -> Option<String> {
+    use airsus_data::ValveState;
     let resolved_at_s = resolved_at_s?;
     let t = &series.time_s;
     let t0 = *t.first()?;
-    let k_valve = valve
-        .iter()
-        .position(|&v| v != airsus_data::ValveState::Closed)?;
-    if t[k_valve] > resolved_at_s {
+    let valve = &run.inputs.valve;
+    let k_valve = valve.iter().position(|&v| v != ValveState::Closed)?;
+    // The valve logged at sample k acts over (t_k, t_k+1]: a friction resolved at t_k moved
+    // before it.
+    if !(resolved_at_s > t[k_valve] && resolved_at_s <= t[k_valve] + BACKWARDS_VALVE_LEAD_S) {
         return None;
     }
-    let from = resolved_at_s + BACKWARDS_SETTLE_S;
+    let measured = run.measured().ok()?;
+    let range = |v: &[f64]| {
+        let v = &v[..k_valve.max(1)];
+        v.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+            - v.iter().copied().fold(f64::INFINITY, f64::min)
+    };
+    let steady = range(&measured.sensor_height_m) <= (8.0 * tuning.height_std_m).max(1.5e-3)
+        && range(&measured.bellow_gauge_pa) <= (8.0 * tuning.pressure_std_pa).max(3e3);
+    if !steady {
+        return None;
+    }
+    // The reading: after the first valve episode closed and the friction was resolved, with
+    // the valve closed throughout.
+    let k_closed = (k_valve..valve.len()).find(|&k| valve[k] == ValveState::Closed)?;
+    let from = t[k_closed].max(resolved_at_s) + BACKWARDS_SETTLE_S;
     let window: Vec<usize> = (0..series.len())
         .filter(|&k| t[k] >= from && t[k] < from + BACKWARDS_WINDOW_S)
         .collect();
-    if window.is_empty() {
+    let dt = (t[t.len() - 1] - t0) / (t.len() - 1).max(1) as f64;
+    let enough = (0.5 * BACKWARDS_WINDOW_S / dt).max(1.0) as usize;
+    if window.len() < enough || window.iter().any(|&k| valve[k] != ValveState::Closed) {
         return None;
     }
     let mean = |v: &[f64]| window.iter().map(|&k| v[k]).sum::<f64>() / window.len() as f64;
@@ -754,8 +780,7 @@ fn resolve_start_backwards(
     let std_kg = mean(&series.std_kg);
     let own_std_kg =
         (series.measurement_std_kg.len() == series.len()).then(|| mean(&series.measurement_std_kg));
-    let first = window[0];
-    for k in 0..first {
+    for k in 0..k_valve {
         series.wheel_load_kg[k] = load_kg;
         series.std_kg[k] = std_kg;
         if let Some(own) = own_std_kg {
@@ -763,7 +788,7 @@ fn resolve_start_backwards(
         }
     }
     Some(format!(
-        "the run starts at rest with an unknown wall friction, which trades off exactly against the load; its first movement was the valve's ({:.0} s, the friction known from {:.0} s) at a load no movement had changed: the load read after it ({load_kg:.0} kg, {:.0}-{:.0} s) is taken back to the start",
+        "the run starts at rest with an unknown wall friction, which trades off exactly against the load; its first movement was the valve's (opened at {:.0} s, the friction known from {:.0} s), the readings steady before it: the load read after it ({load_kg:.0} kg, {:.0}-{:.0} s) is taken back to the start, assuming no load change while the valve worked",
         t[k_valve] - t0,
         resolved_at_s - t0,
         from - t0,
@@ -771,8 +796,6 @@ fn resolve_start_backwards(
     ))
 }
 
-/// What an unknown start friction did to the filter's interval: until when it held it up, and
-/// by how much (the filter's own 95 % half-width 10 s in, after its first readings).
 fn unknown_start_note(series: &WeighSeries, resolved_at_s: Option<f64>) -> String {
     let t0 = series.time_s.first().copied().unwrap_or(0.0);
     let k = series

@@ -206,9 +206,10 @@ struct Classes {
     driving: Vec<usize>,
 }
 
-/// The least change of the logged road between samples that counts as the road moving, m: a
-/// hundredth of a millimetre, the file's resolution.
-const ROAD_MOVES_M: f64 = 1e-5;
+/// The least change of the logged road between samples that counts as the road moving, m:
+/// half the file's resolution (a hundredth of a millimetre), so that one step of it counts
+/// whatever the conversion from millimetres rounds it to.
+const ROAD_MOVES_M: f64 = 5e-6;
 
 fn classify(
     time_s: &[f64],
