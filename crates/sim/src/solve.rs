@@ -474,12 +474,7 @@ impl<'a> Polyline<'a> {
         let w = (t - ts[k]) / span;
         let (first, last_sample) = self.segment.get();
         let within = k.clamp(first, last_sample.saturating_sub(1).max(first));
-        let rate = if within == k {
-            rise / span
-        } else {
-            slope(within)
-        };
-        (hs[k] + w * rise, rate)
+        (hs[k] + w * rise, slope(within))
     }
 }
 

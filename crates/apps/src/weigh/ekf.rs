@@ -664,10 +664,7 @@ pub fn weigh_ekf(
         valve: run.inputs.valve[k],
         supply_gauge_pa: run.inputs.supply_gauge_pa[k],
         road_height_m: road[k],
-        road_rate_m_s: match (road.get(k + 1), run.time_s.get(k + 1)) {
-            (Some(next), Some(t_next)) => (next - road[k]) / (t_next - run.time_s[k]),
-            _ => 0.0,
-        },
+        road_rate_m_s: crate::road::road_rate_at(&run.time_s, road, k),
     };
     let mut ekf = LoadEkf::new(
         model,

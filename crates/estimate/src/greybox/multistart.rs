@@ -71,8 +71,9 @@ fn design(problem: &GreyboxProblem<'_>, ms: &MultiStart) -> Vec<Vec<(String, f64
         };
         let lower = free.lower.unwrap_or(info.lower);
         let upper = free.upper.unwrap_or(info.upper);
-        // As the estimator scales it (`Evaluator::new`): by its usual magnitude where one is
-        // declared, else by the nominal, floored at a thousandth of the range.
+        // Floored, as the estimator's scale is (`Evaluator::new`), by the parameter's usual
+        // magnitude where one is declared; else by a thousandth of the range (the spread's
+        // own floor, which the estimator uses only for a nominal of 0).
         let scale = match info.typical {
             Some(typical) => nominal.abs().max(typical),
             None => nominal.abs().max(1e-3 * (upper - lower)),
