@@ -143,11 +143,14 @@ pub enum InitialState {
     Equilibrium(InitialCondition),
     /// An explicit state vector (e.g. the end state of an earlier simulation).
     State(Vec<f64>),
-    /// Static equilibrium as [`Self::Equilibrium`], plus `offsets` (one per state, SI): a
-    /// start estimated from a run's first seconds that stays relative to the equilibrium, so
-    /// it still fits when the parameters change (grey-box estimation with estimated starts).
+    /// Static equilibrium as [`Self::Equilibrium`] with the hysteresis preloaded to `preload`
+    /// of its range ([`SuspensionModel::initial_state_with_hysteresis`]: the gas then carries
+    /// the wall friction and the lever is at rest), plus `offsets` (one per state, SI): a start
+    /// estimated from a run's first seconds that stays relative to the equilibrium, so it
+    /// still fits when the parameters change (grey-box estimation with estimated starts).
     EquilibriumOffset {
         condition: InitialCondition,
+        preload: f64,
         offsets: Vec<f64>,
     },
 }

@@ -165,14 +165,17 @@ fn simulate_with<M: SuspensionModel + ?Sized>(
                 })?
         }
         InitialState::State(x) => x.clone(),
-        InitialState::EquilibriumOffset { condition, offsets } => {
-            let mut x =
-                model
-                    .initial_state(&u0, condition)
-                    .map_err(|source| SimError::InitialState {
-                        model: model_name.to_owned(),
-                        source: Box::new(source),
-                    })?;
+        InitialState::EquilibriumOffset {
+            condition,
+            preload,
+            offsets,
+        } => {
+            let mut x = model
+                .initial_state_with_hysteresis(&u0, condition, *preload)
+                .map_err(|source| SimError::InitialState {
+                    model: model_name.to_owned(),
+                    source: Box::new(source),
+                })?;
             if offsets.len() != x.len() {
                 return Err(invalid(format!(
                     "{} start offsets for {} states",
