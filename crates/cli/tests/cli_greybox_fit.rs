@@ -366,7 +366,7 @@ fn greybox_takes_a_force_map_into_the_loss_and_refuses_a_bad_one() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(
-        stderr.contains("force map: 140 points in the loss"),
+        stderr.contains("force map: 182 points in the loss"),
         "{stderr}"
     );
     let out = fit(&["--force-map", &map, "--force-map-noise-n", "0"]);
@@ -400,9 +400,9 @@ fn fit_effective_area_writes_a_spline_and_refits_a_spline_file_as_one() {
         .unwrap()
         .parameters;
     let knots = spline.bellow.effective_area.knots().expect("a spline law");
-    // One knot per height of the lab's map (220-400 mm in 20 mm steps).
-    assert_eq!(knots.knots_x().len(), 10);
-    assert!((knots.knots_x()[0] - 0.22).abs() < 1e-9);
+    // One knot per height of the lab's map (160-400 mm in 20 mm steps).
+    assert_eq!(knots.knots_x().len(), 13);
+    assert!((knots.knots_x()[0] - 0.16).abs() < 1e-9);
     // The virtual truck's areas: 0.05-0.056 m² over the stroke.
     assert!(knots.values().iter().all(|a| (0.045..0.06).contains(a)));
 
@@ -510,7 +510,7 @@ fn fit_wall_friction_reads_the_maps_hysteresis_into_the_truck_file() {
         "--out",
         &p("walled.toml"),
     ]);
-    assert!(printed.contains("70 up/down pairs"), "{printed}");
+    assert!(printed.contains("91 up/down pairs"), "{printed}");
     let truck = airsus_data::read_truck(std::path::Path::new(&p("walled.toml")))
         .unwrap()
         .parameters;

@@ -108,7 +108,7 @@ fn greybox_fits_the_truck_structure_and_its_truck_file_keeps_every_parameter() {
     ]));
     assert!(
         stderr.contains("freeing truck's default set with what valve action determines")
-            && stderr.contains("p0,p1,p2,p3,p4,m2,ig,kc,tc,c1,c2,a0,tth"),
+            && stderr.contains("p0,p1,p2,p3,p4,m2,ig,kc,tc,kdahl,c1,c2,a0,tth"),
         "{stderr}"
     );
 

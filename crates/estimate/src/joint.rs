@@ -423,32 +423,128 @@ pub fn estimate_with_starts(
         ),
     };
     joint.load_ramp_s = common_s;
-    // Other runs are eased over one time: the one that explains the estimation runs best
-    // under the final parameters (the time fitted under the first fit is biased by what
-    // that fit absorbed).
-    if common_s.is_some() && joint.fitted_transitions_s().is_some() {
-        let at_final = GreyboxProblem {
-            model: &*joint.estimate.estimated_model,
-            start_states: if joint.starts.is_empty() {
-                started.start_states.clone()
-            } else {
-                joint.starts.clone()
-            },
-            exclude_after_load_change_s: 0.0,
-            ..started.clone()
-        };
-        if let Ok(fit) = fit_load_ramp(&at_final)
-            && fit.duration_s > 0.0
-        {
-            notes.push(format!(
-                "other runs' load steps are eased over {:.2} s, fitted to these runs under the final parameters",
-                fit.duration_s
-            ));
-            joint.load_ramp_s = Some(fit.duration_s);
-        }
+    if common_s.is_some() {
+        refit_common_ramp(&mut joint, &started, &mut notes);
     }
     joint.load_notes = notes;
     Ok((joint, summary))
+}
+
+/// Other runs are eased over one time: the one that explains the estimation runs best
+/// under the final parameters (the time fitted under the first fit is biased by what that
+/// fit absorbed). Sets `joint.load_ramp_s` when the runs' own transitions were fitted.
+fn refit_common_ramp(
+    joint: &mut JointEstimate,
+    started: &GreyboxProblem<'_>,
+    notes: &mut Vec<String>,
+) {
+    if joint.fitted_transitions_s().is_none() {
+        return;
+    }
+    let at_final = GreyboxProblem {
+        model: &*joint.estimate.estimated_model,
+        start_states: if joint.starts.is_empty() {
+            started.start_states.clone()
+        } else {
+            joint.starts.clone()
+        },
+        exclude_after_load_change_s: 0.0,
+        ..started.clone()
+    };
+    if let Ok(fit) = fit_load_ramp(&at_final)
+        && fit.duration_s > 0.0
+    {
+        notes.push(format!(
+            "other runs' load steps are eased over {:.2} s, fitted to these runs under the final parameters",
+            fit.duration_s
+        ));
+        joint.load_ramp_s = Some(fit.duration_s);
+    }
+}
+
+/// A joint estimate continued from where `previous` ended, on `problem`: the same runs as
+/// logged, with another model (say, `previous`'s estimate with some values replaced) or
+/// another free set. The runs start from `previous`'s starts and are eased over its
+/// transition times; a fit of `problem` from there is followed by the alternation of
+/// starts, transitions (when `previous` fitted them) and parameters, as in
+/// [`estimate_with_starts`]. The caller compares the losses: the two estimates are fitted
+/// to the same runs with the same weights.
+///
+/// What it is for: a free set whose optimum lies in a narrow valley, reached from a point
+/// that a freer set found first (the study's `truck` structure with the lab's valve: see
+/// `airsus_study`).
+pub fn continue_jointly(
+    previous: &JointEstimate,
+    problem: &GreyboxProblem<'_>,
+    options: &GreyboxOptions,
+    prefix: Option<&PrefixOptions>,
+) -> Result<JointEstimate, EstimateError> {
+    let started = GreyboxProblem {
+        start_states: if previous.starts.is_empty() {
+            problem.start_states.clone()
+        } else {
+            previous.starts.clone()
+        },
+        ..problem.clone()
+    };
+    let eased = previous
+        .transitions_s
+        .as_deref()
+        .map(|d| ease_runs(&started.runs, d));
+    let first_problem = GreyboxProblem {
+        runs: match &eased {
+            Some(eased) => eased.iter().collect(),
+            None => started.runs.clone(),
+        },
+        solver: crate::load_ramp::solver_for_ramp(
+            &started.solver,
+            previous
+                .transitions_s
+                .as_deref()
+                .map_or(0.0, longest_transition_s),
+        ),
+        ..started.clone()
+    };
+    let first = estimate(&first_problem, options, &mut NoProgress)?;
+    // The fit from `previous`'s starts and times counts as a round after `previous`'s own:
+    // the result is fitted with starts and transitions even when no further round helps.
+    let mut rounds = previous.rounds.clone();
+    rounds.push(JointRound {
+        loss_before: first.loss_nominal,
+        loss_after: first.loss_estimated,
+    });
+    let mut joint = match (&previous.transitions_s, prefix) {
+        (Some(durations), prefix) => {
+            estimate_jointly_with_transitions(first, &started, options, prefix, durations.clone())
+        }
+        (None, Some(prefix)) => estimate_jointly(first, &started, options, prefix),
+        (None, None) => JointEstimate {
+            estimate: first,
+            rounds: vec![],
+            starts: started.start_states.clone(),
+            transitions_s: None,
+            load_ramp_s: None,
+            load_notes: vec![],
+        },
+    };
+    if joint.starts.is_empty() {
+        joint.starts = started.start_states.clone();
+    }
+    rounds.append(&mut joint.rounds);
+    joint.rounds = rounds;
+    // The common time is refitted under the new estimate: `previous`'s line about it goes.
+    let mut notes: Vec<String> = previous
+        .load_notes
+        .iter()
+        .filter(|n| !n.starts_with("other runs'"))
+        .cloned()
+        .collect();
+    joint.load_ramp_s = previous.load_ramp_s;
+    if previous.load_ramp_s.is_some() {
+        refit_common_ramp(&mut joint, &started, &mut notes);
+    }
+    joint.load_notes = notes;
+    Ok(joint)
 }
 
 /// The one transition time that eases the runs' logged load changes best under the first

@@ -47,8 +47,8 @@ pub use initial_state::{
     EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,
 };
 pub use joint::{
-    JointEstimate, JointRound, estimate_jointly, estimate_jointly_with_transitions,
-    estimate_with_starts, estimation_start, prefix_starts,
+    JointEstimate, JointRound, continue_jointly, estimate_jointly,
+    estimate_jointly_with_transitions, estimate_with_starts, estimation_start, prefix_starts,
 };
 pub use load_ramp::{
     LoadRamp, LoadRampFit, LoadTransitionsFit, MAX_LOAD_RAMP_S, check_load_ramp_s,

@@ -3,12 +3,14 @@
 
 use std::time::Instant;
 
+use airsus_data::laws::VALVE_CHANNELS;
+use airsus_data::params::spec_field;
 use airsus_data::{Run, ValveState, write_truck};
 use airsus_estimate::{
-    GreyboxOptions, GreyboxProblem, LoadTransitionsFit, MultiStart, NoProgress, PrefixOptions,
-    StartChoice, StartMethod, StopReason, ease_logged_load, estimate_with_starts,
-    fit_load_transitions, logged_load_changes, longest_transition_s, ramp_logged_load,
-    resolve_start, solver_for_ramp,
+    FreeParameter, GreyboxOptions, GreyboxProblem, JointEstimate, LoadTransitionsFit, MultiStart,
+    NoProgress, PrefixOptions, StartChoice, StartMethod, StopReason, continue_jointly,
+    ease_logged_load, estimate_with_starts, fit_load_transitions, logged_load_changes,
+    longest_transition_s, ramp_logged_load, resolve_start, solver_for_ramp,
 };
 use airsus_model::{Excitation, SuspensionModel};
 use airsus_report::results::{ModelResult, OutputFit, ParameterEstimate, ResidualSummary, RunFit};
@@ -50,6 +52,104 @@ fn bounds(model: &dyn SuspensionModel, name: &str) -> Option<(f64, f64)> {
         (lo * nominal).max(info.lower),
         (hi * nominal).min(info.upper),
     ))
+}
+
+/// The `truck` structure's valve as the lab measured it, and the gas volume's shape and the
+/// supply line fitted in its place: a refit from where the first estimate ended, kept when it
+/// explains the estimation runs better.
+///
+/// Why: the runs determine the valve's flow only relative to the gas volume it fills (a
+/// fill or exhaust moves the pressure by flow over volume), so the first estimate, which
+/// frees both, slides along that valley and stops wherever the shape of the volume it keeps
+/// fixed puts it. The closed-valve fit of that shape (`A1/A0`, eq 5.1–5.3) is biased by
+/// creep and heat exchange: on virtual-truck variant 2 it came out 12 % short, and the
+/// estimate took the conductances 22 % and the volume 18 % below the truth, which cost the
+/// held-out data-set 4 four points of pressure at heights the estimation runs never reach.
+/// The lab's tank discharges measure the conductances absolutely (to 0.01 % on every
+/// variant), and with them held the runs determine the volume's scale and shape (`a0`,
+/// `a1`) and the supply line's resistance (`rline`, fill only, which the conductance alone
+/// had absorbed). Started from the nominal values with that set, the fit fell into a worse
+/// basin on variant 1 (its first fit ended at 10 times the loss); continued from the first
+/// estimate it reaches the truth's neighbourhood on variants 0–3.
+fn refit_with_lab_valve(
+    joint: JointEstimate,
+    problem: &GreyboxProblem<'_>,
+    nominal: &dyn SuspensionModel,
+    options: &GreyboxOptions,
+    prefix: Option<&PrefixOptions>,
+    notes: &mut Vec<String>,
+) -> JointEstimate {
+    let free: Vec<&str> = problem.free.iter().map(|p| p.name.as_str()).collect();
+    let flow: Vec<&str> = free
+        .iter()
+        .copied()
+        .filter(|name| {
+            spec_field(name).is_some_and(|field| VALVE_CHANNELS.iter().any(|c| c.contains(&field)))
+        })
+        .collect();
+    if flow.is_empty() {
+        return joint;
+    }
+    let mut model = joint.estimate.estimated_model.clone();
+    for name in &flow {
+        let Ok(lab) = nominal.parameter(name) else {
+            return joint;
+        };
+        if model.set_parameter(name, lab).is_err() {
+            return joint;
+        }
+    }
+    let has = |name: &str| model.parameter_info().iter().any(|i| i.name == name);
+    let mut refit_free: Vec<&str> = free.iter().copied().filter(|n| !flow.contains(n)).collect();
+    // The volume's shape only where its scale is free (valve action shows both).
+    if refit_free.contains(&"a0") && has("a1") {
+        refit_free.push("a1");
+    }
+    if has("rline") && !refit_free.contains(&"rline") {
+        refit_free.push("rline");
+    }
+    let mut refit = GreyboxProblem {
+        model: &*model,
+        free: refit_free.iter().map(|n| FreeParameter::new(*n)).collect(),
+        ..problem.clone()
+    };
+    for name in &refit_free {
+        if let Some((lo, hi)) = bounds(nominal, name) {
+            refit = refit.with_bounds(name, lo, hi);
+        }
+    }
+    let before = joint.estimate.loss_estimated;
+    match continue_jointly(&joint, &refit, options, prefix) {
+        Ok(next) if next.estimate.loss_estimated < before => {
+            let added: Vec<&str> = refit_free
+                .iter()
+                .filter(|n| !free.contains(n))
+                .copied()
+                .collect();
+            notes.push(format!(
+                "refitted from the first estimate with the valve held at the lab's values ({}) and {} freed in its place: loss {before:.4e} → {:.4e}",
+                flow.join(", "),
+                added.join(", "),
+                next.estimate.loss_estimated
+            ));
+            next
+        }
+        Ok(next) => {
+            notes.push(format!(
+                "the valve held at the lab's values ({}) did not explain the runs better (loss {:.4e} against {before:.4e}): the estimate frees it",
+                flow.join(", "),
+                next.estimate.loss_estimated
+            ));
+            joint
+        }
+        Err(e) => {
+            notes.push(format!(
+                "the refit with the valve held at the lab's values ({}) failed ({e}): the estimate frees it",
+                flow.join(", ")
+            ));
+            joint
+        }
+    }
 }
 
 /// Simulates `model` over a measured run for scoring; it starts by `method` (the estimator's
@@ -291,7 +391,8 @@ pub fn fit_and_validate(
             start_truck.bellow.effective_area.growth_per_100kpa()
         ));
     }
-    if start_truck.valve != start.truck.valve {
+    let lab_valve = start_truck.valve != start.truck.valve;
+    if lab_valve {
         result.notes.push(format!(
             "the valve starts from the lab's discharges under law `{}` (the tank's gas simulated)",
             start_truck.valve.tag()
@@ -311,6 +412,23 @@ pub fn fit_and_validate(
     let free = model_entry(model_name)
         .map(|entry| entry.free_parameters(excitation, &*nominal))
         .unwrap_or_default();
+    let free: Vec<&str> = if std::env::var("E5").is_ok()
+        && start_truck.valve != start.truck.valve
+        && free.contains(&"a0")
+    {
+        let mut f: Vec<&str> = free
+            .into_iter()
+            .filter(|n| !matches!(*n, "c1" | "c2" | "rflow1" | "rflow2"))
+            .collect();
+        f.push("a1");
+        if nominal.parameter("rline").is_ok() {
+            f.push("rline");
+        }
+        f
+    } else {
+        free
+    };
+    eprintln!("FREE {free:?}");
     result.free = free.iter().map(|s| (*s).to_owned()).collect();
     let mut problem = GreyboxProblem::new(&*nominal, &estimation, &free)
         .with_normalisation(normalisation)
@@ -340,7 +458,7 @@ pub fn fit_and_validate(
     // wrong (on the virtual truck, a valve run begun after a raise has its wall friction
     // holding the bellow down, and the gas volume's scale drifted 27 % to absorb that).
     let prefix = PrefixOptions::default();
-    let estimated: Box<dyn SuspensionModel> = match estimate_with_starts(
+    let fitted = match estimate_with_starts(
         &problem,
         &fit_options,
         &global,
@@ -349,6 +467,21 @@ pub fn fit_and_validate(
         options.load_ramp,
         &mut NoProgress,
     ) {
+        Ok((joint, summary)) if lab_valve => {
+            let prefix_if = (initial == StartMethod::Prefix).then_some(&prefix);
+            let joint = refit_with_lab_valve(
+                joint,
+                &problem,
+                &*nominal,
+                &fit_options,
+                prefix_if,
+                &mut result.notes,
+            );
+            Ok((joint, summary))
+        }
+        other => other,
+    };
+    let estimated: Box<dyn SuspensionModel> = match fitted {
         Err(e) => {
             result.error = Some(format!(
                 "grey-box estimation failed: {e}; validated with the start values"
@@ -376,6 +509,8 @@ pub fn fit_and_validate(
                 .filter_map(|(run, start)| Some((run.name.clone(), start.clone()?)))
                 .collect();
             let est = joint.estimate;
+            // The set the kept fit freed (the refit with the lab's valve frees another).
+            result.free = est.parameters.iter().map(|p| p.name.clone()).collect();
             result.stop_reason = Some(est.stop.to_string());
             result.gradient_norm = est.gradient_norm;
             result.simulations = est.simulations;

@@ -72,7 +72,7 @@ fn a_spline_follows_a_bellow_area_the_quartic_cannot() {
     assert_eq!(options.growth_per_100kpa, Some(kap));
     let quartic = fit_effective_area(&map, &options).unwrap();
     let spline = fit_effective_area_spline(&map, &options).unwrap();
-    assert_eq!(spline.heights_m.len(), 10, "one knot per measured height");
+    assert_eq!(spline.heights_m.len(), 13, "one knot per measured height");
 
     // The map's ceiling: the noise-free force of the true law (wall friction, which neither
     // law has, included) against the measured forces.

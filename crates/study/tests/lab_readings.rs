@@ -74,21 +74,15 @@ fn shape(truck: &TruckParameters) -> f64 {
 fn the_lab_and_the_loading_run_read_right_on_trucks_drawn_apart() {
     for k in 0..4 {
         let v = variant(k);
-        // Only variant 2's data-set 4 leaves the heights the estimation runs and the force
-        // map show (measured: 16 % of its samples, down to 195 mm against 220 mm), which is
-        // the one held-out run of the family that the `truck` structure cannot bring within
-        // 2 points of its ceiling.
-        let extrapolated: Vec<&str> = v.extrapolated.iter().map(|(r, _)| r.as_str()).collect();
-        if k == 2 {
-            assert_eq!(extrapolated, ["data-set 4"], "{:?}", v.extrapolated);
-            assert!(
-                v.extrapolated[0].1.contains("16 % of its samples"),
-                "{:?}",
-                v.extrapolated
-            );
-        } else {
-            assert!(extrapolated.is_empty(), "variant {k}: {:?}", v.extrapolated);
-        }
+        // No run leaves the heights the estimation runs and the force map show: the map
+        // reaches down to 160 mm. With the map of thesis Fig 5.8 (220-400 mm), variant 2's
+        // data-set 4 did (16 % of its samples, down to 195 mm), and its pressure was 6
+        // points short of its ceiling.
+        assert!(
+            v.extrapolated.is_empty(),
+            "variant {k}: {:?}",
+            v.extrapolated
+        );
         let area = &v.start_structure.bellow.effective_area;
         let truth_area = &v.truth.bellow.effective_area;
 

@@ -74,7 +74,7 @@ fn the_study_follows_the_data_contract_and_looks_like_the_thesis_truck() {
         read_force_map(study.force_map.as_ref().unwrap())
             .unwrap()
             .len(),
-        140
+        182
     );
     assert_eq!(study.discharges.len(), 4);
     for d in &study.discharges {

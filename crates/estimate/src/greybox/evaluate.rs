@@ -93,6 +93,8 @@ impl RunData<'_> {
 #[derive(Debug)]
 pub(crate) struct AreaPrior<'a> {
     pub map: &'a ForceMap,
+    /// The wall friction in each reading ([`ForceMapPrior::friction_n`]).
+    pub friction_n: Vec<f64>,
     pub factor: f64,
     /// `(factor σ_F)²`: the variance of one residual at the start's misfit, normalised.
     pub noise_variance: f64,
@@ -101,7 +103,7 @@ pub(crate) struct AreaPrior<'a> {
 impl AreaPrior<'_> {
     fn residuals_into(&self, area: &EffectiveAreaLaw, out: &mut [f64]) {
         for (k, r) in out.iter_mut().enumerate() {
-            *r = self.factor * ForceMapPrior::force_error_n(self.map, area, k);
+            *r = self.factor * ForceMapPrior::force_error_n(self.map, &self.friction_n, area, k);
         }
     }
 }
@@ -237,7 +239,7 @@ impl<'a> Evaluator<'a> {
                 }
             }
         }
-        let prior = match (problem.force_map, area_law(model)) {
+        let prior = match (&problem.force_map, area_law(model)) {
             (Some(prior), Some(_)) if !prior.map.is_empty() => {
                 let map = prior.map;
                 let m = map.len() as f64;
@@ -251,6 +253,7 @@ impl<'a> Evaluator<'a> {
                 let c2 = block_noise.iter().sum::<f64>() / block_noise.len() as f64;
                 (sigma_f.is_finite() && sigma_f > 0.0 && c2 > 0.0).then(|| AreaPrior {
                     map,
+                    friction_n: prior.friction_n.clone(),
                     factor: c2.sqrt() / (sigma_f * m.sqrt()),
                     noise_variance: c2 / m,
                 })

@@ -32,7 +32,7 @@ pub use orifice::{
 };
 pub use slow_dynamics::{SlowDynamicsFit, SlowDynamicsOptions, fit_slow_dynamics};
 pub use valve::{ChannelFit, DischargeData, DischargeFit, ValveFit, ValveFitOptions, fit_valve};
-pub use wall_friction::{WallFrictionFit, fit_wall_friction};
+pub use wall_friction::{WallFrictionFit, fit_wall_friction, sweep_friction_n};
 
 /// `value` against the declared range of `field`: what a fit writes into a truck must load
 /// from the file it is written to.

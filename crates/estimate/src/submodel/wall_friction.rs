@@ -168,6 +168,20 @@ pub fn fit_wall_friction(
     })
 }
 
+/// The part of each reading of `map` that is wall friction, N: `−F_c` on an upward sweep,
+/// `+F_c` on a downward one (the sliding force against the motion), 0 where the direction is
+/// unknown, with `F_c` from [`fit_wall_friction`]; `None` when the map shows no hysteresis.
+/// Subtracted from the readings, what remains is `p A_eff(h, p)` and the load cell's noise.
+pub fn sweep_friction_n(map: &ForceMap, height_tolerance_m: f64) -> Option<Vec<f64>> {
+    let fit = fit_wall_friction(map, height_tolerance_m).ok()?;
+    Some(
+        sweep_directions(map, height_tolerance_m)
+            .into_iter()
+            .map(|direction| -f64::from(direction) * fit.friction_force_n)
+            .collect(),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -229,6 +243,25 @@ mod tests {
         // turning height's two pairs per pressure are lost, none is wrong.
         assert_eq!(fit.pairs, 140 - 2 * 7);
         assert!((fit.friction_force_n - 150.0).abs() < 0.5, "{fit:?}");
+    }
+
+    #[test]
+    fn taken_out_of_the_readings_the_sweeps_friction_leaves_the_area_force() {
+        let map = swept_map(150.0, 0.0);
+        let friction = sweep_friction_n(&map, 1e-4).unwrap();
+        assert_eq!(friction.len(), map.len());
+        for (k, f) in friction.iter().enumerate() {
+            let (h, p) = (map.bellow_height_m[k], map.bellow_gauge_pa[k]);
+            let without = map.force_n[k] - f;
+            assert!(
+                (without - p * (0.06 - 0.02 * h)).abs() < 1e-6,
+                "point {k}: {without} N"
+            );
+        }
+        // Up first at each pressure: the friction reads low going up.
+        assert!((friction[0] + 150.0).abs() < 1e-9 && (friction[15] - 150.0).abs() < 1e-9);
+        // A map without hysteresis has none to take out.
+        assert!(sweep_friction_n(&swept_map(0.0, 0.0), 1e-4).is_none());
     }
 
     #[test]
