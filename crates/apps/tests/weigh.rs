@@ -680,20 +680,26 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
                 a.after_valve.max_abs_error_percent,
             );
             assert!(a.standstill.samples > 1000, "{who}: {a:?}");
-            assert!(a.standstill.max_abs_error_percent < 0.5, "{who}: {a:?}");
+            // Measured: at most 0.150 % (variant 0's data-set 4); 0.303 % on variant 2's
+            // before its study reached data-set 4's ceiling (the valve held at the lab's).
+            assert!(a.standstill.max_abs_error_percent < 0.25, "{who}: {a:?}");
             assert!(a.valve_activity.max_abs_error_percent < 1.0, "{who}: {a:?}");
             assert!(a.after_valve.max_abs_error_percent < 1.0, "{who}: {a:?}");
             // An interval of a few kilograms (0.3 % of the load at most), not the 36-38 kg
             // the assumed parameter errors give.
             assert!(a.standstill.mean_std_kg < 12.0, "{who}: {a:?}");
-            // Each run's standstills mostly inside it (measured 0.74-1.00: a run's error is a
-            // few biased standstills, so single runs scatter about the pooled 95 %).
-            assert!(a.standstill.within_95_interval > 0.7, "{who}: {a:?}");
+            // Each run's standstills mostly inside it (measured 0.907-1.000; 0.766 and 0.782
+            // on variants 2 and 1's data-set 4 with the estimates before their studies reached
+            // its ceiling: a run's error is a few biased standstills, so single runs scatter
+            // about the pooled figure).
+            assert!(a.standstill.within_95_interval > 0.88, "{who}: {a:?}");
             covered += a.standstill.within_95_interval * a.standstill.samples as f64;
             standstills += a.standstill.samples;
         }
     }
     let coverage = covered / standstills as f64;
+    // Measured: 0.994 (0.934 before): the interval is now a little wider than the errors
+    // need.
     println!("pooled standstill coverage of the 95 % interval: {coverage:.3}");
     assert!((0.92..=1.0).contains(&coverage), "{coverage}");
 }
