@@ -94,6 +94,18 @@ pub struct JointEstimate {
 }
 
 impl JointEstimate {
+    /// One fit, no alternation: its runs started from `starts` with the load as given.
+    fn single(estimate: GreyboxEstimate, starts: Vec<Option<InitialState>>) -> Self {
+        Self {
+            estimate,
+            rounds: vec![],
+            starts,
+            transitions_s: None,
+            load_ramp_s: None,
+            load_notes: vec![],
+        }
+    }
+
     /// One line for a report.
     pub fn describe(&self, prefix_s: f64) -> String {
         if let Some(transitions) = &self.transitions_s {
@@ -405,14 +417,7 @@ pub fn estimate_with_starts(
     };
     let prefix_if = (method == StartMethod::Prefix).then_some(prefix);
     let mut joint = match (prefix_if, common_s) {
-        (None, None) => JointEstimate {
-            estimate: first,
-            rounds: vec![],
-            starts: vec![],
-            transitions_s: None,
-            load_ramp_s: None,
-            load_notes: vec![],
-        },
+        (None, None) => JointEstimate::single(first, vec![]),
         (Some(prefix), None) => estimate_jointly(first, &started, options, prefix),
         (prefix, Some(tau)) => estimate_jointly_with_transitions(
             first,
@@ -429,6 +434,9 @@ pub fn estimate_with_starts(
     joint.load_notes = notes;
     Ok((joint, summary))
 }
+
+/// How [`refit_common_ramp`]'s note begins ([`continue_jointly`] replaces it).
+const COMMON_RAMP_NOTE: &str = "other runs' load steps are eased over";
 
 /// Other runs are eased over one time: the one that explains the estimation runs best
 /// under the final parameters (the time fitted under the first fit is biased by what that
@@ -455,7 +463,7 @@ fn refit_common_ramp(
         && fit.duration_s > 0.0
     {
         notes.push(format!(
-            "other runs' load steps are eased over {:.2} s, fitted to these runs under the final parameters",
+            "{COMMON_RAMP_NOTE} {:.2} s, fitted to these runs under the final parameters",
             fit.duration_s
         ));
         joint.load_ramp_s = Some(fit.duration_s);
@@ -518,14 +526,7 @@ pub fn continue_jointly(
             estimate_jointly_with_transitions(first, &started, options, prefix, durations.clone())
         }
         (None, Some(prefix)) => estimate_jointly(first, &started, options, prefix),
-        (None, None) => JointEstimate {
-            estimate: first,
-            rounds: vec![],
-            starts: started.start_states.clone(),
-            transitions_s: None,
-            load_ramp_s: None,
-            load_notes: vec![],
-        },
+        (None, None) => JointEstimate::single(first, started.start_states.clone()),
     };
     if joint.starts.is_empty() {
         joint.starts = started.start_states.clone();
@@ -536,7 +537,7 @@ pub fn continue_jointly(
     let mut notes: Vec<String> = previous
         .load_notes
         .iter()
-        .filter(|n| !n.starts_with("other runs'"))
+        .filter(|n| !n.starts_with(COMMON_RAMP_NOTE))
         .cloned()
         .collect();
     joint.load_ramp_s = previous.load_ramp_s;

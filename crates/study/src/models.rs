@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use airsus_data::laws::VALVE_CHANNELS;
-use airsus_data::params::spec_field;
+use airsus_data::params::{Field, spec_field};
 use airsus_data::{Run, ValveState, write_truck};
 use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, JointEstimate, LoadTransitionsFit, MultiStart,
@@ -80,13 +80,22 @@ fn refit_with_lab_valve(
     notes: &mut Vec<String>,
 ) -> JointEstimate {
     let free: Vec<&str> = problem.free.iter().map(|p| p.name.as_str()).collect();
-    let flow: Vec<&str> = free
+    // The freed valve-channel coefficients, each with whether it is a resistance (its flow
+    // goes as its inverse) or a conductance.
+    let channels: Vec<(&str, bool)> = free
         .iter()
-        .copied()
-        .filter(|name| {
-            spec_field(name).is_some_and(|field| VALVE_CHANNELS.iter().any(|c| c.contains(&field)))
+        .filter_map(|&name| {
+            let field = spec_field(name)?;
+            VALVE_CHANNELS
+                .iter()
+                .any(|c| c.contains(&field))
+                .then_some((
+                    name,
+                    matches!(field, Field::FillResistance | Field::ExhaustResistance),
+                ))
         })
         .collect();
+    let flow: Vec<&str> = channels.iter().map(|(name, _)| *name).collect();
     if flow.is_empty() {
         return joint;
     }
@@ -94,19 +103,19 @@ fn refit_with_lab_valve(
     // How much more the lab's valve flows than the estimate's (the geometric mean over the
     // channels; a resistance's flow goes as its inverse).
     let mut log_flow_ratio = 0.0;
-    for name in &flow {
+    for &(name, resistance) in &channels {
         let (Ok(lab), Ok(estimated)) = (nominal.parameter(name), model.parameter(name)) else {
             return joint;
         };
         if model.set_parameter(name, lab).is_err() || !(lab > 0.0 && estimated > 0.0) {
             return joint;
         }
-        let ratio = if name.starts_with("rflow") {
+        let ratio = if resistance {
             estimated / lab
         } else {
             lab / estimated
         };
-        log_flow_ratio += ratio.ln() / flow.len() as f64;
+        log_flow_ratio += ratio.ln() / channels.len() as f64;
     }
     // The refit starts where the valley the first estimate slid along meets the lab's valve:
     // the thesis' volume `h (A0 + A1 h)` scaled by the same factor as the flow keeps flow
@@ -114,12 +123,13 @@ fn refit_with_lab_valve(
     // reset, its first fit began at 9 times the loss on variant 0 and took a third of the
     // study's time for the `truck` structure).
     let flow_ratio = log_flow_ratio.exp();
-    for name in ["a0", "a1"] {
-        if free.contains(&"a0")
-            && let Ok(value) = model.parameter(name)
-            && model.set_parameter(name, value * flow_ratio).is_err()
-        {
-            return joint;
+    if free.contains(&"a0") {
+        for name in ["a0", "a1"] {
+            if let Ok(value) = model.parameter(name)
+                && model.set_parameter(name, value * flow_ratio).is_err()
+            {
+                return joint;
+            }
         }
     }
     let has = |name: &str| model.parameter_info().iter().any(|i| i.name == name);
@@ -442,23 +452,6 @@ pub fn fit_and_validate(
     let free = model_entry(model_name)
         .map(|entry| entry.free_parameters(excitation, &*nominal))
         .unwrap_or_default();
-    let free: Vec<&str> = if std::env::var("E5").is_ok()
-        && start_truck.valve != start.truck.valve
-        && free.contains(&"a0")
-    {
-        let mut f: Vec<&str> = free
-            .into_iter()
-            .filter(|n| !matches!(*n, "c1" | "c2" | "rflow1" | "rflow2"))
-            .collect();
-        f.push("a1");
-        if nominal.parameter("rline").is_ok() {
-            f.push("rline");
-        }
-        f
-    } else {
-        free
-    };
-    eprintln!("FREE {free:?}");
     result.free = free.iter().map(|s| (*s).to_owned()).collect();
     let mut problem = GreyboxProblem::new(&*nominal, &estimation, &free)
         .with_normalisation(normalisation)

@@ -19,7 +19,7 @@ pub const TRUCK_MODEL: ModelEntry = ModelEntry {
     // Model 2's set plus the creep element and the wall friction's pre-sliding stiffness
     // (the force map measures the sliding force `fc`, not how soon the wall slides: held at
     // the built-in 20 kN/m, variant 2's 14.8 kN/m cost its held-out data-set 4 five points of
-    // pressure; freed, variants 0-3 come out at 18.2, 19.3, 14.6 and 19.3 kN/m against 20.0,
+    // pressure; freed, variants 0-3 come out at 19.1, 20.1, 14.7 and 19.1 kN/m against 20.0,
     // 19.2, 14.8 and 19.5); with valve action the valve's flow coefficients (the conductances
     // under its orifice), the gas volume's scale and the gas's thermal time (a fill
     // compresses and heats the gas, which cools over `tth`: held at the built-in 20 s it

@@ -1,7 +1,7 @@
 //! The grey-box *problem* (what is minimised) and the *options* of the solver (how), kept
 //! apart as in argmin; [`super::estimate`] is the executor that runs them.
 
-use crate::submodel::sweep_friction_n;
+use crate::submodel::{EffectiveAreaOptions, sweep_friction_n};
 use airsus_data::{EffectiveAreaLaw, ForceMap, Run};
 use airsus_model::SuspensionModel;
 use airsus_sim::{InitialState, SolverOptions};
@@ -112,10 +112,6 @@ pub struct ForceMapPrior<'a> {
     pub friction_n: Vec<f64>,
 }
 
-/// Heights closer than this are one height when the prior reads the map's sweeps, m (the
-/// effective-area fit's default).
-const SWEEP_HEIGHT_TOLERANCE_M: f64 = 1e-4;
-
 impl<'a> ForceMapPrior<'a> {
     /// The prior of `map` at the force error `force_noise_n`, with the wall friction read
     /// from its sweeps taken out of the readings.
@@ -123,7 +119,9 @@ impl<'a> ForceMapPrior<'a> {
         Self {
             map,
             force_noise_n,
-            friction_n: sweep_friction_n(map, SWEEP_HEIGHT_TOLERANCE_M).unwrap_or_default(),
+            // Heights closer than the effective-area fit's default tolerance are one height.
+            friction_n: sweep_friction_n(map, EffectiveAreaOptions::default().height_tolerance_m)
+                .unwrap_or_default(),
         }
     }
 
