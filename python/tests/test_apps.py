@@ -85,6 +85,9 @@ def test_weigh_calibration_on_two_runs(reference: Path, tmp_path: Path, cli) -> 
     # own noise part).
     pooled = cal["residual_q95_kg"] / 1.96
     assert 0.5 * pooled < cal["standstill_std_kg"] < 2.0 * pooled
+    # The static law's own part (the sensors' noise over its window) is far below its errors:
+    # not scaled down.
+    assert cal["own_std_scale"] == 1.0
     moving = load["quality"] != "standstill"
     assert (load["wheel_load_std_kg"][moving] >= cal["standstill_std_kg"] - 1e-9).all()
     # The command, with the same two runs, writes the same numbers.

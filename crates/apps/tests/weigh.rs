@@ -607,14 +607,16 @@ impl StudiedVariant {
 /// the study did not see (new noise and step seeds). Data-sets 1-2 start after the truck was
 /// lowered onto its height, 3-4 after it was raised (the generator's plan), levelling runs with
 /// the wall unloaded: said to the filter. The interval is sized on the study's estimation
-/// runs (data-sets 1 and 3, levelling 1, their logged loads) and must hold the held-out truth.
+/// runs (data-sets 1 and 3, levelling 1, their logged loads, each start told as for the
+/// held-out runs) and must hold the held-out truth on 95 ± 3 % of the standstills, pooled and
+/// on the average run.
 /// Before the filter drove the wall friction through a play, the noise's jitter wore the
 /// friction away and standstills read 0.5-0.9 % off, by the friction's sign.
 #[test]
 fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
     use airsus_truck::experiments::{GeneratedRun, levelling_run};
     use airsus_truck::scenario::{levelling_1, levelling_2};
-    let (mut covered, mut standstills) = (0.0, 0usize);
+    let (mut covered, mut standstills, mut run_coverages) = (0.0, 0usize, Vec::new());
     for k in 0..=3 {
         let variant = StudiedVariant::new(k);
         let (vt, m2, friction) = (&variant.truck, variant.unsprung_kg, variant.friction_n);
@@ -631,7 +633,12 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
         ];
         let estimates: Vec<WeighSeries> = calibration
             .iter()
-            .map(|r| ekf(r, HysteresisStart::Unknown))
+            .zip([
+                HysteresisStart::Lowered,
+                HysteresisStart::Raised,
+                HysteresisStart::Unknown,
+            ])
+            .map(|(run, start)| ekf(run, start))
             .collect();
         let pairs: Vec<(&Run, &WeighSeries)> = calibration.iter().zip(&estimates).collect();
         let cal = LinearCalibration::fit_weighed_runs(
@@ -642,6 +649,12 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
         .unwrap();
         // Nothing corrected: the model carries the scale.
         assert_eq!((cal.gain, cal.offset_kg), (1.0, 0.0));
+        println!(
+            "variant {k}: interval: the filter's own σ × {:.3}, beside it {:.2} kg at standstill",
+            cal.own_std_scale, cal.standstill_std_kg
+        );
+        // The filter's covariance is wider than its errors at standstill: scaled down.
+        assert!(cal.own_std_scale < 0.9, "{cal:?}");
         let held_out = [
             (
                 "ds2",
@@ -688,20 +701,26 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
             // An interval of a few kilograms (0.3 % of the load at most), not the 36-38 kg
             // the assumed parameter errors give.
             assert!(a.standstill.mean_std_kg < 12.0, "{who}: {a:?}");
-            // Each run's standstills mostly inside it (measured 0.907-1.000; 0.766 and 0.782
-            // on variants 2 and 1's data-set 4 with the estimates before their studies reached
-            // its ceiling: a run's error is a few biased standstills, so single runs scatter
-            // about the pooled figure).
-            assert!(a.standstill.within_95_interval > 0.88, "{who}: {a:?}");
+            // Each run's standstills mostly inside it. Measured 0.841-0.999; a run's error is
+            // a few biased standstills (variant 0's data-set 4 reads 2.5-3.5 kg high at some
+            // heights, 0.1 %), so single runs scatter about the pooled figure: the interval is
+            // sized on the average calibration run, and no calibration run of that kind showed
+            // the bias.
+            assert!(a.standstill.within_95_interval > 0.82, "{who}: {a:?}");
+            run_coverages.push(a.standstill.within_95_interval);
             covered += a.standstill.within_95_interval * a.standstill.samples as f64;
             standstills += a.standstill.samples;
         }
     }
     let coverage = covered / standstills as f64;
-    // Measured: 0.994 (0.934 before): the interval is now a little wider than the errors
-    // need.
-    println!("pooled standstill coverage of the 95 % interval: {coverage:.3}");
-    assert!((0.92..=1.0).contains(&coverage), "{coverage}");
+    let run_mean = run_coverages.iter().sum::<f64>() / run_coverages.len() as f64;
+    // Measured: 0.963 pooled, 0.953 on the average run. With the filter's own covariance
+    // unscaled, 0.994: the interval said less than it could.
+    println!(
+        "standstill coverage of the 95 % interval: pooled {coverage:.3}, average run {run_mean:.3}"
+    );
+    assert!((0.92..=0.98).contains(&coverage), "{coverage}");
+    assert!((0.92..=0.98).contains(&run_mean), "{run_mean}");
 }
 
 /// Weighing while the truck drives (#14): the EKF on the `truck` structure with each variant's

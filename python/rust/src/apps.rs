@@ -222,6 +222,9 @@ pub fn weigh<'py>(
             cal.set_item("standstill_std_kg", c.standstill_std_kg)?;
             cal.set_item("settling_std_kg", c.settling_std_kg)?;
             cal.set_item("valve_std_kg", c.valve_std_kg)?;
+            cal.set_item("own_std_scale", c.own_std_scale)?;
+            cal.set_item("settling_own_scale", c.settling_own_scale)?;
+            cal.set_item("valve_own_scale", c.valve_own_scale)?;
             cal.set_item("dropped", c.dropped)?;
             out.set_item("calibration", cal)?;
         }

@@ -899,15 +899,19 @@ def weigh(
         up). ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg,
         hysteresis_kg, height_kg_per_mm, reference_height_mm, samples, residual_rms_kg,
         residual_q95_kg, settling_q95_kg, valve_q95_kg, standstill_std_kg, settling_std_kg,
-        valve_std_kg`` and ``dropped`` (the terms the runs did not determine, with why) when
+        valve_std_kg, own_std_scale, settling_own_scale, valve_own_scale`` and ``dropped`` (the terms the runs did not determine, with why) when
         ``calibration_run`` is given:
         ``load = gain·estimate + offset + hysteresis·z + height·(h − reference)``, with ``z``
         the wall-friction state from the heights (a fill reads high, ``hysteresis_kg < 0``
         takes it out). The standard deviation then comes from the calibration's residuals,
-        per quality class: ``√(own² + σ_c²)`` with ``own`` the estimate's own noise part and
+        per quality class: ``√((s·own)² + σ_c²)`` with ``own`` the estimate's own noise part,
+        ``s`` (``own_std_scale``, ``settling_own_scale``, ``valve_own_scale``, at most 1) the
+        smallest scale at which the own part alone held 95 % of the average calibration
+        run's known loads (the EKF's covariance is wider than its errors at standstill), and
         ``σ_c`` (``standstill_std_kg``, ``settling_std_kg``, ``valve_std_kg``) the smallest
-        part that held 95 % of the calibration's known loads (the ``*_q95_kg``: what the
-        residuals' 95th percentile was; None with too few such samples).
+        part beside it that held 95 % of each calibration run's known loads (the
+        ``*_q95_kg``: what the residuals' 95th percentile was; None with too few such
+        samples).
     """
     if isinstance(calibration_run, (list, tuple)):
         if not calibration_run:

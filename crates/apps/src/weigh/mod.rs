@@ -256,10 +256,21 @@ pub struct LinearCalibration {
     /// part (e.g. the EKF's covariance, which is wide while the wall friction's state is
     /// unknown). Without a noise part, on one run, it is that run's `q95 / 1.96`.
     pub standstill_std_kg: f64,
-    /// The same for the samples flagged `settling` and `valve` (see
-    /// [`Self::settling_q95_kg`]); `None` with too few such samples.
+    /// The factor on the estimate's own noise part in a standstill's interval, in
+    /// `(0, 1]`: the smallest for which the own part alone held 95 % of the average
+    /// calibration run's known standstill loads; 1 when it did not (then
+    /// [`Self::standstill_std_kg`] adds what it lacks). The EKF's covariance at standstill
+    /// is wider than its errors: unscaled, its interval held 99.4 % of held-out standstills
+    /// (see [`run_mean_interval`]).
+    pub own_std_scale: f64,
+    /// The same as [`Self::standstill_std_kg`] and [`Self::own_std_scale`] for the samples
+    /// flagged `settling` and `valve` (see [`Self::settling_q95_kg`]); `None` with too few
+    /// such samples. Such a sample's interval is never narrower than a standstill's: each
+    /// part is at least the standstill's.
     pub settling_std_kg: Option<f64>,
     pub valve_std_kg: Option<f64>,
+    pub settling_own_scale: Option<f64>,
+    pub valve_own_scale: Option<f64>,
     pub samples: usize,
     /// Terms the calibration runs could not determine, left at zero, each with the reason
     /// (`"height: collinear with the other terms on these runs (condition 63)"`). Printed
@@ -320,58 +331,25 @@ fn q95(values: &mut [f64]) -> Option<f64> {
     Some(values[((0.95 * m).ceil() as usize).clamp(1, values.len()) - 1])
 }
 
-/// The smallest `σ ≥ 0` with `|r_k| ≤ z √(s_k² + σ²)` for a fraction `coverage` of the
-/// samples (`r`: residuals, `s`: each sample's own standard deviation), by bisection: the
-/// fraction only grows with `σ`. `None` when empty.
-fn coverage_std(residual: &[f64], own_std: &[f64], coverage: f64, z: f64) -> Option<f64> {
-    debug_assert_eq!(residual.len(), own_std.len());
-    if residual.is_empty() {
-        return None;
-    }
-    let covered = |sigma: f64| {
-        let inside = residual
-            .iter()
-            .zip(own_std)
-            .filter(|(r, s)| r.abs() <= z * s.hypot(sigma))
-            .count();
-        inside as f64 >= coverage * residual.len() as f64
-    };
-    if covered(0.0) {
-        return Some(0.0);
-    }
-    let mut hi = residual.iter().fold(0.0f64, |a, r| a.max(r.abs())) / z;
-    if !covered(hi) {
-        return Some(hi);
-    }
-    let mut lo = 0.0;
-    // 60 halvings: far below a gram.
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if covered(mid) {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    Some(hi)
-}
-
 /// Two-sided 95 % quantile of the standard normal.
 const Z95: f64 = 1.96;
+
+/// The fraction of the known loads the calibrated interval is sized to hold.
+const INTERVAL_COVERAGE: f64 = 0.95;
 
 /// The fewest samples of a class (a run's standstills, its settling or valve samples) that
 /// size an interval.
 const MIN_CLASS_SAMPLES: usize = 50;
 
-/// The interval's own part from `(run, residual, own std)` samples: [`coverage_std`] on each
-/// run with enough samples, and on the runs with fewer taken together, the largest of them.
-/// Pooled, the runs that fit best (a levelling run's standstills are many and close) would
-/// narrow the interval below what the worst-fitting kind of run needs, and a validation run
-/// of that kind would then be covered far less than 95 %; each run must be held on its own.
-/// `None` without samples.
-fn per_run_coverage_std(samples: &[(usize, f64, f64)]) -> Option<f64> {
-    let runs = samples.iter().map(|s| s.0).max()? + 1;
-    // (residuals, own standard deviations) of each run.
+/// `(residuals, own standard deviations)` of one run's samples of a class, kg.
+type CoverageGroup = (Vec<f64>, Vec<f64>);
+
+/// The samples of a class grouped for sizing an interval: every run with enough samples
+/// alone, and the runs with fewer taken together.
+fn coverage_groups(samples: &[(usize, f64, f64)]) -> Vec<CoverageGroup> {
+    let Some(runs) = samples.iter().map(|s| s.0).max().map(|m| m + 1) else {
+        return Vec::new();
+    };
     let mut by_run = vec![(Vec::new(), Vec::new()); runs];
     for &(run, residual, own) in samples {
         by_run[run].0.push(residual);
@@ -392,9 +370,82 @@ fn per_run_coverage_std(samples: &[(usize, f64, f64)]) -> Option<f64> {
         groups.push(short);
     }
     groups
+}
+
+/// The mean over the groups of the fraction of each group's samples with
+/// `|r| ≤ z √((scale · o)² + σ²)`.
+fn run_mean_coverage(groups: &[CoverageGroup], scale: f64, sigma: f64) -> f64 {
+    let fraction = |(residual, own): &CoverageGroup| {
+        let inside = residual
+            .iter()
+            .zip(own)
+            .filter(|(r, o)| r.abs() <= Z95 * (scale * *o).hypot(sigma))
+            .count();
+        inside as f64 / residual.len().max(1) as f64
+    };
+    groups.iter().map(fraction).sum::<f64>() / groups.len().max(1) as f64
+}
+
+/// The smallest `x` in `[0, hi]` for which `holds(x)` (which only turns true as `x` grows
+/// and holds at `hi`), by 50 halvings.
+fn smallest_holding(hi: f64, holds: impl Fn(f64) -> bool) -> f64 {
+    let (mut lo, mut hi) = (0.0, hi);
+    if holds(0.0) {
+        return 0.0;
+    }
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if holds(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
+}
+
+/// The interval of a class from `(run, residual, own std)` samples, `(own_scale, σ_c)`:
+/// `± z √((own_scale · own)² + σ_c²)`, in two steps.
+///
+/// - `own_scale` in `(0, 1]`, on the average run: the smallest scale at which the own part
+///   alone holds `coverage` of the average run's samples ([`coverage_groups`]; each run
+///   counts once, whatever its length), 1 when it does not. An estimator's own covariance
+///   can be wider than its errors: the EKF's at standstill carries the wall friction's whole
+///   range and a random walk sized for load changes, and unscaled its interval held 99.4 %
+///   of held-out standstills. Sized to hold each run instead, the scale was set by the
+///   worst-fitting calibration run and the held-out runs of the kinds that fit best, most
+///   of the samples, were again held on 99 %.
+/// - `σ_c`, on each run: the smallest part beside the scaled own part that holds `coverage`
+///   of every run's samples, the largest over the runs. It is model error the estimator
+///   does not know of (a law's shape between the calibration's heights, the wall friction
+///   read one way after a fill and the other after an exhaust), bounded rather than
+///   Gaussian, so a run it misses is missed by far; pooled or averaged, a long run that
+///   fits well would hide a short one that does not.
+///
+/// `None` without samples.
+fn class_interval(samples: &[(usize, f64, f64)], coverage: f64) -> Option<(f64, f64)> {
+    if samples.is_empty() {
+        return None;
+    }
+    let groups = coverage_groups(samples);
+    let own_holds = |scale: f64| run_mean_coverage(&groups, scale, 0.0) >= coverage;
+    let scale = if own_holds(1.0) {
+        smallest_holding(1.0, own_holds).max(f64::MIN_POSITIVE)
+    } else {
+        1.0
+    };
+    // Every residual inside at this σ, whatever the own part.
+    let widest = samples.iter().fold(0.0f64, |a, s| a.max(s.1.abs())) / Z95;
+    let sigma = groups
         .iter()
-        .filter_map(|(r, own)| coverage_std(r, own, 0.95, Z95))
-        .reduce(f64::max)
+        .map(|group| {
+            let one = std::slice::from_ref(group);
+            smallest_holding(widest, |sigma| {
+                run_mean_coverage(one, scale, sigma) >= coverage
+            })
+        })
+        .fold(0.0, f64::max);
+    Some((scale, sigma))
 }
 
 /// What [`fit_centred`] found: `(name, coefficient, the column's mean)` of the kept columns,
@@ -539,8 +590,11 @@ impl LinearCalibration {
             settling_q95_kg: None,
             valve_q95_kg: None,
             standstill_std_kg: 0.0,
+            own_std_scale: 1.0,
             settling_std_kg: None,
             valve_std_kg: None,
+            settling_own_scale: None,
+            valve_own_scale: None,
             samples: 0,
             dropped: Vec::new(),
         }
@@ -707,7 +761,8 @@ impl LinearCalibration {
         let samples: Vec<(usize, f64, f64)> = (0..residuals.len())
             .map(|k| (run_of[k], residuals[k], g * own_std[k]))
             .collect();
-        cal.standstill_std_kg = per_run_coverage_std(&samples).unwrap_or(0.0);
+        (cal.own_std_scale, cal.standstill_std_kg) =
+            class_interval(&samples, INTERVAL_COVERAGE).unwrap_or((1.0, 0.0));
         cal.residual_q95_kg = q95(&mut residuals).unwrap_or(0.0);
         cal.moving_air(runs, &run_zs, rule);
         Ok(cal)
@@ -781,16 +836,21 @@ impl LinearCalibration {
                 }
             }
         }
-        let fit = |v: Vec<(usize, f64, f64)>| -> (Option<f64>, Option<f64>) {
+        // (q95, own scale, σ_c) of a class.
+        let fit = |v: Vec<(usize, f64, f64)>| -> (Option<f64>, Option<(f64, f64)>) {
             if v.len() < MIN_CLASS_SAMPLES {
                 return (None, None);
             }
-            let std = per_run_coverage_std(&v);
+            let interval = class_interval(&v, INTERVAL_COVERAGE);
             let mut r: Vec<f64> = v.iter().map(|s| s.1).collect();
-            (q95(&mut r), std)
+            (q95(&mut r), interval)
         };
-        (self.settling_q95_kg, self.settling_std_kg) = fit(settling);
-        (self.valve_q95_kg, self.valve_std_kg) = fit(valve);
+        let (q95_settling, settling) = fit(settling);
+        let (q95_valve, valve) = fit(valve);
+        (self.settling_q95_kg, self.valve_q95_kg) = (q95_settling, q95_valve);
+        (self.settling_own_scale, self.settling_std_kg) =
+            (settling.map(|i| i.0), settling.map(|i| i.1));
+        (self.valve_own_scale, self.valve_std_kg) = (valve.map(|i| i.0), valve.map(|i| i.1));
     }
 
     /// One calibrated reading from the estimate, the friction state and the sensor height (m).
@@ -842,15 +902,25 @@ impl LinearCalibration {
                 "the quality flags and the load samples differ in number",
             ));
         }
-        let class_std = |k: usize| {
-            let class = quality.map(|q| q[k]);
-            match class {
-                Some(WeighQuality::Settling) => self.settling_std_kg,
-                Some(WeighQuality::Valve) => self.valve_std_kg.or(self.settling_std_kg),
+        // (own scale, σ_c) of sample k's class, each part at least the standstill's.
+        let class_interval = |k: usize| {
+            let settling = self.settling_own_scale.zip(self.settling_std_kg);
+            match quality.map(|q| q[k]) {
+                Some(WeighQuality::Settling) => settling,
+                Some(WeighQuality::Valve) => {
+                    self.valve_own_scale.zip(self.valve_std_kg).or(settling)
+                }
                 _ => None,
             }
-            .unwrap_or(self.standstill_std_kg)
-            .max(self.standstill_std_kg)
+            .map_or(
+                (self.own_std_scale, self.standstill_std_kg),
+                |(scale, std)| {
+                    (
+                        scale.max(self.own_std_scale),
+                        std.max(self.standstill_std_kg),
+                    )
+                },
+            )
         };
         let (z, heights) = match height_m {
             Some(h) if h.len() == series.len() => (run_friction_state(&series.time_s, h), h),
@@ -877,7 +947,10 @@ impl LinearCalibration {
                 .measurement_std_kg
                 .iter()
                 .enumerate()
-                .map(|(k, s)| (g * s).hypot(class_std(k)))
+                .map(|(k, s)| {
+                    let (scale, std) = class_interval(k);
+                    (g * scale * s).hypot(std)
+                })
                 .collect()
         } else {
             series.std_kg.iter().map(|s| g * s).collect()
@@ -1058,46 +1131,70 @@ mod tests {
 
     #[test]
     fn the_interval_part_is_sized_to_cover_95_percent_beside_the_own_part() {
+        let one_run = |residual: &[f64], own: &[f64]| -> Vec<(usize, f64, f64)> {
+            residual.iter().zip(own).map(|(&r, &o)| (0, r, o)).collect()
+        };
+        let interval =
+            |samples: &[(usize, f64, f64)]| class_interval(samples, INTERVAL_COVERAGE).unwrap();
         // Residuals of 2 kg where the estimate's own part is 1 kg: 1.96 √(1 + σ²) = 2.
-        let residual = vec![2.0; 100];
-        let own = vec![1.0; 100];
-        let sigma = coverage_std(&residual, &own, 0.95, Z95).unwrap();
-        assert!(
-            (sigma - ((2.0f64 / 1.96).powi(2) - 1.0).sqrt()).abs() < 1e-9,
-            "{sigma}"
-        );
-        // Already covered by the own part: nothing added.
-        assert_eq!(coverage_std(&residual, &[2.0; 100], 0.95, Z95), Some(0.0));
+        let (scale, sigma) = interval(&one_run(&[2.0; 100], &[1.0; 100]));
+        assert_eq!(scale, 1.0);
+        let expected = ((2.0f64 / 1.96).powi(2) - 1.0).sqrt();
+        assert!((sigma - expected).abs() < 1e-9, "{sigma}");
         // 5 of 100 far out are allowed; the sixth is not.
         let mut r: Vec<f64> = vec![1.0; 100];
         r[..5].fill(50.0);
-        let s5 = coverage_std(&r, &[0.0; 100], 0.95, Z95).unwrap();
+        let (_, s5) = interval(&one_run(&r, &[0.0; 100]));
         assert!((s5 - 1.0 / 1.96).abs() < 1e-9, "{s5}");
         r[5] = 50.0;
-        let s6 = coverage_std(&r, &[0.0; 100], 0.95, Z95).unwrap();
+        let (_, s6) = interval(&one_run(&r, &[0.0; 100]));
         assert!((s6 - 50.0 / 1.96).abs() < 1e-9, "{s6}");
-        assert_eq!(coverage_std(&[], &[], 0.95, Z95), None);
         // Per run: the run that fits worst sets it, where the pooled samples would let the
         // many close ones of the other run hide it.
         let mut samples: Vec<(usize, f64, f64)> = (0..1900).map(|_| (0, 0.5, 0.0)).collect();
         samples.extend((0..60).map(|_| (1, 4.0, 0.0)));
-        let per_run = per_run_coverage_std(&samples).unwrap();
+        let (_, per_run) = interval(&samples);
         assert!((per_run - 4.0 / 1.96).abs() < 1e-9, "{per_run}");
-        let (r, o): (Vec<f64>, Vec<f64>) = samples.iter().map(|s| (s.1, s.2)).unzip();
-        let pooled = coverage_std(&r, &o, 0.95, Z95).unwrap();
-        assert!(pooled < per_run / 4.0, "{pooled} {per_run}");
+        let pooled: Vec<(usize, f64, f64)> = samples.iter().map(|&(_, r, o)| (0, r, o)).collect();
+        assert!(interval(&pooled).1 < per_run / 4.0);
         // Runs too short to size an interval alone count together: two of 30 samples that
         // fit badly are not dropped beside a long one that fits well.
         let mut samples: Vec<(usize, f64, f64)> = (0..1900).map(|_| (0, 0.5, 0.0)).collect();
         samples.extend((0..30).map(|_| (1, 4.0, 0.0)));
         samples.extend((0..30).map(|_| (2, 4.0, 0.0)));
-        let with_short = per_run_coverage_std(&samples).unwrap();
+        let (_, with_short) = interval(&samples);
         assert!((with_short - 4.0 / 1.96).abs() < 1e-9, "{with_short}");
         // Every run short: all of them together.
         let short: Vec<(usize, f64, f64)> = (0..40).map(|k| (k % 2, 1.0, 0.0)).collect();
-        let all = per_run_coverage_std(&short).unwrap();
+        let (_, all) = interval(&short);
         assert!((all - 1.0 / 1.96).abs() < 1e-9, "{all}");
-        assert_eq!(per_run_coverage_std(&[]), None);
+        assert_eq!(class_interval(&[], INTERVAL_COVERAGE), None);
+    }
+
+    #[test]
+    fn an_own_part_wider_than_the_errors_is_scaled_down_on_the_average_run() {
+        // Residuals 0.01, 0.02, …, 1.00 kg with an own std of 1 kg: the own part alone
+        // (±1.96 kg) covers all; 95 % of them need ±0.95 kg, s = 0.95 / 1.96.
+        let residual: Vec<f64> = (1..=100).map(|k| f64::from(k) / 100.0).collect();
+        let one: Vec<(usize, f64, f64)> = residual.iter().map(|&r| (0, r, 1.0)).collect();
+        let (scale, sigma) = class_interval(&one, INTERVAL_COVERAGE).unwrap();
+        assert!((scale - 0.95 / 1.96).abs() < 1e-9, "{scale}");
+        assert_eq!(sigma, 0.0);
+        // Not covered by the own part: left at 1, the additive part makes up the rest.
+        let narrow: Vec<(usize, f64, f64)> = residual.iter().map(|&r| (0, r, 0.1)).collect();
+        let (scale, sigma) = class_interval(&narrow, INTERVAL_COVERAGE).unwrap();
+        assert_eq!(scale, 1.0);
+        let expected = (0.95f64 / 1.96).powi(2) - (0.1f64).powi(2);
+        assert!((sigma - expected.sqrt()).abs() < 1e-9, "{sigma}");
+        // Two runs, the second's errors half the first's: the scale holds the average run
+        // on 95 % (the first on 90 %, s = 0.90 / 1.96, the second on all), and the additive
+        // part brings the first to 95 %.
+        let mut two = one.clone();
+        two.extend(residual.iter().map(|&r| (1, 0.5 * r, 1.0)));
+        let (scale, sigma) = class_interval(&two, INTERVAL_COVERAGE).unwrap();
+        assert!((scale - 0.90 / 1.96).abs() < 1e-9, "{scale}");
+        let expected = (0.95f64 / 1.96).powi(2) - (0.90f64 / 1.96).powi(2);
+        assert!((sigma - expected.sqrt()).abs() < 1e-9, "{sigma}");
     }
 
     #[test]

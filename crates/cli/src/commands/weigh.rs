@@ -168,7 +168,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
         let cal = LinearCalibration::fit_weighed_runs(&runs, &rule, terms)
             .with_context(|| format!("calibrating on {names}"))?;
         println!(
-            "calibration on {names}: load = {:.5} x estimate {:+.1} kg {:+.1} kg x z (wall-friction state) {:+.2} kg/mm x (height - {:.1} mm) ({} standstill samples, residual rms {:.1} kg, 95 % within {:.1} kg; interval σ {:.1} kg beside the estimate's own)",
+            "calibration on {names}: load = {:.5} x estimate {:+.1} kg {:+.1} kg x z (wall-friction state) {:+.2} kg/mm x (height - {:.1} mm) ({} standstill samples, residual rms {:.1} kg, 95 % within {:.1} kg; interval σ {:.1} kg beside the estimate's own × {:.3})",
             cal.gain,
             cal.offset_kg,
             cal.hysteresis_kg,
@@ -177,7 +177,8 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             cal.samples,
             cal.residual_rms_kg,
             cal.residual_q95_kg,
-            cal.standstill_std_kg
+            cal.standstill_std_kg,
+            cal.own_std_scale
         );
         if let (Some(settling), Some(valve)) = (cal.settling_q95_kg, cal.valve_q95_kg) {
             println!(
