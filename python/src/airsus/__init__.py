@@ -899,8 +899,8 @@ def weigh(
         up). ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg,
         hysteresis_kg, height_kg_per_mm, reference_height_mm, samples, residual_rms_kg,
         residual_q95_kg, settling_q95_kg, valve_q95_kg, standstill_std_kg, settling_std_kg,
-        valve_std_kg, own_std_scale, settling_own_scale, valve_own_scale`` and ``dropped`` (the terms the runs did not determine, with why) when
-        ``calibration_run`` is given:
+        valve_std_kg, own_std_scale, settling_own_scale, valve_own_scale`` and ``dropped``
+        (the terms the runs did not determine, with why) when ``calibration_run`` is given:
         ``load = gain·estimate + offset + hysteresis·z + height·(h − reference)``, with ``z``
         the wall-friction state from the heights (a fill reads high, ``hysteresis_kg < 0``
         takes it out). The standard deviation then comes from the calibration's residuals,
