@@ -7,7 +7,8 @@ use airsus_data::{Run, TruckParameters};
 use airsus_estimate::greybox::{ParameterStatus, Stage, Unidentifiable};
 use airsus_estimate::{
     EstimateError, GreyboxEstimate, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
-    NoProgress, StopReason, ease_logged_load, estimate, fit_load_transitions, loss_at,
+    NoProgress, PrefixOptions, StopReason, continue_jointly, ease_logged_load, estimate,
+    estimate_jointly, fit_load_transitions, loss_at,
 };
 use airsus_model::{SuspensionModel, build_model};
 use common::{load_step_run, measure, perturbed, valve_pulse_run};
@@ -555,5 +556,54 @@ fn the_force_map_holds_the_effective_area_where_the_runs_do_not_go() {
         "{} {}",
         pressure(&a),
         pressure(&b)
+    );
+}
+
+/// A joint estimate continued ([`continue_jointly`]) from its own optimum adds one round, the
+/// fit from the previous starts, and does not begin the alternation, which could gain no
+/// more than that fit did; continued from a point off it, it comes back to the optimum.
+#[test]
+fn a_joint_estimate_continued_from_its_optimum_stops_after_its_first_fit() {
+    let truck = TruckParameters::reference();
+    let truth = build_model("m2xh", &truck).unwrap();
+    let (steps, pulses) = runs(&*truth, 61);
+    let free = ["p0", "m2", "rflow1", "rflow2", "a1"];
+    let start = perturbed(&truck, "m2xh", &[("p0", 1.2), ("rflow1", 1.25)]);
+    let (options, prefix) = (GreyboxOptions::default(), PrefixOptions::default());
+    let problem = GreyboxProblem::new(&*start, &[&steps, &pulses], &free);
+    let first = estimate(&problem, &options, &mut NoProgress).unwrap();
+    let previous = estimate_jointly(first, &problem, &options, &prefix);
+    let loss = previous.estimate.loss_estimated;
+    let at_optimum = previous.estimate.estimated_model.clone();
+    let again = GreyboxProblem::new(&*at_optimum, &[&steps, &pulses], &free);
+    let continued = continue_jointly(&previous, &again, &options, Some(&prefix)).unwrap();
+    println!(
+        "rounds {} → {}, loss {loss:.6e} → {:.6e}, simulations {}",
+        previous.rounds.len(),
+        continued.rounds.len(),
+        continued.estimate.loss_estimated,
+        continued.estimate.simulations
+    );
+    assert_eq!(continued.rounds.len(), previous.rounds.len() + 1);
+    assert!(continued.estimate.loss_estimated <= loss * (1.0 + 1e-9));
+    // Its simulations are that fit's alone (84 with the alternation's round).
+    let from_starts = GreyboxProblem {
+        start_states: previous.starts.clone(),
+        ..again.clone()
+    };
+    let first_fit = estimate(&from_starts, &options, &mut NoProgress).unwrap();
+    assert_eq!(continued.estimate.simulations, first_fit.simulations);
+    // Off the optimum in the flow and the mass: back within 1 % of its loss.
+    let mut off = previous.estimate.estimated_model.clone();
+    for (name, factor) in [("rflow1", 1.3), ("m2", 0.8)] {
+        let value = off.parameter(name).unwrap();
+        off.set_parameter(name, value * factor).unwrap();
+    }
+    let from_off = GreyboxProblem::new(&*off, &[&steps, &pulses], &free);
+    let back = continue_jointly(&previous, &from_off, &options, Some(&prefix)).unwrap();
+    assert!(
+        back.estimate.loss_estimated < 1.01 * loss,
+        "{:.6e} against {loss:.6e}",
+        back.estimate.loss_estimated
     );
 }
