@@ -341,6 +341,7 @@ fn cal_run<'a>(run: &'a Run, est: &'a WeighSeries, h: Option<&'a [f64]>) -> Cali
         height_m: h,
         quality: None,
         measurement_std_kg: None,
+        road_m: Some(&run.inputs.road_height_m),
     }
 }
 
@@ -759,6 +760,44 @@ fn ekf_weighs_a_driving_truck_over_humps_and_a_rough_road() {
             );
         }
     }
+}
+
+/// A road run given as a calibration run adds no standstills while the road moves: the
+/// calibration on a loading run and a road run at a steady load (an ISO 8608 road, moving at
+/// every sample) is the loading run's alone. Before the road was looked at, each of the road
+/// run's samples counted as a standstill, and the interval was sized on a driving truck.
+#[test]
+fn a_road_run_adds_no_standstills_to_a_calibration() {
+    use airsus_truck::scenario::road_2;
+    let variant = StudiedVariant::new(0);
+    let (vt, m2, friction) = (&variant.truck, variant.unsprung_kg, variant.friction_n);
+    let loading = run_experiment(vt, &data_set_1(m2, 7), -friction, 7).unwrap();
+    let road = run_experiment(vt, &road_2(m2, 7).unwrap(), friction, 7).unwrap();
+    let weigh = |run: &Run| weigh_static(run, &variant.weigher, 20).unwrap();
+    let (on_loading, on_road) = (weigh(&loading.logged), weigh(&road.logged));
+    let rule = StandstillRule::default();
+    let calibrate = |runs: &[(&Run, &WeighSeries)]| {
+        let runs: Vec<CalibrationRun> = runs
+            .iter()
+            .map(|(run, s)| CalibrationRun::from_run(run, s).unwrap())
+            .collect();
+        LinearCalibration::fit_runs(&runs, &rule).unwrap()
+    };
+    let alone = calibrate(&[(&loading.logged, &on_loading)]);
+    let with_road = calibrate(&[(&loading.logged, &on_loading), (&road.logged, &on_road)]);
+    assert!(alone.samples > 1000, "{alone:?}");
+    assert_eq!(with_road.samples, alone.samples);
+    assert_eq!(with_road.gain, alone.gain);
+    assert_eq!(with_road.standstill_std_kg, alone.standstill_std_kg);
+    // Alone, it has nothing to size an interval on.
+    let err = LinearCalibration::fit_weighed_runs(
+        &[(&road.logged, &on_road)],
+        &rule,
+        CalibrationTerms::IntervalOnly,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("no steady load"), "{err}");
 }
 
 /// Max and rms of the error (% of the true load) over every sample of `run`.

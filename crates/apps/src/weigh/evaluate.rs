@@ -165,14 +165,17 @@ pub fn evaluate_weighing(
     })
 }
 
-/// Indices of the standstill samples (module docs).
+/// Indices of the standstill samples (module docs): with the logged road (`road_m`, one value
+/// per sample), a sample less than `rule.settle_s` after the road moved is driving, no
+/// standstill.
 pub fn standstill_indices(
     time_s: &[f64],
     load_kg: &[f64],
     valve: &[ValveState],
+    road_m: Option<&[f64]>,
     rule: &StandstillRule,
 ) -> Vec<usize> {
-    classify(time_s, load_kg, valve, None, rule).standstill
+    classify(time_s, load_kg, valve, road_m, rule).standstill
 }
 
 /// At every sample, the time the load last moved by more than `rule.steady_tolerance_kg`

@@ -319,6 +319,10 @@ pub struct CalibrationRun<'a> {
     pub quality: Option<&'a [WeighQuality]>,
     /// The estimate's own noise part of its standard deviation ([`WeighSeries`]), kg.
     pub measurement_std_kg: Option<&'a [f64]>,
+    /// The logged road height, m: samples within `settle_s` after the road moved are
+    /// driving, not standstills, and size nothing (a road run at a steady load with the
+    /// valve closed would otherwise be all standstills).
+    pub road_m: Option<&'a [f64]>,
 }
 
 /// The 95th percentile of non-negative values (sorted in place); `None` when empty.
@@ -464,6 +468,8 @@ impl<'a> CalibrationRun<'a> {
             quality: None,
             measurement_std_kg: (estimate.measurement_std_kg.len() == run.len())
                 .then_some(&estimate.measurement_std_kg[..]),
+            road_m: (run.inputs.road_height_m.len() == run.len())
+                .then_some(&run.inputs.road_height_m[..]),
         })
     }
 
@@ -626,6 +632,7 @@ impl LinearCalibration {
                 height_m,
                 quality: None,
                 measurement_std_kg: None,
+                road_m: None,
             }],
             rule,
         )
@@ -660,13 +667,15 @@ impl LinearCalibration {
                 || run.valve.len() != n
                 || run.height_m.is_some_and(|h| h.len() != n)
                 || run.measurement_std_kg.is_some_and(|m| m.len() != n)
+                || run.road_m.is_some_and(|r| r.len() != n)
             {
                 return Err(invalid(
                     format!("calibration run {}", i + 1),
-                    "time, estimate, known load, valve and height differ in length",
+                    "time, estimate, known load, valve, height and road differ in length",
                 ));
             }
-            let idx = evaluate::standstill_indices(run.time_s, run.known_kg, run.valve, rule);
+            let idx =
+                evaluate::standstill_indices(run.time_s, run.known_kg, run.valve, run.road_m, rule);
             let heights = run.height_m.filter(|_| with_heights);
             if idx.iter().any(|&k| {
                 !run.estimate_kg[k].is_finite()
@@ -1015,6 +1024,7 @@ mod tests {
             height_m: Some(&s.height_m),
             quality: None,
             measurement_std_kg: None,
+            road_m: None,
         }
     }
 
