@@ -731,7 +731,8 @@ const BACKWARDS_VALVE_LEAD_S: f64 = 10.0;
 /// the valve opened: they take it, with its standard deviation. Assumed: the load did not
 /// change while the valve worked (a valve opened at rest, as a truck levels itself after
 /// standing). The samples from the valve's opening on keep the filter's own reading. `None`
-/// (the series untouched) otherwise, or where the run ends before the reading.
+/// (the series untouched) otherwise: where the valve is open from the run's first or second
+/// sample, or where the run ends before the reading.
 fn resolve_start_backwards(
     series: &mut WeighSeries,
     run: &airsus_data::Run,
@@ -744,6 +745,11 @@ fn resolve_start_backwards(
     let t0 = *t.first()?;
     let valve = &run.inputs.valve;
     let k_valve = valve.iter().position(|&v| v != ValveState::Closed)?;
+    // Open from the first sample (or the second) there is no rest before it to see steady:
+    // one reading is always "steady", and the note would claim what the run does not show.
+    if k_valve < 2 {
+        return None;
+    }
     // The valve logged at sample k acts over (t_k, t_k+1]: a friction resolved at t_k moved
     // before it.
     if !(resolved_at_s > t[k_valve] && resolved_at_s <= t[k_valve] + BACKWARDS_VALVE_LEAD_S) {
