@@ -618,6 +618,8 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
     use airsus_truck::experiments::{GeneratedRun, levelling_run};
     use airsus_truck::scenario::{levelling_1, levelling_2};
     let (mut covered, mut standstills, mut run_coverages) = (0.0, 0usize, Vec::new());
+    let (mut valve_covered, mut valve_samples) = (0.0, 0usize);
+    let (mut after_covered, mut after_samples) = (0.0, 0usize);
     for k in 0..=3 {
         let variant = StudiedVariant::new(k);
         let (vt, m2, friction) = (&variant.truck, variant.unsprung_kg, variant.friction_n);
@@ -711,8 +713,24 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
             run_coverages.push(a.standstill.within_95_interval);
             covered += a.standstill.within_95_interval * a.standstill.samples as f64;
             standstills += a.standstill.samples;
+            valve_covered += a.valve_activity.within_95_interval * a.valve_activity.samples as f64;
+            valve_samples += a.valve_activity.samples;
+            after_covered += a.after_valve.within_95_interval * a.after_valve.samples as f64;
+            after_samples += a.after_valve.samples;
         }
     }
+    let (valve_coverage, after_coverage) = (
+        valve_covered / valve_samples as f64,
+        after_covered / after_samples as f64,
+    );
+    println!(
+        "coverage of the 95 % interval while the valve works {valve_coverage:.3} ({valve_samples} samples), at standstill after it {after_coverage:.3} ({after_samples})"
+    );
+    // Measured 0.914 and 0.933 (0.98 and 0.99 with the own part unscaled): the calibration
+    // sizes its settling and valve classes by the run's quality flags, which the truth's
+    // classes here do not follow sample for sample.
+    assert!(valve_coverage > 0.89, "{valve_coverage}");
+    assert!(after_coverage > 0.91, "{after_coverage}");
     let coverage = covered / standstills as f64;
     let run_mean = run_coverages.iter().sum::<f64>() / run_coverages.len() as f64;
     // Measured: 0.963 pooled, 0.953 on the average run. With the filter's own covariance
