@@ -176,3 +176,54 @@ fn model_3_has_no_tire() {
     let m3 = airsus_model::build_model("m3", &truck).unwrap();
     assert!(AxleGeometry::of(m3.as_ref(), &truck).is_err());
 }
+
+/// #13: the tire force the study's estimate simulates over a road it never saw (an ISO 8608
+/// class C road at 50 km/h, a new seed) matches the one the virtual truck's own structure
+/// simulates (its truth as a file of the `truck` structure), on variants 0-3: the road
+/// parameters the study took from its road run (damper scale, tire, unsprung mass) hold on
+/// another road. Both from the same equilibrium at the run's first height and its load.
+#[test]
+fn the_study_estimate_s_tire_force_on_a_new_road_matches_the_truth_s() {
+    use airsus_truck::experiments::run_experiment;
+    use airsus_truck::model::TruckModel;
+    use airsus_truck::scenario::road_2;
+    use airsus_truck::truth::VirtualTruck;
+    for k in 0..=3u32 {
+        let mut truck = VirtualTruck::variant(k);
+        let (m2, friction) = (
+            truck.physical.mass.unsprung_kg,
+            truck.effect_parameters.friction_force_n,
+        );
+        let seed = 300 + u64::from(k);
+        let road = run_experiment(&truck, &road_2(m2, seed).unwrap(), friction, seed).unwrap();
+        truck.resolve_laws();
+        let fixture = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join(format!("tests/fixtures/study_truck_variant{k}.toml"));
+        let estimate = airsus_data::read_truck(&fixture).unwrap().parameters;
+        let (time, road_m) = (&road.logged.time_s, &road.logged.inputs.road_height_m);
+        let load_kg = road.truth.inputs.wheel_load_kg[0];
+        let height_m = road.logged.measured().unwrap().sensor_height_m[0];
+        let tire_force = |p: &TruckParameters| {
+            let model = TruckModel::from_truck_parameters(p);
+            simulate_road(&model, p, time, road_m, load_kg, height_m)
+                .unwrap()
+                .tire_force_n
+        };
+        let (truth, estimated) = (tire_force(&truck.physical), tire_force(&estimate));
+        let fit = airsus_validate::nrmse_percent(&truth, &estimated).unwrap();
+        let rms_n = (truth
+            .iter()
+            .zip(&estimated)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            / truth.len() as f64)
+            .sqrt();
+        println!("variant {k}: tire force NRMSE {fit:.2} % (rms difference {rms_n:.0} N)");
+        // Measured 99.61, 99.35, 97.30 and 89.91 %. Variant 3's tires are 14 % stiffer
+        // (2.05 MN/m) than the file's 1.8 MN/m, which the study keeps: the tire stiffness is
+        // not in the `truck` structure's default free set on road runs (see the session
+        // note: its road 2 pressure is also the variant's worst gap to the ceiling).
+        let floor = if k == 3 { 88.0 } else { 97.0 };
+        assert!(fit > floor, "variant {k}: {fit:.2} %");
+    }
+}
