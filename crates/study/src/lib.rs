@@ -200,8 +200,11 @@ pub fn run_study(
     // the next pair from one queue. In the order given, the `truck` structure on the valve
     // runs (over half of the study's work) started last, at 27 s of the built-in study, and
     // ran alone at the end; started first, the other pairs fill the second core beside it.
-    let mut pairs: Vec<(usize, &String)> = (0..options.protocols.len())
+    // (the pair's place in the order asked for, protocol, model)
+    let mut pairs: Vec<(usize, usize, &String)> = (0..options.protocols.len())
         .flat_map(|k| options.models.iter().map(move |m| (k, m)))
+        .enumerate()
+        .map(|(i, (k, m))| (i, k, m))
         .collect();
     let estimation_samples = |k: usize| -> usize {
         options.protocols[k]
@@ -219,14 +222,14 @@ pub fn run_study(
             .map_or(1, |model| model.n_states())
     };
     // Stable: pairs of equal cost keep the order asked for.
-    pairs.sort_by_cached_key(|&(k, m)| std::cmp::Reverse(estimation_samples(k) * states(m)));
+    pairs.sort_by_cached_key(|&(_, k, m)| std::cmp::Reverse(estimation_samples(k) * states(m)));
     let next = std::sync::atomic::AtomicUsize::new(0);
     let workers = rayon::current_num_threads().clamp(1, pairs.len().max(1));
-    let mut all_outcomes: Vec<(usize, &String, models::ModelOutcome)> = (0..workers)
+    let mut all_outcomes: Vec<(usize, usize, models::ModelOutcome)> = (0..workers)
         .into_par_iter()
         .flat_map_iter(|_| {
             let mut mine = Vec::new();
-            while let Some(&(k, m)) =
+            while let Some(&(i, k, m)) =
                 pairs.get(next.fetch_add(1, std::sync::atomic::Ordering::Relaxed))
             {
                 let protocol = &options.protocols[k];
@@ -240,17 +243,16 @@ pub fn run_study(
                     done: done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1,
                     total,
                 });
-                mine.push((k, m, outcome));
+                mine.push((i, k, outcome));
             }
             mine
         })
         .collect();
     // Each protocol's models in the order asked for.
-    let model_order = |m: &String| options.models.iter().position(|x| x == m);
-    all_outcomes.sort_by_key(|(k, m, _)| (*k, model_order(m)));
+    all_outcomes.sort_by_key(|(i, _, _)| *i);
     let mut outcomes_by_protocol: Vec<Vec<models::ModelOutcome>> =
         options.protocols.iter().map(|_| Vec::new()).collect();
-    for (k, _, outcome) in all_outcomes {
+    for (_, k, outcome) in all_outcomes {
         outcomes_by_protocol[k].push(outcome);
     }
     let mut protocols = Vec::new();

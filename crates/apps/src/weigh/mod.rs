@@ -261,7 +261,7 @@ pub struct LinearCalibration {
     /// calibration run's known standstill loads; 1 when it did not (then
     /// [`Self::standstill_std_kg`] adds what it lacks). The EKF's covariance at standstill
     /// is wider than its errors: unscaled, its interval held 99.4 % of held-out standstills
-    /// (see [`run_mean_interval`]).
+    /// (how: `class_interval`, private to this module).
     pub own_std_scale: f64,
     /// The same as [`Self::standstill_std_kg`] and [`Self::own_std_scale`] for the samples
     /// flagged `settling` and `valve` (see [`Self::settling_q95_kg`]); `None` with too few
@@ -857,9 +857,8 @@ impl LinearCalibration {
         let (q95_settling, settling) = fit(settling);
         let (q95_valve, valve) = fit(valve);
         (self.settling_q95_kg, self.valve_q95_kg) = (q95_settling, q95_valve);
-        (self.settling_own_scale, self.settling_std_kg) =
-            (settling.map(|i| i.0), settling.map(|i| i.1));
-        (self.valve_own_scale, self.valve_std_kg) = (valve.map(|i| i.0), valve.map(|i| i.1));
+        (self.settling_own_scale, self.settling_std_kg) = settling.unzip();
+        (self.valve_own_scale, self.valve_std_kg) = valve.unzip();
     }
 
     /// One calibrated reading from the estimate, the friction state and the sensor height (m).
@@ -912,7 +911,7 @@ impl LinearCalibration {
             ));
         }
         // (own scale, σ_c) of sample k's class, each part at least the standstill's.
-        let class_interval = |k: usize| {
+        let interval_of = |k: usize| {
             let settling = self.settling_own_scale.zip(self.settling_std_kg);
             match quality.map(|q| q[k]) {
                 Some(WeighQuality::Settling) => settling,
@@ -957,7 +956,7 @@ impl LinearCalibration {
                 .iter()
                 .enumerate()
                 .map(|(k, s)| {
-                    let (scale, std) = class_interval(k);
+                    let (scale, std) = interval_of(k);
                     (g * scale * s).hypot(std)
                 })
                 .collect()
