@@ -88,6 +88,9 @@ def test_weigh_calibration_on_two_runs(reference: Path, tmp_path: Path, cli) -> 
     # The static law's own part (the sensors' noise over its window) is far below its errors:
     # not scaled down.
     assert cal["own_std_scale"] == 1.0
+    # The heights the two runs visited, from a loaded data-set 1 to data-set 3's pulses.
+    low_mm, high_mm = cal["height_range_mm"]
+    assert 150.0 < low_mm < high_mm < 300.0 and high_mm - low_mm > 20.0
     moving = load["quality"] != "standstill"
     assert (load["wheel_load_std_kg"][moving] >= cal["standstill_std_kg"] - 1e-9).all()
     # The command, with the same two runs, writes the same numbers.

@@ -610,7 +610,7 @@ impl StudiedVariant {
 /// the wall unloaded: said to the filter. The interval is sized on the study's estimation
 /// runs (data-sets 1 and 3, levelling 1, their logged loads, each start told as for the
 /// held-out runs) and must hold the held-out truth on 95 ± 3 % of the standstills, pooled and
-/// on the average run.
+/// on the average run, and of the samples while the valve works and after it.
 /// Before the filter drove the wall friction through a play, the noise's jitter wore the
 /// friction away and standstills read 0.5-0.9 % off, by the friction's sign.
 #[test]
@@ -704,12 +704,11 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
             // An interval of a few kilograms (0.3 % of the load at most), not the 36-38 kg
             // the assumed parameter errors give.
             assert!(a.standstill.mean_std_kg < 12.0, "{who}: {a:?}");
-            // Each run's standstills mostly inside it. Measured 0.841-0.999; a run's error is
-            // a few biased standstills (variant 0's data-set 4 reads 2.5-3.5 kg high at some
-            // heights, 0.1 %), so single runs scatter about the pooled figure: the interval is
-            // sized on the average calibration run, and no calibration run of that kind showed
-            // the bias.
-            assert!(a.standstill.within_95_interval > 0.82, "{who}: {a:?}");
+            // Each run's standstills mostly inside it. Measured 0.927-0.999. Data-set 4's long
+            // valve steps lift the bellow 10-30 mm above the calibration's heights, where the
+            // study's law reads up to 4 kg off (variant 0): before the interval widened beyond
+            // the calibrated heights, that run held 0.841.
+            assert!(a.standstill.within_95_interval > 0.9, "{who}: {a:?}");
             run_coverages.push(a.standstill.within_95_interval);
             covered += a.standstill.within_95_interval * a.standstill.samples as f64;
             standstills += a.standstill.samples;
@@ -726,15 +725,16 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
     println!(
         "coverage of the 95 % interval while the valve works {valve_coverage:.3} ({valve_samples} samples), at standstill after it {after_coverage:.3} ({after_samples})"
     );
-    // Measured 0.914 and 0.933 (0.98 and 0.99 with the own part unscaled): the calibration
-    // sizes its settling and valve classes by the run's quality flags, which the truth's
-    // classes here do not follow sample for sample.
-    assert!(valve_coverage > 0.89, "{valve_coverage}");
-    assert!(after_coverage > 0.91, "{after_coverage}");
+    // Measured 0.932 and 0.975. Without the interval's widening beyond the calibrated
+    // heights, 0.914 and 0.933: data-set 4's valve steps and their settling are where the
+    // bellow leaves the calibration's heights.
+    assert!((0.92..=0.98).contains(&valve_coverage), "{valve_coverage}");
+    assert!((0.92..=0.98).contains(&after_coverage), "{after_coverage}");
     let coverage = covered / standstills as f64;
     let run_mean = run_coverages.iter().sum::<f64>() / run_coverages.len() as f64;
-    // Measured: 0.963 pooled, 0.953 on the average run. With the filter's own covariance
-    // unscaled, 0.994: the interval said less than it could.
+    // Measured: 0.975 pooled and on the average run (0.963 and 0.953 without the widening
+    // beyond the calibrated heights). With the filter's own covariance unscaled, 0.994: the
+    // interval said less than it could.
     println!(
         "standstill coverage of the 95 % interval: pooled {coverage:.3}, average run {run_mean:.3}"
     );

@@ -225,6 +225,7 @@ pub fn weigh<'py>(
             cal.set_item("own_std_scale", c.own_std_scale)?;
             cal.set_item("settling_own_scale", c.settling_own_scale)?;
             cal.set_item("valve_own_scale", c.valve_own_scale)?;
+            cal.set_item("height_range_mm", c.height_range_mm)?;
             cal.set_item("dropped", c.dropped)?;
             out.set_item("calibration", cal)?;
         }

@@ -187,6 +187,16 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
                 cal.valve_std_kg.unwrap_or(f64::NAN)
             );
         }
+        if let Some((lo, hi)) = cal.height_range_mm {
+            println!(
+                "  calibrated between sensor heights {lo:.1} and {hi:.1} mm; beyond them the interval widens toward the assumed parameter errors ({} samples of this run)",
+                run.measured()?
+                    .sensor_height_m
+                    .iter()
+                    .filter(|h| !(lo..=hi).contains(&(*h * 1e3)))
+                    .count()
+            );
+        }
         for why in &cal.dropped {
             eprintln!("note: calibration term left out, {why}");
         }
