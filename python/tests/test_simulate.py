@@ -26,6 +26,7 @@ def test_the_model_registry() -> None:
         "default_free",
         "valve_free",
         "road_free",
+        "road_refit",
     ]
     m2 = registry.set_index("name").loc["m2"]
     assert "m2" in m2["parameters"] and "p0" in m2["parameters"]
@@ -35,6 +36,7 @@ def test_the_model_registry() -> None:
     assert m2["road_free"] == ["dscl"] and "dscl" in m2["parameters"]
     assert registry.set_index("name").loc["m3"]["road_free"] == []
     truck = registry.set_index("name").loc["truck"]
+    assert truck["road_refit"] == ["dscl", "kw", "ig"] and m2["road_refit"] == []
     assert truck["roles"][truck["states"].index("gas_t_k")] == "gas_temperature"
 
 

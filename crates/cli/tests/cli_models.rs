@@ -23,6 +23,12 @@ fn models_json_lists_every_model_with_parameters_and_states() {
     let models = models.as_array().unwrap();
     let names: Vec<&str> = models.iter().map(|m| m["name"].as_str().unwrap()).collect();
     assert_eq!(names, ["m1", "m2", "m2x", "m2xh", "m3", "truck"]);
+    // What the study refits on the road runs alone, after the joint estimate.
+    assert_eq!(
+        models[5]["road_refit"],
+        serde_json::json!(["dscl", "kw", "ig"])
+    );
+    assert_eq!(models[1]["road_refit"], serde_json::json!([]));
     for model in models {
         let name = model["name"].as_str().unwrap();
         assert!(!model["description"].as_str().unwrap().is_empty());

@@ -7,8 +7,8 @@ use airsus_data::laws::VALVE_CHANNELS;
 use airsus_data::params::{Field, spec_field};
 use airsus_data::{Run, ValveState, write_truck};
 use airsus_estimate::{
-    FreeParameter, GreyboxOptions, GreyboxProblem, JointEstimate, LoadTransitionsFit, MultiStart,
-    NoProgress, PrefixOptions, StartChoice, StartMethod, StopReason, continue_jointly,
+    FreeParameter, GreyboxOptions, GreyboxProblem, JointEstimate, LoadRamp, LoadTransitionsFit,
+    MultiStart, NoProgress, PrefixOptions, StartChoice, StartMethod, StopReason, continue_jointly,
     ease_logged_load, estimate_with_starts, fit_load_transitions, logged_load_changes,
     longest_transition_s, ramp_logged_load, resolve_start, solver_for_ramp,
 };
@@ -190,6 +190,128 @@ fn refit_with_lab_valve(
             joint
         }
     }
+}
+
+/// The registry's road refit ([`airsus_model::ModelEntry::road_refit`]): `names` refitted on
+/// the estimation runs with road input alone, from the joint estimate, each run started as
+/// in the joint fit (`method`). The rest stays as the joint fit left it.
+///
+/// Why a second stage: the tire's stiffness and the lever's inertia act on the wheel hop and
+/// the body's motion over a road, which only the road run shows. Freed jointly, the loading
+/// and valve runs' misfit (creep, heat, the volume law) pulls them: the tire's stiffness came
+/// out 10-20 % low on virtual-truck variants 0-2, and with it held at the file's value,
+/// variant 3's estimate took the lever's inertia 12 % low to make up for its 14 % stiffer
+/// tires (its tire force on a held-out road 89.9 % NRMSE of the truth's). Refitted on road 1
+/// alone: both within 0.2-4.5 % on variants 0-3 and that tire force 96.7 %.
+///
+/// The refit is kept when it explains the road runs better than the joint estimate did; a
+/// parameter the road runs do not determine stays at the joint estimate and is reported.
+#[allow(clippy::too_many_arguments)]
+fn refit_on_road(
+    mut joint: JointEstimate,
+    problem: &GreyboxProblem<'_>,
+    names: &[&str],
+    options: &GreyboxOptions,
+    method: StartMethod,
+    prefix: &PrefixOptions,
+    notes: &mut Vec<String>,
+) -> JointEstimate {
+    let road: Vec<usize> = (0..problem.runs.len())
+        .filter(|&i| problem.runs[i].road_action())
+        .collect();
+    let model = &*joint.estimate.estimated_model;
+    let names: Vec<&str> = names
+        .iter()
+        .copied()
+        .filter(|n| model.parameter(n).is_ok())
+        .collect();
+    if road.is_empty() || names.is_empty() {
+        return joint;
+    }
+    let runs: Vec<&Run> = road.iter().map(|&i| problem.runs[i]).collect();
+    let run_names: Vec<&str> = runs.iter().map(|r| r.name.as_str()).collect();
+    let mut refit = GreyboxProblem {
+        model,
+        runs: runs.clone(),
+        free: names.iter().map(|n| FreeParameter::new(*n)).collect(),
+        start_states: vec![None; runs.len()],
+        force_map: None,
+        ..problem.clone()
+    };
+    for name in &names {
+        if let Some((lo, hi)) = bounds(model, name) {
+            refit = refit.with_bounds(name, lo, hi);
+        }
+    }
+    let single = MultiStart {
+        count: 1,
+        ..MultiStart::default()
+    };
+    let fitted = estimate_with_starts(
+        &refit,
+        options,
+        &single,
+        method,
+        prefix,
+        LoadRamp::Logged,
+        &mut NoProgress,
+    );
+    let what = format!("{} on {} alone", names.join(", "), run_names.join(" + "));
+    let road_fit = match fitted {
+        Ok((road_fit, _)) => road_fit,
+        Err(e) => {
+            notes.push(format!(
+                "the refit of {what} failed ({e}): the joint estimate is kept"
+            ));
+            return joint;
+        }
+    };
+    let est = road_fit.estimate;
+    joint.estimate.simulations += est.simulations;
+    joint.estimate.failed_simulations += est.failed_simulations;
+    // A loss that is not a number explains nothing better.
+    if est.loss_estimated.partial_cmp(&est.loss_nominal) != Some(std::cmp::Ordering::Less) {
+        notes.push(format!(
+            "the refit of {what} did not explain them better (loss {:.4e} against {:.4e}): the joint estimate is kept",
+            est.loss_estimated, est.loss_nominal
+        ));
+        return joint;
+    }
+    let moved: Vec<String> = est
+        .parameters
+        .iter()
+        .map(|p| {
+            let before = model.parameter(&p.name).unwrap_or(p.nominal);
+            format!("{} {before:.4e} → {:.4e}", p.name, p.estimate)
+        })
+        .collect();
+    notes.push(format!(
+        "refitted {what} from the joint estimate: {} (their loss {:.4e} → {:.4e})",
+        moved.join(", "),
+        est.loss_nominal,
+        est.loss_estimated
+    ));
+    for p in est.parameters {
+        match joint
+            .estimate
+            .parameters
+            .iter_mut()
+            .find(|q| q.name == p.name)
+        {
+            Some(q) => *q = p,
+            None => joint.estimate.parameters.push(p),
+        }
+    }
+    let report = &mut joint.estimate.identifiability.not_identifiable;
+    report.retain(|n| !names.contains(&n.name.as_str()));
+    report.extend(est.identifiability.not_identifiable);
+    for (&i, start) in road.iter().zip(road_fit.starts) {
+        if let Some(slot) = joint.starts.get_mut(i) {
+            *slot = start;
+        }
+    }
+    joint.estimate.estimated_model = est.estimated_model;
+    joint
 }
 
 /// Simulates `model` over a measured run for scoring; it starts by `method` (the estimator's
@@ -504,6 +626,19 @@ pub fn fit_and_validate(
         }
         other => other,
     };
+    let road_refit = model_entry(model_name).map_or(&[][..], |entry| entry.road_refit);
+    let fitted = fitted.map(|(joint, summary)| {
+        let joint = refit_on_road(
+            joint,
+            &problem,
+            road_refit,
+            &fit_options,
+            initial,
+            &prefix,
+            &mut result.notes,
+        );
+        (joint, summary)
+    });
     let estimated: Box<dyn SuspensionModel> = match fitted {
         Err(e) => {
             result.error = Some(format!(

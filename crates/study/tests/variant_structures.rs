@@ -75,25 +75,29 @@ fn assert_noted(notes: &[String], needle: &str) {
 
 #[test]
 fn the_structure_reaches_the_ceiling_of_a_truck_drawn_anew() {
-    // Measured: every run within 0.6 points of its ceiling; held out data-set 4 99.1/96.9 %
-    // against 99.3/97.2 %, road 2 96.5/98.6 against 97.1/98.6, levelling 2 95.1/99.1 against
-    // 95.2/99.1 (89.5/96.4 with the estimation runs' common ramp). With the gas's thermal
+    // Measured: every run within 0.3 points of its ceiling; held out data-set 4 99.2/96.9 %
+    // against 99.3/97.2 %, road 2 97.1/98.6 against 97.1/98.6 (96.5/98.6 before the study
+    // refitted the tire and the lever's inertia on road 1 alone), levelling 2 95.1/99.1
+    // against 95.2/99.1 (89.5/96.4 with the estimation runs' common ramp). With the gas's thermal
     // time held at the built-in 20 s: data-set 4's pressure 79.0 %, levelling 1's height
     // 83.8 % (an estimation run).
     let (scores, notes) = study_variant(1);
-    assert_near_ceiling(1, &scores, &notes, 1.0);
+    assert_near_ceiling(1, &scores, &notes, 0.5);
 }
 
 #[test]
 fn the_structure_takes_the_linear_valve_the_lab_calls_for() {
-    // Measured: every run within 1.45 points of its ceiling (road 2's pressure 97.2 against
-    // 98.6 %); data-set 3 (estimation) 95.3/87.4 % against 95.3/87.4 %, held out data-set 4
+    // Measured: every run within 0.4 points of its ceiling (data-set 2's height 92.1 against
+    // 92.5 %; road 2 96.7/98.3 against 97.0/98.6, 96.3/97.2 before the study refitted the
+    // tire's stiffness and the lever's inertia on road 1 alone: the joint fit kept the file's
+    // 1.8 MN/m for tires of 2.05 and took the inertia 12 % low to make up); data-set 3 (estimation) 95.3/87.4 % against 95.3/87.4 %, held out data-set 4
     // 99.1/94.4 against 99.3/94.7, levelling 2 95.3/99.0 against 95.5/99.1. Under the
     // structure's orifice with the lab's fit of one (b at its bound): data-set 3 75.5 %,
     // data-set 4 75.6 %, levelling 2 81.0 %.
     let (scores, notes) = study_variant(3);
     assert_noted(&notes, "under law `linear_resistance`");
-    assert_near_ceiling(3, &scores, &notes, 2.0);
+    assert_noted(&notes, "refitted dscl, kw, ig on road 1 alone");
+    assert_near_ceiling(3, &scores, &notes, 1.0);
 }
 
 #[test]
@@ -101,7 +105,7 @@ fn the_structure_reads_the_lab_right_on_a_truck_whose_area_bends() {
     // Variant 2: its area bends down below 220 mm and grows 0.0048 per 100 kPa (the
     // structure's built-in growth is 0.004), its wall slides late (pre-sliding stiffness
     // 14.8 kN/m against the built-in 20), and its gas volume's shape (A1/A0) is 12 % steeper
-    // than the closed-valve fit reads. Measured: every run within 0.75 points of its ceiling,
+    // than the closed-valve fit reads. Measured: every run within 0.65 points of its ceiling,
     // the held-out data-set 4 (the bellow down to 195 mm) 99.4/97.3 % against 99.5/97.9 %.
     // Before, 91.6 % pressure there: with the friction of the map's sweeps left in its
     // readings the force-map prior let the area bend 1.2 % at 160 mm; with the wall's
@@ -113,5 +117,5 @@ fn the_structure_reads_the_lab_right_on_a_truck_whose_area_bends() {
         &notes,
         "the valve held at the lab's values (c1, c2) and a1, rline freed",
     );
-    assert_near_ceiling(2, &scores, &notes, 1.5);
+    assert_near_ceiling(2, &scores, &notes, 1.0);
 }

@@ -26,7 +26,7 @@ use crate::truck::NativeTruck;
 
 /// Every model airsus builds by name (the registry, as `airsus models --json`):
 /// `[{"name", "description", "parameters", "units", "states", "roles", "default_free",
-/// "valve_free", "road_free"}, ...]`,
+/// "valve_free", "road_free", "road_refit"}, ...]`,
 /// built with the reference truck.
 #[pyfunction]
 pub fn models(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
@@ -56,6 +56,7 @@ pub fn models(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
         entry.set_item("default_free", model.default_free.to_vec())?;
         entry.set_item("valve_free", model.valve_free.to_vec())?;
         entry.set_item("road_free", model.road_free.to_vec())?;
+        entry.set_item("road_refit", model.road_refit.to_vec())?;
         out.push(entry);
     }
     Ok(out)

@@ -391,8 +391,9 @@ def models() -> pd.DataFrame:
     state-vector order), ``roles`` (each state's role: ``position``, ``angle``, ``velocity``,
     ``bellow_air``, ``supply_air``, ``gas_temperature``, ``force``, ``filter``,
     ``reference``), ``default_free`` (what a grey-box fit frees by default), ``valve_free``
-    (freed as well when a run has valve action) and ``road_free`` (when a run has road
-    input). The same registry as ``airsus models --json``.
+    (freed as well when a run has valve action), ``road_free`` (when a run has road
+    input) and ``road_refit`` (what the study refits on the road runs alone after the joint
+    estimate). The same registry as ``airsus models --json``.
     """
     return pd.DataFrame(_native.models())
 

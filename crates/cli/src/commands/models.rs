@@ -40,6 +40,7 @@ pub fn run(args: &ModelsArgs) -> anyhow::Result<()> {
                     "default_free": m.default_free,
                     "valve_free": m.valve_free,
                     "road_free": m.road_free,
+                    "road_refit": m.road_refit,
                 })
             })
             .collect();
@@ -58,6 +59,12 @@ pub fn run(args: &ModelsArgs) -> anyhow::Result<()> {
                 format!("; with road input also {}", m.road_free.join(","))
             }
         );
+        if !m.road_refit.is_empty() {
+            println!(
+                "       the study refits {} on the road runs alone after the joint estimate",
+                m.road_refit.join(",")
+            );
+        }
         println!(
             "       states: {}",
             m.states
