@@ -209,7 +209,6 @@ const ROAD_REFIT_MIN_CHANGE: f64 = 1e-3;
 ///
 /// The refit is kept when it explains the road runs better than the joint estimate did; a
 /// parameter the road runs do not determine stays at the joint estimate and is reported.
-#[allow(clippy::too_many_arguments)]
 fn refit_on_road(
     mut joint: JointEstimate,
     problem: &GreyboxProblem<'_>,
@@ -284,10 +283,18 @@ fn refit_on_road(
     // refit that moved no parameter is not kept for its starts. Tried with the thesis models'
     // road refit, Model 2's refit on variant 2 moved nothing and its new starts scored road 1
     // six points lower over the whole run.
-    let moved_any = est.parameters.iter().any(|p| {
-        let before = model.parameter(&p.name).unwrap_or(p.nominal);
-        (p.estimate - before).abs() > ROAD_REFIT_MIN_CHANGE * before.abs()
-    });
+    // (name, joint estimate, refit) of each refitted parameter.
+    let changes: Vec<(&str, f64, f64)> = est
+        .parameters
+        .iter()
+        .map(|p| {
+            let before = model.parameter(&p.name).unwrap_or(p.nominal);
+            (p.name.as_str(), before, p.estimate)
+        })
+        .collect();
+    let moved_any = changes
+        .iter()
+        .any(|&(_, before, after)| (after - before).abs() > ROAD_REFIT_MIN_CHANGE * before.abs());
     if !moved_any {
         notes.push(format!(
             "the refit of {what} moved no parameter by more than {:.1} %: the joint estimate is kept",
@@ -295,13 +302,9 @@ fn refit_on_road(
         ));
         return joint;
     }
-    let moved: Vec<String> = est
-        .parameters
+    let moved: Vec<String> = changes
         .iter()
-        .map(|p| {
-            let before = model.parameter(&p.name).unwrap_or(p.nominal);
-            format!("{} {before:.4e} → {:.4e}", p.name, p.estimate)
-        })
+        .map(|(name, before, after)| format!("{name} {before:.4e} → {after:.4e}"))
         .collect();
     notes.push(format!(
         "refitted {what} from the joint estimate: {} (their loss {:.4e} → {:.4e})",

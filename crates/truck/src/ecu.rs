@@ -317,8 +317,12 @@ impl LevelController for DeadbandController {
 
 /// The deadband controller's stop margin and the predictive controller's inner band for
 /// the default ±5 mm band, m; narrow bands scale them by [`MARGIN_SHARE_OF_BAND`] (the stop
-/// margin under ±2 mm) and 0.75 times that (the inner band under ±4 mm), which keeps both
-/// inside the band with room for the drift after a pulse.
+/// margin under ±2 mm) and [`INNER_BAND_SHARE_FACTOR`] times that (the standing inner band
+/// under ±4 mm), which keeps both inside the band with room for the drift after a pulse.
 pub const STOP_MARGIN_M: f64 = 1e-3;
 pub const INNER_BAND_M: f64 = 1.5e-3;
 pub const MARGIN_SHARE_OF_BAND: f64 = 0.5;
+/// The predictive controller's inner band as a multiple of [`MARGIN_SHARE_OF_BAND`] of a
+/// narrow band: standing, and (wider) while driving.
+pub const INNER_BAND_SHARE_FACTOR: f64 = 0.75;
+pub const DRIVING_INNER_BAND_SHARE_FACTOR: f64 = 1.5;

@@ -14,11 +14,13 @@
 //! shares the deadband controller's guard and measurement path.
 
 use airsus_data::{GasVolumeLaw, TruckParameters, ValveFlowLaw, ValveState};
+use airsus_truck::ecu::{
+    DRIVING_INNER_BAND_SHARE_FACTOR, INNER_BAND_M, INNER_BAND_SHARE_FACTOR, MARGIN_SHARE_OF_BAND,
+};
 pub use airsus_truck::ecu::{
     DRIVING_SPEED_M_S, DeadbandController, GuardSettings, HeightFilter, LevelController, Reading,
     ValveGuard,
 };
-use airsus_truck::ecu::{INNER_BAND_M, MARGIN_SHARE_OF_BAND};
 
 use crate::weigh::StaticLaw;
 
@@ -125,11 +127,12 @@ impl PredictiveController {
             // minute after a fill, 1-2 mm on variants 1-3. At 1.5 times the share (1.5 mm of a
             // ±2 mm band), a controller designed on variant 0's study estimate stopped its
             // follow-ups 1.5 mm under the target on variant 2 and drifted out of the band.
-            inner_band_m: INNER_BAND_M.min(0.75 * MARGIN_SHARE_OF_BAND * settings.tolerance_m),
+            inner_band_m: INNER_BAND_M
+                .min(INNER_BAND_SHARE_FACTOR * MARGIN_SHARE_OF_BAND * settings.tolerance_m),
             // As narrow while driving, the controller opened 5 times in 200 s of class C road
             // on variant 2 (3 at most at 1.5 times the share).
             driving_inner_band_m: INNER_BAND_M
-                .min(1.5 * MARGIN_SHARE_OF_BAND * settings.tolerance_m),
+                .min(DRIVING_INNER_BAND_SHARE_FACTOR * MARGIN_SHARE_OF_BAND * settings.tolerance_m),
             follow_up_wait_s: 3.0,
             active: false,
             last_pulse_end_s: f64::NEG_INFINITY,
