@@ -323,6 +323,7 @@ pub const STOP_MARGIN_M: f64 = 1e-3;
 pub const INNER_BAND_M: f64 = 1.5e-3;
 pub const MARGIN_SHARE_OF_BAND: f64 = 0.5;
 /// The predictive controller's inner band as a multiple of [`MARGIN_SHARE_OF_BAND`] of a
-/// narrow band: standing, and (wider) while driving.
+/// narrow band: standing, and while driving (wider than standing under ±4 mm; both are
+/// capped by [`INNER_BAND_M`], so from ±4 mm on they are the same).
 pub const INNER_BAND_SHARE_FACTOR: f64 = 0.75;
 pub const DRIVING_INNER_BAND_SHARE_FACTOR: f64 = 1.5;

@@ -272,7 +272,9 @@ pub struct LinearCalibration {
     pub settling_own_scale: Option<f64>,
     pub valve_own_scale: Option<f64>,
     /// The lowest and highest sensor height of the known-load samples that sized the
-    /// intervals, mm; `None` when the runs gave no heights. Beyond them the calibration
+    /// intervals, mm: the standstills, and the samples flagged `settling` and `valve` once
+    /// their load was steady; heights that are not a number are skipped. `None` when the
+    /// runs gave no heights. Beyond them the calibration
     /// measured nothing, and [`Self::apply`] widens the interval ([`extrapolation_std_kg`]).
     pub height_range_mm: Option<(f64, f64)>,
     pub samples: usize,
@@ -438,13 +440,18 @@ fn height_range(heights_mm: impl IntoIterator<Item = f64>) -> Option<(f64, f64)>
 /// the study's estimate reads up to 4 kg off against 2 kg inside, and without this part its
 /// interval held 76 % of those standstills.
 fn extrapolation_std_kg(height_mm: f64, (lo, hi): (f64, f64), parameter_std_kg: f64) -> f64 {
-    // A height that is not a number is none beyond: `max` drops the NaN.
-    let beyond_mm = (lo - height_mm).max(height_mm - hi).max(0.0);
-    if beyond_mm <= 0.0 {
+    let beyond = beyond_mm(height_mm, (lo, hi));
+    if beyond <= 0.0 {
         return 0.0;
     }
-    let reach = beyond_mm / (hi - lo).max(1.0);
+    let reach = beyond / (hi - lo).max(1.0);
     parameter_std_kg * reach.powi(2).min(1.0)
+}
+
+/// How far `height_mm` lies beyond `[lo, hi]`, mm (0 inside). A height that is not a number
+/// is none beyond: `max` drops the NaN.
+fn beyond_mm(height_mm: f64, (lo, hi): (f64, f64)) -> f64 {
+    (lo - height_mm).max(height_mm - hi).max(0.0)
 }
 
 /// The interval of a class from `(run, residual, own std)` samples, `(own_scale, σ_c)`:
@@ -708,10 +715,12 @@ impl LinearCalibration {
             let idx =
                 evaluate::standstill_indices(run.time_s, run.known_kg, run.valve, run.road_m, rule);
             let heights = run.height_m.filter(|_| with_heights);
+            // Without terms to fit, a height only bounds the calibrated range
+            // ([`height_range`] skips one that is not a number).
             if idx.iter().any(|&k| {
                 !run.estimate_kg[k].is_finite()
                     || !run.known_kg[k].is_finite()
-                    || heights.is_some_and(|h| !h[k].is_finite())
+                    || (fit_scale && heights.is_some_and(|h| !h[k].is_finite()))
             }) {
                 return Err(invalid(
                     format!("calibration run {}", i + 1),
@@ -907,7 +916,20 @@ impl LinearCalibration {
         } else {
             0.0
         };
-        self.gain * estimate_kg + self.offset_kg + self.hysteresis_kg * z + height_term
+        let hysteresis_term = if self.hysteresis_kg != 0.0 {
+            self.hysteresis_kg * z
+        } else {
+            0.0
+        };
+        self.gain * estimate_kg + self.offset_kg + hysteresis_term + height_term
+    }
+
+    /// Whether a sensor height (m) lies beyond the heights the calibration saw
+    /// ([`Self::height_range_mm`]), where [`Self::apply`] widens the interval. A height that
+    /// is not a number, or a calibration without a range, is not beyond.
+    pub fn is_beyond_calibrated_heights(&self, height_m: f64) -> bool {
+        self.height_range_mm
+            .is_some_and(|(lo, hi)| beyond_mm(height_m * 1e3, (lo, hi)) > 0.0)
     }
 
     /// Applies the calibration to a series.
@@ -917,14 +939,18 @@ impl LinearCalibration {
     /// between the levels, the noise) sets it, `σ = √((g σ_meas)² + σ_c²)` with `σ_meas` the
     /// estimate's own noise part and `σ_c` ([`Self::standstill_std_kg`]) the smallest part
     /// that made the interval hold 95 % of the calibration's known loads. The assumed
-    /// parameter part is dropped: the calibration measured what it does. For the EKF,
+    /// parameter part is dropped over the heights the calibration saw, which measured what
+    /// it does; beyond them it returns with the distance ([`extrapolation_std_kg`]). For the EKF,
     /// `σ_meas` is the filter's own standard deviation (wide while it converges, while the
     /// load changes, and while the wall friction's state is unknown). Without the noise part
     /// (an estimator that does not split it off), the standard deviation only scales with
     /// the gain.
     ///
     /// A calibration with a height or hysteresis term needs the run's sensor heights, one per
-    /// sample: without them it is an error, not a silently different calibration.
+    /// sample: without them it is an error, not a silently different calibration. Without
+    /// heights, a calibration with only a height range applies with a note that the interval
+    /// was not widened; heights of another length than the series are always an error, as are
+    /// a series whose loads, standard deviations or noise parts differ in number.
     pub fn apply(
         &self,
         series: &WeighSeries,
@@ -943,7 +969,22 @@ impl LinearCalibration {
         quality: Option<&[WeighQuality]>,
     ) -> Result<WeighSeries, AppError> {
         let g = self.gain.abs();
-        if quality.is_some_and(|q| q.len() != series.len()) {
+        let n = series.len();
+        if series.wheel_load_kg.len() != n
+            || series.std_kg.len() != n
+            || !(series.measurement_std_kg.is_empty() || series.measurement_std_kg.len() == n)
+        {
+            return Err(invalid(
+                "calibration",
+                format!(
+                    "the series to calibrate has {n} times, {} loads, {} standard deviations and {} noise parts",
+                    series.wheel_load_kg.len(),
+                    series.std_kg.len(),
+                    series.measurement_std_kg.len()
+                ),
+            ));
+        }
+        if quality.is_some_and(|q| q.len() != n) {
             return Err(invalid(
                 "calibration",
                 "the quality flags and the load samples differ in number",
@@ -969,9 +1010,10 @@ impl LinearCalibration {
                 },
             )
         };
+        let mut notes = series.notes.clone();
         let (z, heights) = match height_m {
             Some(h) if h.len() == series.len() => (run_friction_state(&series.time_s, h), h),
-            Some(h) if self.uses_height() => {
+            Some(h) => {
                 return Err(invalid(
                     "calibration",
                     format!(
@@ -987,7 +1029,14 @@ impl LinearCalibration {
                     "it has a height or hysteresis term and needs the run's sensor heights",
                 ));
             }
-            _ => (vec![0.0; series.len()], &[][..]),
+            None => {
+                if let Some((lo, hi)) = self.height_range_mm {
+                    notes.push(format!(
+                        "without the run's sensor heights, the interval is not widened beyond the calibrated heights ({lo:.1}-{hi:.1} mm)"
+                    ));
+                }
+                (vec![0.0; series.len()], &[][..])
+            }
         };
         let std_kg = if series.measurement_std_kg.len() == series.len() && self.samples > 0 {
             series
@@ -1020,7 +1069,7 @@ impl LinearCalibration {
                 .collect(),
             std_kg,
             measurement_std_kg: series.measurement_std_kg.iter().map(|s| g * s).collect(),
-            notes: series.notes.clone(),
+            notes,
         })
     }
 }
@@ -1308,5 +1357,69 @@ mod tests {
         .unwrap();
         assert_eq!(plain.wheel_load_kg, read.wheel_load_kg);
         assert!(plain.std_kg.iter().all(|s| (s - inside).abs() < 1e-9));
+    }
+
+    #[test]
+    fn an_interval_only_calibration_skips_a_height_that_is_not_a_number() {
+        let mut loading = synthetic(step_load, |k| 0.235 - (step_load(k) - 3000.0) * 2e-5);
+        // A sensor dropout at a standstill, and one beyond the others' range.
+        loading.height_m[2500] = f64::NAN;
+        loading.height_m[2600] = 0.300;
+        let rule = StandstillRule::default();
+        let fitted = LinearCalibration::fit_runs(&[as_run(&loading)], &rule);
+        assert!(
+            fitted.is_err(),
+            "a term fitted through a NaN height: {fitted:?}"
+        );
+        let cal = LinearCalibration::fit_runs_with(&[as_run(&loading)], &rule, false).unwrap();
+        let (lo, hi) = cal.height_range_mm.unwrap();
+        assert!(
+            (lo - 223.0).abs() < 1e-9 && (hi - 300.0).abs() < 1e-9,
+            "{cal:?}"
+        );
+        assert!(cal.standstill_std_kg.is_finite(), "{cal:?}");
+        // The CLI's count and the widening agree on what lies beyond.
+        assert!(cal.is_beyond_calibrated_heights(0.3005));
+        assert!(!cal.is_beyond_calibrated_heights(0.250));
+        assert!(!cal.is_beyond_calibrated_heights(f64::NAN));
+    }
+
+    #[test]
+    fn a_series_or_heights_of_the_wrong_length_are_errors_and_missing_heights_a_note() {
+        let cal = LinearCalibration {
+            gain: 1.0,
+            offset_kg: 0.0,
+            height_range_mm: Some((215.0, 235.0)),
+            samples: 10,
+            ..LinearCalibration::identity()
+        };
+        let s = WeighSeries {
+            time_s: vec![0.0, 0.1],
+            wheel_load_kg: vec![3000.0; 2],
+            std_kg: vec![30.0; 2],
+            measurement_std_kg: vec![1.0; 2],
+            notes: Vec::new(),
+        };
+        assert!(cal.apply(&s, Some(&[0.25])).is_err());
+        let short = WeighSeries {
+            std_kg: vec![30.0],
+            ..s.clone()
+        };
+        let e = cal.apply(&short, Some(&[0.25, 0.25])).unwrap_err();
+        assert!(e.to_string().contains("1 standard deviations"), "{e}");
+        let noise = WeighSeries {
+            measurement_std_kg: vec![1.0; 3],
+            ..s.clone()
+        };
+        assert!(cal.apply(&noise, Some(&[0.25, 0.25])).is_err());
+        let read = cal.apply(&s, None).unwrap();
+        assert_eq!(read.std_kg.len(), 2);
+        assert!(
+            read.notes
+                .iter()
+                .any(|n| n.contains("not widened beyond the calibrated heights")),
+            "{:?}",
+            read.notes
+        );
     }
 }

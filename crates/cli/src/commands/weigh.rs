@@ -193,7 +193,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
                 run.measured()?
                     .sensor_height_m
                     .iter()
-                    .filter(|h| !(lo..=hi).contains(&(*h * 1e3)))
+                    .filter(|&&h| cal.is_beyond_calibrated_heights(h))
                     .count()
             );
         }
