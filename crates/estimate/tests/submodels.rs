@@ -8,8 +8,8 @@ use airsus_data::{
 use airsus_estimate::EstimateError;
 use airsus_estimate::submodel::{
     CrossSectionOptions, CrossSectionScale, DischargeData, EffectiveAreaOptions,
-    SlowDynamicsOptions, ValveFitOptions, fit_area_growth, fit_cross_section, fit_effective_area,
-    fit_slow_dynamics, fit_valve,
+    SlowDynamicsOptions, ValveFitOptions, fit_area_growth, fit_cross_section, fit_dead_volume,
+    fit_effective_area, fit_slow_dynamics, fit_valve,
 };
 use airsus_model::build_model;
 use common::{load_step_run, measure, rng, valve_pulse_run};
@@ -106,6 +106,69 @@ fn cross_section_shape_from_a_closed_valve_run() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("settled_after_s = NaN"), "{err}");
+}
+
+#[test]
+fn dead_volume_of_the_area_integral_from_a_closed_valve_run() {
+    // A truck whose volume sweeps its area behind 12 L of dead volume; the fit starts from
+    // nothing but the area and the bellows' count.
+    let mut truck = TruckParameters::reference();
+    truck.bellow.gas_volume = airsus_data::GasVolumeLaw::AreaIntegral {
+        dead_volume_m3: 0.012,
+        bellows: 2,
+    };
+    let truth = build_model("m2", &truck).unwrap();
+    let run = measure(
+        &*truth,
+        load_step_run("ds1", 900.0, 3350.0, 300.0, 120.0),
+        0.24,
+        1,
+    );
+    let area = truck.bellow.effective_area.clone();
+    let options = CrossSectionOptions::default();
+    let fit = fit_dead_volume(&run, &truck, &area, 2, &options).unwrap();
+    assert!((fit.dead_volume_m3 - 0.012).abs() < 0.02 * 0.012, "{fit:?}");
+    assert!(
+        matches!(
+            fit.law(),
+            airsus_data::GasVolumeLaw::AreaIntegral { bellows: 2, .. }
+        ),
+        "{fit:?}"
+    );
+    // The thesis' law on the same samples explains them worse: what the study's choice of
+    // the structure's volume reads.
+    let mut thesis = truck.clone();
+    thesis.bellow.gas_volume = airsus_data::GasVolumeLaw::cross_section([0.25, -0.031]);
+    let cross = fit_cross_section(&run, &[], &thesis, &options).unwrap();
+    assert!(
+        fit.nrmse_estimation_percent > cross.nrmse_estimation_percent,
+        "{fit:?} against {cross:?}"
+    );
+    // And the other way round on a truck under the thesis' law.
+    let truth = build_model("m2", &thesis).unwrap();
+    let run = measure(
+        &*truth,
+        load_step_run("ds1", 900.0, 3350.0, 300.0, 120.0),
+        0.24,
+        1,
+    );
+    let fit = fit_dead_volume(&run, &thesis, &area, 2, &options).unwrap();
+    let cross = fit_cross_section(&run, &[], &thesis, &options).unwrap();
+    assert!(
+        cross.nrmse_estimation_percent > fit.nrmse_estimation_percent,
+        "{fit:?} against {cross:?}"
+    );
+    // A run whose pressure rises as the bellow extends has no dead volume to give.
+    let mut upside_down = run.clone();
+    let out = upside_down.outputs.as_mut().unwrap();
+    let mean = out.bellow_gauge_pa.iter().sum::<f64>() / out.bellow_gauge_pa.len() as f64;
+    for p in &mut out.bellow_gauge_pa {
+        *p = 2.0 * mean - *p;
+    }
+    let err = fit_dead_volume(&upside_down, &thesis, &area, 2, &options)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("does not fall"), "{err}");
 }
 
 #[test]

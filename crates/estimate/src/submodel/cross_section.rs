@@ -25,7 +25,7 @@
 //! validation run with `c` fixed and that run's own `C` (its own amount of air) fitted by
 //! least squares in closed form.
 
-use airsus_data::GasVolumeLaw;
+use airsus_data::{EffectiveAreaLaw, GasVolumeLaw};
 use airsus_data::{Run, TruckParameters, ValveState};
 use airsus_model::submodels::bellow_height_from_sensor_m;
 use airsus_validate::nrmse_percent;
@@ -410,5 +410,107 @@ pub fn fit_cross_section(
         nrmse_validation_percent,
         validation_on_every_sample,
         converged,
+    })
+}
+
+/// The area-integral volume law `V = V_d + N ∫ A_eff` fitted to a closed-valve run in place
+/// of the thesis' cross-section ([`fit_dead_volume`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DeadVolumeFit {
+    /// `V_d`, m³.
+    pub dead_volume_m3: f64,
+    /// `N`, the bellows sharing the circuit.
+    pub bellows: u32,
+    /// `n R T`, J: the run's amount of air (nuisance).
+    pub constant_j: f64,
+    pub samples: usize,
+    /// NRMSE of the pressure model on the fitted samples, percent: comparable with
+    /// [`CrossSectionFit::nrmse_estimation_percent`] on the same samples.
+    pub nrmse_estimation_percent: f64,
+}
+
+impl DeadVolumeFit {
+    /// The volume law it fitted.
+    pub fn law(&self) -> GasVolumeLaw {
+        GasVolumeLaw::AreaIntegral {
+            dead_volume_m3: self.dead_volume_m3,
+            bellows: self.bellows,
+        }
+    }
+}
+
+/// The area-integral volume (`GasVolumeLaw::AreaIntegral`, `dV/dh = N A_eff`, #13 item 3)
+/// fitted to the same closed-valve samples as [`fit_cross_section`]: with the valve closed,
+/// `p_abs = n R T / (V_d + N S(h))`, `S(h) = ∫₀ʰ A_eff`, so `1/p_abs` is linear in `S`:
+/// `1/p = V_d/(nRT) + N S/(nRT)`. Solved by least squares in `1/p` weighted by `p⁴` (the
+/// residual in pressure to first order), in closed form: two parameters, no iteration.
+///
+/// Why beside the thesis' law: a bellow's volume sweeps its effective area (virtual work);
+/// with a large dead volume (piping, an auxiliary tank) the volume changes with height far
+/// less, relative to its size, than `h (A0 + A1 h)` can without bending over. Fitted to such
+/// a truck, the thesis' law took `A1/A0` so negative that its volume peaked inside the
+/// stroke (virtual-truck variant 5: at 0.27 m bellow height), above which the gas spring's
+/// stiffness is negative and no simulation survives.
+///
+/// `area`: the effective area the models use (its zero-gauge law; a stretch with pressure
+/// changes the force, not the volume swept). `bellows`: `N`.
+pub fn fit_dead_volume(
+    run: &Run,
+    truck: &TruckParameters,
+    area: &EffectiveAreaLaw,
+    bellows: u32,
+    options: &CrossSectionOptions,
+) -> Result<DeadVolumeFit, EstimateError> {
+    const FIT_DV: &str = "dead-volume fit";
+    let (h, p, _) = heights_and_pressures(run, truck, options.settled_after_s)?;
+    let n = f64::from(bellows.max(1));
+    let swept: Vec<f64> = h.iter().map(|&x| n * area.integral_m3(x)).collect();
+    // Weighted least squares of y = 1/p on (1, S), weights p⁴.
+    let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (&s_k, &p_k) in swept.iter().zip(&p) {
+        let w = p_k.powi(4);
+        let y = 1.0 / p_k;
+        sw += w;
+        sx += w * s_k;
+        sy += w * y;
+        sxx += w * s_k * s_k;
+        sxy += w * s_k * y;
+    }
+    let det = sw * sxx - sx * sx;
+    let insufficient = |reason: String| EstimateError::InsufficientData {
+        fit: FIT_DV,
+        reason: format!("run `{}`: {reason}", run.name),
+    };
+    if !(det > 0.0) {
+        return Err(insufficient(
+            "the swept volume hardly changes over the run".to_owned(),
+        ));
+    }
+    let intercept = (sxx * sy - sx * sxy) / det;
+    let slope = (sw * sxy - sx * sy) / det;
+    if !(slope > 0.0 && intercept.is_finite()) {
+        return Err(insufficient(format!(
+            "the pressure does not fall as the swept volume grows (slope {slope:e} 1/(Pa m³))"
+        )));
+    }
+    let constant_j = 1.0 / slope;
+    let dead_volume_m3 = intercept / slope;
+    let fitted: Vec<f64> = swept
+        .iter()
+        .map(|s_k| constant_j / (dead_volume_m3 + s_k))
+        .collect();
+    if !(dead_volume_m3 > 0.0) || fitted.iter().any(|f| !(f.is_finite() && *f > 0.0)) {
+        return Err(insufficient(format!(
+            "the fitted dead volume {dead_volume_m3:.4e} m³ is not positive"
+        )));
+    }
+    let nrmse_estimation_percent =
+        nrmse_percent(&p, &fitted).map_err(|e| insufficient(format!("NRMSE: {e}")))?;
+    Ok(DeadVolumeFit {
+        dead_volume_m3,
+        bellows,
+        constant_j,
+        samples: h.len(),
+        nrmse_estimation_percent,
     })
 }

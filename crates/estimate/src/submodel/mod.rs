@@ -20,7 +20,8 @@ mod valve;
 mod wall_friction;
 
 pub use cross_section::{
-    CrossSectionFit, CrossSectionOptions, CrossSectionScale, fit_cross_section,
+    CrossSectionFit, CrossSectionOptions, CrossSectionScale, DeadVolumeFit, fit_cross_section,
+    fit_dead_volume,
 };
 pub use effective_area::{
     AreaGrowthFit, EffectiveAreaFit, EffectiveAreaOptions, SplineAreaFit, fit_area_growth,
