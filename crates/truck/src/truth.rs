@@ -2,6 +2,7 @@
 //! differ from the SPEC's nominal reference truck (so estimation has something to find), plus
 //! the effects the thesis models lack (SPEC §6), each switchable.
 
+use airsus_data::laws::DEFAULT_BELLOWS;
 use airsus_data::params::Field;
 use airsus_data::{EffectiveAreaLaw, GasVolumeLaw, TruckParameters, ValveFlowLaw};
 use rand::SeedableRng;
@@ -116,6 +117,12 @@ impl Default for EffectParameters {
 /// The reference virtual truck's gas volume `[A0, A1]` (the thesis' law): a little more gas
 /// than thesis Table 5.1's, so the file a study starts from is off.
 pub const TRUE_CROSS_SECTION_M2: [f64; 2] = [0.262, -0.040];
+
+/// From this variant on, the family also draws the laws' forms, not only their values: an
+/// effective area no quartic follows and a gas volume that is the area's integral
+/// ([`VirtualTruck::variant`]). Variants 1-3 keep the reference's forms (a quartic area, the
+/// thesis' cross-section volume), so that what is measured on them stays comparable.
+pub const FIRST_OTHER_FORM_VARIANT: u32 = 4;
 
 /// The virtual truck: true physical parameters in the thesis' structure, and the effects.
 #[derive(Debug, Clone, PartialEq)]
@@ -264,7 +271,66 @@ impl VirtualTruck {
         for force in &mut physical.damper.force_n {
             *force *= damping;
         }
+        if k >= FIRST_OTHER_FORM_VARIANT {
+            truck.draw_other_forms(&mut uniform);
+        }
         truck
+    }
+
+    /// A variant's laws in forms the reference's are not (see [`FIRST_OTHER_FORM_VARIANT`]):
+    /// the effective area a monotone spline through the drawn quartic's values with a local
+    /// bulge or waist no quartic follows (a lobe rolling over a piston's contour), stretched
+    /// by the drawn pressure growth; and the gas volume the area's integral plus a dead volume
+    /// (`dV/dh = N A_eff`, #13 item 3) plus a dead volume, the circuit 50-70 % of the drawn
+    /// cross-section law's volume at the working height, its valve and supply line scaled
+    /// with it.
+    fn draw_other_forms(&mut self, uniform: &mut impl FnMut(f64, f64) -> f64) {
+        let bellow = &self.physical.bellow;
+        let (amplitude, centre_m, width_m) = (
+            uniform(0.015, 0.03) * if uniform(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 },
+            uniform(0.20, 0.30),
+            uniform(0.035, 0.055),
+        );
+        let heights_m: Vec<f64> = (0..=12).map(|i| f64::from(150 + 25 * i) / 1000.0).collect();
+        let areas_m2: Vec<f64> = heights_m
+            .iter()
+            .map(|&h| {
+                let bump = (-((h - centre_m) / width_m).powi(2)).exp();
+                bellow.effective_area.area_m2(h, 0.0) * (1.0 + amplitude * bump)
+            })
+            .collect();
+        let growth = self.effect_parameters.area_pressure_coefficient;
+        let Ok(area) = EffectiveAreaLaw::spline(heights_m, areas_m2, Some(growth)) else {
+            // Knots at fixed, increasing heights always make a spline; kept as it was if not.
+            return;
+        };
+        // The thesis' law sweeps about twice the volume per height that two bellows of its
+        // area do: the same volume at the working height would make a spring half as stiff,
+        // and the load steps of the experiments would sag it onto its bump stops. A smaller
+        // circuit keeps the stiffness within about 20-40 % of the reference's.
+        let working_height_m = 0.25;
+        let share = uniform(0.5, 0.7);
+        let volume_m3 = bellow
+            .gas_volume
+            .volume_m3(&bellow.effective_area, working_height_m)
+            * share;
+        let swept_m3 = f64::from(DEFAULT_BELLOWS) * area.integral_m3(working_height_m);
+        self.physical.bellow.gas_volume = GasVolumeLaw::AreaIntegral {
+            dead_volume_m3: (volume_m3 - swept_m3).max(0.003),
+            bellows: DEFAULT_BELLOWS,
+        };
+        // A smaller circuit behind the same valve would fill and empty that much faster: the
+        // experiments' fixed valve pulses (data-set 4's 8-15 s) then emptied the bellow onto
+        // its stops. Its valve and line are scaled with it, keeping the family's time constants.
+        for field in [Field::FillResistance, Field::ExhaustResistance] {
+            let value = airsus_data::params::get(&self.physical, field) / share;
+            airsus_data::params::set(&mut self.physical, field, value);
+        }
+        let effects = &mut self.effect_parameters;
+        effects.fill_conductance_m3_s_pa *= share;
+        effects.exhaust_conductance_m3_s_pa *= share;
+        effects.line_resistance_pa_s_per_mol /= share;
+        self.physical.bellow.effective_area = area;
     }
 
     /// The truck's laws and effect values as the structure uses them: the truck file's where it
@@ -387,8 +453,31 @@ mod tests {
                     "variant {k}: A_eff({h}) = {a}"
                 );
                 let area = &truck.physical.bellow.effective_area;
-                let section = truck.physical.bellow.gas_volume.cross_section_m2(area, h);
-                assert!(section > 0.15, "variant {k}: cross-section at {h}");
+                let volume = &truck.physical.bellow.gas_volume;
+                if volume.coefficients_m2().is_some() {
+                    let section = volume.cross_section_m2(area, h);
+                    assert!(section > 0.15, "variant {k}: cross-section at {h}");
+                } else {
+                    // The area integral: the volume grows with the height, by two bellows'
+                    // area, behind a dead volume.
+                    let slope = volume.volume_slope_m2(area, h);
+                    assert!((0.08..0.15).contains(&slope), "variant {k}: dV/dh at {h}");
+                }
+            }
+            // From variant 4 on the forms differ: a spline area and the area integral.
+            let other_forms = k >= FIRST_OTHER_FORM_VARIANT;
+            assert_eq!(
+                (
+                    truck.physical.bellow.effective_area.knots().is_some(),
+                    truck.physical.bellow.gas_volume.coefficients_m2().is_none()
+                ),
+                (other_forms, other_forms),
+                "variant {k}"
+            );
+            if let GasVolumeLaw::AreaIntegral { dead_volume_m3, .. } =
+                truck.physical.bellow.gas_volume
+            {
+                assert!((0.003..0.03).contains(&dead_volume_m3), "variant {k}");
             }
             // The file the study starts from must still load: every value in its bounds.
             let text = airsus_data::truck_to_toml(&truck.physical);

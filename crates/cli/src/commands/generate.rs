@@ -23,7 +23,8 @@ pub struct GenerateArgs {
     /// Member of the virtual truck family to generate with: 0 (the default) is the reference
     /// truck; every other number is a truck whose laws and values differ within a model
     /// line's spread (effective-area shape, gas volume, valve law and flow, friction, creep,
-    /// masses, tire, damping). The nominal truck.toml is the same for all; truth/ holds the
+    /// masses, tire, damping); from 4 on the laws' forms differ too (a spline area, an
+    /// area-integral volume). The nominal truck.toml is the same for all; truth/ holds the
     /// variant's own values.
     #[arg(long, default_value_t = 0)]
     pub variant: u32,
