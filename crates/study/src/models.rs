@@ -629,8 +629,22 @@ pub fn fit_and_validate(
     };
     if start_truck.bellow.effective_area != start.truck.bellow.effective_area {
         result.notes.push(format!(
-            "the effective area starts from the force map with its growth with pressure, kap {:.4} per 100 kPa",
+            "the effective area starts from the force map as a {} with its growth with pressure, kap {:.4} per 100 kPa",
+            if start_truck.bellow.effective_area.knots().is_some() {
+                "monotone spline (the quartic could not follow it; the submodel `effective_area_spline` says why)"
+            } else {
+                "quartic"
+            },
             start_truck.bellow.effective_area.growth_per_100kpa()
+        ));
+    }
+    if start_truck.bellow.gas_volume != start.truck.bellow.gas_volume {
+        result.notes.push(format!(
+            "the gas volume starts as the area integral with a dead volume of {:.1} L fitted to the closed-valve run, in place of the file's law (the submodel `dead_volume` says why)",
+            match start_truck.bellow.gas_volume {
+                airsus_data::GasVolumeLaw::AreaIntegral { dead_volume_m3, .. } => dead_volume_m3,
+                airsus_data::GasVolumeLaw::CrossSection { .. } => f64::NAN,
+            } * 1e3
         ));
     }
     let lab_valve = start_truck.valve != start.truck.valve;

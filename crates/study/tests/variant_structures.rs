@@ -2,9 +2,12 @@
 //! draws every value anew (valve, wall, creep, the gas's thermal time 35.6 s against the
 //! structure's built-in 20 s, masses, damping, the gas volume's shape); variant 2's
 //! effective area bends at the bottom of the stroke and grows faster with pressure; variant 3 also
-//! flows through linear resistances where the structure's own valve is an orifice. The
-//! study starts from the nominal truck file and what the lab's force map and tank
-//! discharges tell, and is scored against each run's noise-free truth.
+//! flows through linear resistances where the structure's own valve is an orifice. From
+//! variant 4 on the laws' forms differ too: an effective area no quartic follows and a gas
+//! volume that is the area's integral plus a dead volume, where the structure's file has the
+//! thesis' quartic and cross-section. The study starts from the nominal truck file and what
+//! the lab's force map, tank discharges and closed-valve run tell, and is scored against each
+//! run's noise-free truth.
 
 use airsus_study::{Protocol, StudyOptions, load_study, run_study};
 
@@ -118,4 +121,79 @@ fn the_structure_reads_the_lab_right_on_a_truck_whose_area_bends() {
         "the valve held at the lab's values (c1, c2) and a1, rline freed",
     );
     assert_near_ceiling(2, &scores, &notes, 1.0);
+}
+
+#[test]
+fn the_structure_takes_the_area_and_volume_laws_a_truck_of_other_forms_calls_for() {
+    // Variant 4: a spline area with a 1.5-3 % bulge and an area-integral volume. Measured:
+    // every run within 1.8 points of its ceiling (data-set 4 98.9/96.3 % against 99.5/98.1 %).
+    // Under the file's laws: the fitted cross-section's volume peaked at 349 mm bellow height
+    // and data-set 4 did not simulate; with the area integral but the quartic area, data-set
+    // 4 8.3 and data-set 3 7.4 points short.
+    let (scores, notes) = study_variant(4);
+    assert_noted(
+        &notes,
+        "the effective area starts from the force map as a monotone spline",
+    );
+    assert_noted(&notes, "the gas volume starts as the area integral");
+    assert_near_ceiling(4, &scores, &notes, 2.5);
+}
+
+#[test]
+fn a_truck_of_other_forms_is_explained_where_its_runs_went() {
+    // Variant 5: the same forms, its area bent the other way. Measured: data-set 4 98.6/93.9 %
+    // against 99.6/98.5 % (27 points short under the cross-section volume, which the
+    // closed-valve run explains 0.8 points worse), road 1 2.4 points, every other run within
+    // 1.7. Data-set 4's exhausts take the bellow to 140-160 mm, below every estimation run
+    // and the force map's lowest height: there the spline is held at its end, the truth's
+    // area falls 2-3 %, and the pressure reads up to 3.6 kPa off (under 0.4 kPa above 180 mm).
+    let (scores, notes) = study_variant(5);
+    assert_noted(&notes, "the gas volume starts as the area integral");
+    assert_near_ceiling(5, &scores, &notes, 5.0);
+    let (_, h, p, h_ceiling, p_ceiling) = scores
+        .iter()
+        .find(|s| s.0 == "data-set 4")
+        .expect("data-set 4");
+    assert!(
+        *h > h_ceiling - 1.5 && *p > p_ceiling - 5.0,
+        "{h:.1}/{p:.1} against {h_ceiling:.1}/{p_ceiling:.1}"
+    );
+    for (run, h, p, h_ceiling, p_ceiling) in scores.iter().filter(|s| s.0 != "data-set 4") {
+        assert!(
+            *h > h_ceiling - 3.0 && *p > p_ceiling - 3.0,
+            "{run}: {h:.1}/{p:.1} against {h_ceiling:.1}/{p_ceiling:.1}"
+        );
+    }
+}
+
+#[test]
+fn the_lab_laws_follow_the_forms_the_map_and_the_closed_valve_run_show() {
+    // The submodel stage alone, seed 1: variants 0-3 keep the file's quartic and
+    // cross-section (their truths' forms), 4 and 5 take the spline and the area integral.
+    for k in 0..=5 {
+        let dir = tempfile::tempdir().unwrap();
+        let generated =
+            airsus_truck::experiments::generate_variant(dir.path(), 1, k, &mut |_| {}).unwrap();
+        let input = load_study(&generated.study_valve).unwrap();
+        let protocol = Protocol::from_roles(&input);
+        let (start, results) = airsus_study::submodels::fit_submodels(&input, &protocol.estimation);
+        let other_forms = k >= airsus_truck::truth::FIRST_OTHER_FORM_VARIANT;
+        let spline = start
+            .lab_area
+            .as_ref()
+            .is_some_and(|area| area.knots().is_some());
+        let area_integral = start.lab_volume.is_some();
+        let reports: Vec<String> = results
+            .fits
+            .iter()
+            .filter(|f| f.name == "dead_volume" || f.name == "effective_area_spline")
+            .map(|f| format!("{}: {:?} {:?}", f.name, f.notes, f.error))
+            .collect();
+        assert_eq!(
+            (spline, area_integral),
+            (other_forms, other_forms),
+            "variant {k}: {reports:?}"
+        );
+        assert_eq!(reports.len(), 2, "variant {k}: {reports:?}");
+    }
 }
