@@ -446,7 +446,11 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
             fit_cell(avg(&|r| r.estimated.map(|f| f.height_percent))),
             fit_cell(avg(&|r| r.estimated.map(|f| f.pressure_percent))),
             reference,
-            m.simulations,
+            if m.failed_simulations > 0 {
+                format!("{} ({} failed)", m.simulations, m.failed_simulations)
+            } else {
+                m.simulations.to_string()
+            },
             m.estimation_time_s,
             esc(&{
                 let mut stop = m.stop_reason.as_deref().unwrap_or("–").to_owned();
@@ -466,9 +470,14 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
                         "; validation runs: each change over its own, fitted with the parameters fixed, {shortest:.1}–{longest:.1} s"
                     ));
                 }
+                let failed_starts = if m.failed_starts > 0 {
+                    format!(" ({} failed)", m.failed_starts)
+                } else {
+                    String::new()
+                };
                 match m.local_optima_losses.as_slice() {
                     [best, .., worst] if m.starts > 1 => format!(
-                        "{stop}; {} starts, local optima's losses {best:.3e} to {worst:.3e}",
+                        "{stop}; {} starts{failed_starts}, local optima's losses {best:.3e} to {worst:.3e}",
                         m.starts
                     ),
                     _ => stop,
@@ -556,9 +565,12 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
                     e.std.map_or("–".to_owned(), |s| format!("{s:.2e}")),
                     esc(&e.unit),
                     if e.identifiable {
-                        "yes"
+                        "yes".to_owned()
                     } else {
-                        "<b>no</b> (kept nominal)"
+                        match &e.not_identifiable_because {
+                            Some(why) => format!("<b>no</b> (kept nominal): {}", esc(why)),
+                            None => "<b>no</b> (kept nominal)".to_owned(),
+                        }
                     }
                 );
             }
@@ -658,6 +670,7 @@ mod tests {
                     estimate: 561.0,
                     std: Some(3.0),
                     identifiable: true,
+                    not_identifiable_because: None,
                 },
                 ParameterEstimate {
                     name: "rflow1".to_owned(),
@@ -666,12 +679,17 @@ mod tests {
                     estimate: 2.5e6,
                     std: None,
                     identifiable: false,
+                    not_identifiable_because: Some(
+                        "no sensitivity: the outputs do not depend on it in these runs".to_owned(),
+                    ),
                 },
             ],
             stop_reason: Some("converged".to_owned()),
             simulations: 57,
             starts: 4,
             local_optima_losses: vec![0.012, 0.013, 0.2, 1.5],
+            failed_simulations: 3,
+            failed_starts: 1,
             estimation_time_s: 0.3,
             gradient_norm: Some(3.2e-7),
             load_ramp_s: Some(4.25),
@@ -813,8 +831,8 @@ mod tests {
         assert!(html.contains("This model failed: no static equilibrium at 329 kPa"));
         assert!(html.contains("failed: no fill discharge in the study"));
         assert!(
-            html.contains("<b>no</b> (kept nominal)"),
-            "non-identifiable parameters are marked"
+            html.contains("<b>no</b> (kept nominal): no sensitivity: the outputs do not depend"),
+            "non-identifiable parameters are marked, with the reason"
         );
         // Notes are escaped, not injected.
         assert!(html.contains("&lt;closed valve&gt;"));
@@ -826,9 +844,13 @@ mod tests {
         assert!(html.contains("Table 5.11"));
         assert!(
             html.contains(
-                "converged (gradient 3.2e-7); load eased over 4.2 s (estimation runs: each change over its own, 3.2–6.9 s); validation runs: each change over its own, fitted with the parameters fixed, 4.4–7.5 s; 4 starts, local optima's losses 1.200e-2 to 1.500e0"
+                "converged (gradient 3.2e-7); load eased over 4.2 s (estimation runs: each change over its own, 3.2–6.9 s); validation runs: each change over its own, fitted with the parameters fixed, 4.4–7.5 s; 4 starts (1 failed), local optima's losses 1.200e-2 to 1.500e0"
             ),
             "the global stage's spread"
+        );
+        assert!(
+            html.contains("<td class=\"num\">57 (3 failed)</td>"),
+            "failed trial simulations counted"
         );
         // Every fit beside the noise ceiling; an estimated one is marked.
         assert!(

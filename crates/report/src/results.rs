@@ -220,6 +220,10 @@ pub struct ParameterEstimate {
     pub std: Option<f64>,
     /// False when the estimation runs cannot determine it; it is then kept at its nominal.
     pub identifiable: bool,
+    /// Why not, when not (`no sensitivity: ...`, `only a combination with a0 is
+    /// determined`, `standard deviation 240 % of its scale (limit 100 %)`); `null` when
+    /// identifiable.
+    pub not_identifiable_because: Option<String>,
 }
 
 /// NRMSE of both outputs, percent.
@@ -276,6 +280,11 @@ pub struct ModelResult {
     /// first: their spread says how many optima the fit has.
     #[serde(default)]
     pub local_optima_losses: Vec<f64>,
+    /// Trial simulations of the estimation that failed (each counted as a large loss), of
+    /// [`Self::simulations`].
+    pub failed_simulations: usize,
+    /// Starts of the global stage whose local fit failed as a whole (of [`Self::starts`]).
+    pub failed_starts: usize,
     pub estimation_time_s: f64,
     /// The norm of the loss gradient over the free parameters at the estimate (scaled
     /// coordinates: offsets from nominal in units of each parameter's scale); small against
@@ -325,6 +334,8 @@ impl ModelResult {
             simulations: 0,
             starts: 1,
             local_optima_losses: vec![],
+            failed_simulations: 0,
+            failed_starts: 0,
             estimation_time_s: 0.0,
             gradient_norm: None,
             load_ramp_s: None,
@@ -407,6 +418,8 @@ mod tests {
                     simulations: 42,
                     starts: 3,
                     local_optima_losses: vec![0.01, 0.01, 0.5],
+                    failed_simulations: 0,
+                    failed_starts: 0,
                     estimation_time_s: 0.2,
                     gradient_norm: Some(2.5e-6),
                     load_ramp_s: Some(5.5),
@@ -508,6 +521,7 @@ mod tests {
             estimate: 560.0,
             std: Some(3.0),
             identifiable: true,
+            not_identifiable_because: None,
         });
         model.runs[0].estimated = model.runs[0].nominal;
         model.validation_transitions.push(LoadTransitions {
@@ -563,10 +577,13 @@ mod tests {
             "protocols[].models[].estimates[].estimate",
             "protocols[].models[].estimates[].identifiable",
             "protocols[].models[].estimates[].name",
+            "protocols[].models[].estimates[].not_identifiable_because",
             "protocols[].models[].estimates[].nominal",
             "protocols[].models[].estimates[].std",
             "protocols[].models[].estimates[].unit",
             "protocols[].models[].estimation_time_s",
+            "protocols[].models[].failed_simulations",
+            "protocols[].models[].failed_starts",
             "protocols[].models[].free",
             "protocols[].models[].gradient_norm",
             "protocols[].models[].load_ramp_s",

@@ -768,6 +768,8 @@ pub fn fit_and_validate(
             result.simulations = est.simulations;
             result.starts = summary.starts;
             result.local_optima_losses = summary.losses;
+            result.failed_simulations = est.failed_simulations;
+            result.failed_starts = summary.failed;
             if matches!(est.stop, StopReason::NoParameterMoved { .. }) {
                 result.notes.push(est.stop.to_string());
             } else if !est.stop.is_converged() {
@@ -789,9 +791,10 @@ pub fn fit_and_validate(
                     .map(|(p, c)| format!("{p} ({c:+.3})"))
                     .collect();
                 result.notes.push(format!(
-                    "{} is not determined by {}: kept at its start value{}{}",
+                    "{} is not determined by {} ({}): kept at its start value{}{}",
                     n.name,
                     protocol.estimation.join(" + "),
+                    n.reason.describe(),
                     if with.is_empty() {
                         String::new()
                     } else {
@@ -816,6 +819,12 @@ pub fn fit_and_validate(
                     estimate: p.estimate,
                     std: p.std,
                     identifiable: !est.is_not_identifiable(&p.name),
+                    not_identifiable_because: est
+                        .identifiability
+                        .not_identifiable
+                        .iter()
+                        .find(|n| n.name == p.name)
+                        .map(|n| n.reason.describe()),
                 })
                 .collect();
             est.estimated_model

@@ -158,6 +158,29 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         .filter(|e| e.identifiable && (e.estimate / e.nominal - 1.0).abs() > 0.02)
         .count();
     assert!(moved >= 2, "{:?}", m2.estimates);
+    // A parameter the runs cannot determine says why, in results.json and in the notes.
+    for m in &p.models {
+        for e in &m.estimates {
+            assert_eq!(
+                e.identifiable,
+                e.not_identifiable_because.is_none(),
+                "{}: {e:?}",
+                m.model
+            );
+            if let Some(why) = &e.not_identifiable_because {
+                assert!(
+                    m.notes
+                        .iter()
+                        .any(|n| n.starts_with(&format!("{} is not determined", e.name))
+                            && n.contains(why.as_str())),
+                    "{}: {e:?} {:?}",
+                    m.model,
+                    m.notes
+                );
+            }
+        }
+        assert!(m.failed_simulations <= m.simulations, "{}", m.model);
+    }
     // "nominal" is where the study started (the submodel fits), not where a refit (after
     // the load transition, or from new starts) began.
     let mut compared = 0;

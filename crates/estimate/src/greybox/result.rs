@@ -183,6 +183,13 @@ fn pct(x: Option<f64>) -> String {
     x.map_or_else(|| "—".to_owned(), |v| format!("{v:.2} %"))
 }
 
+impl Unidentifiable {
+    /// Why the runs cannot determine the parameter, in words for a report.
+    pub fn describe(&self) -> String {
+        reason_text(self)
+    }
+}
+
 fn reason_text(reason: &Unidentifiable) -> String {
     match reason {
         Unidentifiable::NoSensitivity => {
