@@ -189,9 +189,22 @@ fn hold_2_mm_on_variants_1_to_3(design: &TruckParameters, design_name: &str) {
             // only the unloading reverses.
             assert!(s.openings <= 32, "{who}: {} openings", s.openings);
             assert!(s.reversals <= 2, "{who}: {} reversals", s.reversals);
+            // Settling is timed to the last entry into the band, so a creep across its edge
+            // long after the fill counts whole (up to 88 s measured); the time actually
+            // outside the band says how long the truck stood off its height: 39-59 s over
+            // the four load changes measured, by far most of it the load steps themselves.
+            assert!(
+                s.time_outside_band_s < 75.0,
+                "{who}: {:.1} s outside ±2 mm",
+                s.time_outside_band_s
+            );
             println!(
-                "{who}: {} openings, {} reversals, {:.2} mol filled, worst settling {:?} s",
-                s.openings, s.reversals, s.air_filled_mol, s.worst_settling_time_s
+                "{who}: {} openings, {} reversals, {:.2} mol filled, worst settling {:?} s, {:.1} s outside the band",
+                s.openings,
+                s.reversals,
+                s.air_filled_mol,
+                s.worst_settling_time_s,
+                s.time_outside_band_s
             );
             air.push((who, s.air_filled_mol));
         }
@@ -199,7 +212,8 @@ fn hold_2_mm_on_variants_1_to_3(design: &TruckParameters, design_name: &str) {
     // The air both let in is what the loads need (850 kg up, 600 down: about 2.5–3.5 mol on
     // these trucks); neither burns a multiple of it. The predictive controller does not save
     // air here: the air a load change needs is fixed by the load, and what is left to save
-    // (overshoot, follow-ups) is within ±6 % either way (measured; see the session notes).
+    // (overshoot, follow-ups) is within ±6 % either way (measured: 2.78-3.20 mol against the
+    // deadband's 2.92-3.16; README, "Level control").
     for (who, mol) in &air {
         assert!((2.0..4.0).contains(mol), "{who}: {mol} mol");
     }
