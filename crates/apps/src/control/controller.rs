@@ -8,11 +8,13 @@
 //! circuit now (`n = p V(h_b) / RT`) and at the target height
 //! (`p* = (m_tot - m2) g / (k_l A_eff(h_b*))`, `n* = p*_abs V(h_b*) / RT`), and opens for
 //! `τ = γ (n* - n) / ṅ`, with the model's valve flow `ṅ = (p_supply - p̄)/R_flow1` (fill) or
-//! `(p̄ - p_amb)/R_flow2` (exhaust) at the mean `p̄` of the current and target pressures;
+//! `(p̄ - p_amb)/R_flow2` (exhaust) at the mean `p̄` of the current and target pressures (or
+//! the truck's orifice law), a fill fed through the supply line's resistance in series;
 //! `γ ≤ 1` under-corrects on purpose (the flow law and the gas temperature are uncertain: an
 //! overshoot costs a reversal, an undershoot only a second pulse in the same direction). It
 //! shares the deadband controller's guard and measurement path.
 
+use airsus_data::params::Field;
 use airsus_data::{GasVolumeLaw, TruckParameters, ValveFlowLaw, ValveState};
 use airsus_truck::ecu::{
     DRIVING_INNER_BAND_SHARE_FACTOR, INNER_BAND_M, INNER_BAND_SHARE_FACTOR, MARGIN_SHARE_OF_BAND,
@@ -35,10 +37,23 @@ pub struct ValveModel {
     pub temperature_k: f64,
     pub rt_j_mol: f64,
     pub ambient_pa: f64,
+    /// The supply line's resistance between the measured tank and the valve, Pa s/mol
+    /// (SPEC §1: the tank's pressure is not the valve's while air flows); 0: none.
+    pub line_resistance_pa_s_per_mol: f64,
 }
 
 impl ValveModel {
+    /// The model of `truck`'s file. The supply line's resistance is the file's `[effects]
+    /// line_resistance_pa_s_per_mol` (what a study estimates as `rline`), or where the file
+    /// names none, the `truck` structure's built-in value: what that structure would simulate
+    /// the file with.
     pub fn from_truck(truck: &TruckParameters) -> Self {
+        let line = airsus_data::params::get(truck, Field::LineResistance);
+        let line = if line.is_finite() && line >= 0.0 {
+            line
+        } else {
+            airsus_truck::truth::EffectParameters::default().line_resistance_pa_s_per_mol
+        };
         Self {
             law: StaticLaw::from_truck(truck),
             volume: truck.bellow.gas_volume.clone(),
@@ -46,7 +61,40 @@ impl ValveModel {
             temperature_k: truck.environment.temperature_k,
             rt_j_mol: truck.environment.gas_constant_j_mol_k * truck.environment.temperature_k,
             ambient_pa: truck.environment.ambient_pressure_pa,
+            line_resistance_pa_s_per_mol: line,
         }
+    }
+
+    /// The steady fill flow through the supply line and the valve in series, mol/s: the flow
+    /// `ṅ` for which the valve, fed at `p_supply - ṅ R_line`, passes `ṅ` into the bellow at
+    /// `bellow_abs_pa`. The valve's flow falls as its inlet pressure falls, so `ṅ - q(p_s - ṅ
+    /// R)` rises with `ṅ` from `-q(p_s)` at 0: bisection (hand-written: a monotone scalar root
+    /// between known brackets, 60 halvings to round-off).
+    fn fill_flow_through_line_mol_s(&self, bellow_abs_pa: f64, supply_abs_pa: f64) -> f64 {
+        let valve = |inlet_abs_pa: f64| {
+            self.valve.flow_mol_s(
+                ValveState::Fill,
+                bellow_abs_pa,
+                inlet_abs_pa,
+                self.ambient_pa,
+                self.temperature_k,
+            )
+        };
+        let unrestricted = valve(supply_abs_pa);
+        let line = self.line_resistance_pa_s_per_mol;
+        if !(line > 0.0 && unrestricted > 0.0) {
+            return unrestricted;
+        }
+        let (mut low, mut high) = (0.0, unrestricted);
+        for _ in 0..60 {
+            let mid = 0.5 * (low + high);
+            if mid - valve(supply_abs_pa - mid * line) < 0.0 {
+                low = mid;
+            } else {
+                high = mid;
+            }
+        }
+        0.5 * (low + high)
     }
 
     /// The valve opening that moves the sensor height from `reading` to `target_m` at the
@@ -74,14 +122,19 @@ impl ValveModel {
         } else {
             ValveState::Exhaust
         };
-        // The flow at the mean pressure of the pulse, by the truck's valve law.
-        let flow = self.valve.flow_mol_s(
-            direction,
-            p_mean_abs,
-            reading.supply_gauge_pa + self.ambient_pa,
-            self.ambient_pa,
-            self.temperature_k,
-        );
+        // The flow at the mean pressure of the pulse, by the truck's valve law, a fill fed
+        // through the supply line.
+        let supply_abs_pa = reading.supply_gauge_pa + self.ambient_pa;
+        let flow = match direction {
+            ValveState::Fill => self.fill_flow_through_line_mol_s(p_mean_abs, supply_abs_pa),
+            _ => self.valve.flow_mol_s(
+                direction,
+                p_mean_abs,
+                supply_abs_pa,
+                self.ambient_pa,
+                self.temperature_k,
+            ),
+        };
         if !(flow.is_finite() && flow != 0.0 && flow.signum() == dn.signum()) {
             return None;
         }
@@ -209,5 +262,48 @@ impl LevelController for PredictiveController {
             }
         };
         self.guard.apply(t_s, requested)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fill_through_the_supply_line_flows_as_the_series_resistance_says() {
+        let mut truck = TruckParameters::reference();
+        let (r_fill, r_line) = (2.5e6, 4e5);
+        truck.valve = ValveFlowLaw::LinearResistance {
+            fill_pa_s_per_mol: r_fill,
+            exhaust_pa_s_per_mol: 1e6,
+        };
+        let mut model = ValveModel::from_truck(&truck);
+        // The reference file names no line: the `truck` structure's built-in one.
+        assert_eq!(model.line_resistance_pa_s_per_mol, r_line);
+        let (bellow, supply) = (450e3, 900e3);
+        let series = model.fill_flow_through_line_mol_s(bellow, supply);
+        let expected = (supply - bellow) / (r_fill + r_line);
+        assert!(
+            (series / expected - 1.0).abs() < 1e-9,
+            "{series} against {expected}"
+        );
+        model.line_resistance_pa_s_per_mol = 0.0;
+        let direct = model.fill_flow_through_line_mol_s(bellow, supply);
+        assert!((direct / ((supply - bellow) / r_fill) - 1.0).abs() < 1e-12);
+        // A fill pulse lasts as much longer as the line takes off the flow.
+        let reading = Reading {
+            sensor_height_m: 0.230,
+            bellow_gauge_pa: 350e3,
+            supply_gauge_pa: 800e3,
+            speed_m_s: 0.0,
+        };
+        let (_, without_line) = model.pulse(&reading, 0.240).unwrap();
+        model.line_resistance_pa_s_per_mol = r_line;
+        let (direction, with_line) = model.pulse(&reading, 0.240).unwrap();
+        assert_eq!(direction, ValveState::Fill);
+        assert!(
+            (with_line / without_line - (r_fill + r_line) / r_fill).abs() < 1e-9,
+            "{with_line} s against {without_line} s"
+        );
     }
 }
