@@ -195,6 +195,11 @@ def test_study_takes_the_commands_fit_options(reference: Path, tmp_path: Path) -
     )
     assert results["initial_state"] == "prefix"
     assert results["validation_transitions"] == "common"
+    # Held starts: the notes say so (the default, joint, refits them with the parameters).
+    assert any(
+        "under the start values and held" in note
+        for note in results["protocols"][0]["models"][0]["notes"]
+    ), results["protocols"][0]["models"][0]["notes"]
     (model,) = results["protocols"][0]["models"]
     assert model["starts"] == 2
     # Every run carries its noise ceiling (the generated study names the truth files).

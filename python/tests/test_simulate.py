@@ -117,6 +117,9 @@ def test_the_prefix_start_fits_the_history_states_as_the_command_does(
     assert sim.attrs["nrmse"]["pressure_kpa"] > 90.0 > equilibrium.attrs["nrmse"]["pressure_kpa"]
     with pytest.raises(airsus.AirsusError, match="unknown start `prefx`"):
         airsus.simulate("truck", truck, run, initial_state="prefx")
+    # `joint` belongs to an estimation (greybox, study), as the command says.
+    with pytest.raises(airsus.AirsusError, match="a simulation fits none"):
+        airsus.simulate("truck", truck, run, initial_state="joint")
 
 
 def test_an_eased_load_simulates_as_the_command_and_differs_from_the_steps(

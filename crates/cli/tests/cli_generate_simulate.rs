@@ -238,6 +238,13 @@ fn simulate_can_fit_the_start_to_the_first_seconds() {
         !out.status.success() && stderr.contains("prefix"),
         "{stderr}"
     );
+    // `joint` belongs to an estimation: refused here, saying what to give instead.
+    let out = simulate(&["--initial-state", "joint"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("`simulate` fits no parameters: use prefix"),
+        "{stderr}"
+    );
 }
 
 /// `--load-transitions-s` eases each logged change over its own time; it needs one time per

@@ -63,6 +63,13 @@ pub struct PrefixOptions {
     /// Length of the prefix the states are fitted to, s.
     pub prefix_s: f64,
     pub max_iterations: usize,
+    /// In an estimation ([`crate::estimate_with_starts`]): the estimation runs' starts and
+    /// the parameters refitted in turn, each start to its prefix under the parameters of the
+    /// round (`--initial-state joint`, the default); `false`: each start fitted once to its
+    /// prefix under the start values and held while the parameters are fitted
+    /// (`--initial-state prefix`: cheaper, and what a validation run gets with the
+    /// parameters fixed).
+    pub refit_starts: bool,
 }
 
 impl Default for PrefixOptions {
@@ -70,6 +77,19 @@ impl Default for PrefixOptions {
         Self {
             prefix_s: DEFAULT_PREFIX_S,
             max_iterations: 30,
+            refit_starts: true,
+        }
+    }
+}
+
+impl PrefixOptions {
+    /// How an estimation's runs start, as `--initial-state` names it: `equilibrium`,
+    /// `prefix` (fitted once and held) or `joint` (refitted with the parameters).
+    pub fn estimation_start_name(&self, method: StartMethod) -> &'static str {
+        match method {
+            StartMethod::Equilibrium => "equilibrium",
+            StartMethod::Prefix if self.refit_starts => "joint",
+            StartMethod::Prefix => "prefix",
         }
     }
 }

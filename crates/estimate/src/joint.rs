@@ -91,6 +91,9 @@ pub struct JointEstimate {
     pub load_ramp_s: Option<f64>,
     /// What the load easing did, one line each, for a report.
     pub load_notes: Vec<String>,
+    /// The estimation runs' starts were fitted once to their prefixes under the start values
+    /// and held ([`PrefixOptions::refit_starts`] false), not refitted with the parameters.
+    pub starts_held: bool,
 }
 
 impl JointEstimate {
@@ -103,11 +106,17 @@ impl JointEstimate {
             transitions_s: None,
             load_ramp_s: None,
             load_notes: vec![],
+            starts_held: false,
         }
     }
 
     /// One line for a report.
     pub fn describe(&self, prefix_s: f64) -> String {
+        if self.starts_held && self.transitions_s.is_none() {
+            return format!(
+                "each estimation run's start fitted to its first {prefix_s:.0} s under the start values and held while the parameters were fitted (--initial-state prefix; joint refits the starts with the parameters)"
+            );
+        }
         if let Some(transitions) = &self.transitions_s {
             return self.describe_transitions(prefix_s, transitions);
         }
@@ -149,7 +158,20 @@ impl JointEstimate {
     }
 
     fn describe_transitions(&self, prefix_s: f64, transitions: &[Vec<f64>]) -> String {
-        let starts = if self.starts.iter().any(Option::is_some) {
+        let starts = if self.starts_held {
+            return format!(
+                "each estimation run's start fitted to its first {prefix_s:.0} s under the start values and held while the parameters {}",
+                if self.rounds.is_empty() {
+                    "were fitted; each logged load change's own transition time did not improve the fit: every change eased over the common time".to_owned()
+                } else {
+                    format!(
+                        "and each logged load change's transition time were estimated in turn: {} (loss {})",
+                        self.rounds_counted(),
+                        self.round_losses()
+                    )
+                }
+            );
+        } else if self.starts.iter().any(Option::is_some) {
             format!("each estimation run's start (fitted to its first {prefix_s:.0} s), ")
         } else {
             String::new()
@@ -359,6 +381,7 @@ fn alternate(
         transitions_s: current_durations,
         load_ramp_s: None,
         load_notes: Vec::new(),
+        starts_held: false,
     }
 }
 
@@ -415,8 +438,14 @@ pub fn estimate_with_starts(
         LoadRamp::Logged => None,
         LoadRamp::Estimate => common_load_ramp(&first, &started, &mut notes),
     };
-    let prefix_if = (method == StartMethod::Prefix).then_some(prefix);
+    let prefix_if = (method == StartMethod::Prefix && prefix.refit_starts).then_some(prefix);
+    let held = method == StartMethod::Prefix && !prefix.refit_starts;
     let mut joint = match (prefix_if, common_s) {
+        (None, None) if held => {
+            let mut joint = JointEstimate::single(first, started.start_states.clone());
+            joint.starts_held = true;
+            joint
+        }
         (None, None) => JointEstimate::single(first, vec![]),
         (Some(prefix), None) => estimate_jointly(first, &started, options, prefix),
         (prefix, Some(tau)) => estimate_jointly_with_transitions(
@@ -427,6 +456,7 @@ pub fn estimate_with_starts(
             LoadTransitionsFit::common(&started.runs, tau),
         ),
     };
+    joint.starts_held = held;
     joint.load_ramp_s = common_s;
     if common_s.is_some() {
         refit_common_ramp(&mut joint, &started, &mut notes);

@@ -119,10 +119,12 @@ fn render_html(results: &StudyResults, charts: &[(&Chart, Result<String, String>
         "<h1>Air suspension study</h1><p>Study: <code>{}</code> · nominal truck: <code>{}</code> · runs start: {} · airsus {} · pipeline time {:.1} s · <a href=\"results.json\">results.json</a></p>",
         esc(&results.study),
         esc(&results.truck),
-        if results.initial_state == "prefix" {
-            "history states fitted to the first 10 s, parameters refitted from those starts"
-        } else {
-            "static equilibrium at the first measured height"
+        match results.initial_state.as_str() {
+            "joint" =>
+                "history states fitted to the first 10 s, refitted with the parameters in turn in estimation runs",
+            "prefix" =>
+                "history states fitted to the first 10 s, held in estimation runs while the parameters were fitted",
+            _ => "static equilibrium at the first measured height",
         },
         esc(&results.airsus_version),
         results.elapsed_s

@@ -18,8 +18,10 @@ pub struct StudyResults {
     /// The nominal truck file the study started from.
     pub truck: String,
     /// How every simulation of a run starts: `equilibrium` (static, at the first measured
-    /// height) or `prefix` (history states fitted to the first 10 s; the parameters refitted
-    /// from those starts).
+    /// height), `joint` (history states fitted to the first 10 s; in estimation runs refitted
+    /// with the parameters in turn) or `prefix` (the same, but in estimation runs fitted once
+    /// under the start values and held). Validation runs start from their prefix with the
+    /// parameters fixed under both.
     #[serde(default = "equilibrium")]
     pub initial_state: String,
     /// How the logged load reached the models: `estimate` (each change eased, see

@@ -77,6 +77,9 @@ pub struct StudyOptions {
     /// How runs start: static equilibrium (default), or with their history states fitted to
     /// the first seconds, estimated jointly with the parameters by alternation.
     pub initial: airsus_estimate::StartMethod,
+    /// The prefix the runs' starts are fitted to, and whether the estimation runs' starts are
+    /// refitted with the parameters (`joint`, the default) or held (`prefix`).
+    pub prefix: airsus_estimate::PrefixOptions,
     /// How the grey-box loss weighs runs and outputs.
     pub normalisation: airsus_estimate::Normalisation,
     /// Starts of the grey-box fits' global stage (1: the plain local fit).
@@ -116,6 +119,7 @@ impl StudyOptions {
             // Starts fitted to each run's first seconds: jointly with the parameters in
             // estimation runs, with them fixed in validation runs (issue #12, item 2).
             initial: airsus_estimate::StartMethod::Prefix,
+            prefix: airsus_estimate::PrefixOptions::default(),
             normalisation: airsus_estimate::Normalisation::default(),
             starts: 1,
             load_ramp: LoadRamp::default(),
@@ -312,7 +316,10 @@ pub fn run_study(
         airsus_version: env!("CARGO_PKG_VERSION").to_owned(),
         study: input.label.clone(),
         truck: input.truck_file.display().to_string(),
-        initial_state: options.initial.as_str().to_owned(),
+        initial_state: options
+            .prefix
+            .estimation_start_name(options.initial)
+            .to_owned(),
         load_ramp: Some(options.load_ramp.as_str().to_owned()),
         exclude_after_load_change_s: options.exclude_after_load_change_s,
         validation_transitions: (options.load_ramp == LoadRamp::Estimate).then(|| {

@@ -696,7 +696,7 @@ pub fn fit_and_validate(
     // under the start values: an equilibrium-start fit drifts to compensate starts it gets
     // wrong (on the virtual truck, a valve run begun after a raise has its wall friction
     // holding the bellow down, and the gas volume's scale drifted 27 % to absorb that).
-    let prefix = PrefixOptions::default();
+    let prefix = options.prefix;
     let fitted = match estimate_with_starts(
         &problem,
         &fit_options,
@@ -707,7 +707,8 @@ pub fn fit_and_validate(
         &mut NoProgress,
     ) {
         Ok((joint, summary)) if lab_valve => {
-            let prefix_if = (initial == StartMethod::Prefix).then_some(&prefix);
+            let prefix_if =
+                (initial == StartMethod::Prefix && prefix.refit_starts).then_some(&prefix);
             let joint = refit_with_lab_valve(
                 joint,
                 &problem,

@@ -348,11 +348,17 @@ pub fn study<'py>(
     }
     // The command's defaults: every study model, `--max-iterations 60`, `--seed 1`.
     let models = models.unwrap_or_else(|| study_models().iter().map(|m| (*m).to_owned()).collect());
+    let (start, refit_starts) =
+        crate::simulate::parse_estimation_start(initial_state.as_deref().unwrap_or("joint"))
+            .or_py()?;
     let fit = StudyOptions {
         models,
         max_iterations: max_iterations.unwrap_or(60),
-        initial: crate::simulate::parse_start(initial_state.as_deref().unwrap_or("prefix"))
-            .or_py()?,
+        initial: start,
+        prefix: airsus_estimate::PrefixOptions {
+            refit_starts,
+            ..airsus_estimate::PrefixOptions::default()
+        },
         normalisation: crate::greybox::parse_normalisation(
             normalisation.as_deref().unwrap_or("pooled-spread"),
         )

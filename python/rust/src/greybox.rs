@@ -30,6 +30,8 @@ struct Settings {
     keep_unidentifiable: bool,
     normalisation: Normalisation,
     start: StartMethod,
+    /// The estimation runs' starts refitted with the parameters (`joint`) or held (`prefix`).
+    refit_starts: bool,
     load_ramp: LoadRamp,
     /// A bellow force map file as a prior on the effective-area law, and its force error
     /// (None: the misfit of the truck's law to it), as `--force-map`.
@@ -129,7 +131,10 @@ fn run_greybox(
         &options,
         &MultiStart::default(),
         settings.start,
-        &PrefixOptions::default(),
+        &PrefixOptions {
+            refit_starts: settings.refit_starts,
+            ..PrefixOptions::default()
+        },
         settings.load_ramp,
         &mut observer,
     )?;
@@ -211,10 +216,11 @@ pub fn greybox<'py>(
     // As the command: prefix starts unless the equilibrium is fixed by the first pressure.
     let requested = initial_state
         .as_deref()
-        .map(crate::simulate::parse_start)
+        .map(crate::simulate::parse_estimation_start)
         .transpose()
         .or_py()?;
-    let start = estimation_start(initial, requested)
+    let refit_starts = requested.is_none_or(|(_, refit)| refit);
+    let start = estimation_start(initial, requested.map(|(method, _)| method))
         .map_err(|e| anyhow::anyhow!("initial=\"pressure\" with initial_state=\"prefix\": {e}"))
         .or_py()?;
     let load_ramp: LoadRamp = load_ramp
@@ -225,6 +231,7 @@ pub fn greybox<'py>(
     let defaults = GreyboxOptions::default();
     let settings = Settings {
         start,
+        refit_starts,
         load_ramp,
         free,
         bounds: bounds.unwrap_or_default(),

@@ -15,12 +15,15 @@ use crate::error::OrPy;
 use crate::runs::{RunSource, RunSpec};
 use crate::truck::NativeTruck;
 
-/// How a run starts, by the command's name (`--initial-state`).
-pub fn parse_start(name: &str) -> anyhow::Result<StartMethod> {
+/// How an estimation's runs start, by the command's name (`--initial-state` of `greybox`
+/// and `study`): the start method, and whether the estimation runs' starts are refitted with
+/// the parameters (`joint`) or fitted once and held (`prefix`).
+pub fn parse_estimation_start(name: &str) -> anyhow::Result<(StartMethod, bool)> {
     Ok(match name {
-        "equilibrium" => StartMethod::Equilibrium,
-        "prefix" => StartMethod::Prefix,
-        other => bail!("initial_state `{other}`: expected `equilibrium` or `prefix`"),
+        "equilibrium" => (StartMethod::Equilibrium, false),
+        "prefix" => (StartMethod::Prefix, false),
+        "joint" => (StartMethod::Prefix, true),
+        other => bail!("initial_state `{other}`: expected `joint`, `prefix` or `equilibrium`"),
     })
 }
 

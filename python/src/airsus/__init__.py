@@ -450,6 +450,11 @@ def simulate(
     if initial_state is None:
         pass
     elif isinstance(initial_state, str):
+        if initial_state == "joint":
+            raise AirsusError(
+                "initial_state 'joint' estimates each run's start together with parameters "
+                "(greybox, study); a simulation fits none: give 'prefix' or 'equilibrium'"
+            )
         if initial_state not in ("prefix", "equilibrium"):
             raise AirsusError(
                 f"initial_state: unknown start `{initial_state}`; give 'prefix', "
@@ -613,8 +618,9 @@ def greybox(
     The loss is the simulation error of height and pressure, each normalised by its spread
     pooled over all runs (or, with ``normalisation="noise-level"``, each run and output by
     its own measurement noise, every run weighing the same). Each run starts from its first
-    10 s: the states that carry its history are fitted to them and estimated jointly with
-    the parameters (``initial_state="prefix"``, the default); or in static equilibrium at its
+    10 s: the states that carry its history are fitted to them and refitted with the
+    parameters in turn (``initial_state="joint"``, the default), or fitted once under the
+    start values and held (``initial_state="prefix"``); or in static equilibrium at its
     first measured height (``initial_state="equilibrium"``) or pressure
     (``initial="pressure"``, which implies it). A log that records a load change as a step
     while the wheel takes it over seconds is eased: each logged change over its own
@@ -646,8 +652,8 @@ def greybox(
             determined by the runs.
         keep_unidentifiable: estimate parameters found not identifiable anyway.
         normalisation: ``"pooled-spread"`` or ``"noise-level"`` (see above).
-        initial_state: ``"prefix"`` or ``"equilibrium"`` (see above), as
-            ``--initial-state``; ``None``: prefix, or equilibrium with ``initial="pressure"``.
+        initial_state: ``"joint"``, ``"prefix"`` or ``"equilibrium"`` (see above), as
+            ``--initial-state``; ``None``: joint, or equilibrium with ``initial="pressure"``.
         load_ramp: ``"estimate"`` or ``"logged"`` (see above), as ``--load-ramp``.
         force_map: a bellow force map file (``bellow_height_mm, pressure_kpa, force_n``) that
             enters the loss as a prior on the effective-area law, as ``--force-map``: the runs
@@ -956,7 +962,7 @@ def study(
     models: Optional[Sequence[str]] = None,
     max_iterations: int = 60,
     seed: Optional[int] = None,
-    initial_state: str = "prefix",
+    initial_state: str = "joint",
     normalisation: str = "pooled-spread",
     starts: int = 1,
     variant: Optional[int] = None,
@@ -976,9 +982,10 @@ def study(
         models: the models to estimate (default all: ``m1, m2, m2x, m2xh, m3, truck``).
         max_iterations: iteration limit of each grey-box fit.
         seed: seed of the built-in study (only with ``path=None``; default 1).
-        initial_state: ``"prefix"`` (default: runs start from their first 10 s, fitted
-            jointly with the parameters in estimation runs) or ``"equilibrium"``, as
-            ``--initial-state``.
+        initial_state: ``"joint"`` (default: runs start from their first 10 s, refitted
+            with the parameters in turn in estimation runs, with the parameters fixed in
+            validation runs), ``"prefix"`` (the estimation runs' starts fitted once under the
+            start values and held) or ``"equilibrium"``, as ``--initial-state``.
         normalisation: ``"pooled-spread"`` or ``"noise-level"``, as ``--normalisation``.
         starts: starts of each grey-box fit's global stage, as ``--starts``.
         variant: member of the virtual truck family for the built-in study (only with

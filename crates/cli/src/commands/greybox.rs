@@ -7,10 +7,11 @@
 //! same as JSON with `--json`. `--out` writes the truck file with the estimates, which loads
 //! back with `--truck`.
 //!
-//! Each run starts from its first seconds (`--initial-state prefix`, the default): the
+//! Each run starts from its first seconds (`--initial-state joint`, the default): the
 //! states that carry its history are fitted to them under the start values, the parameters
 //! are fitted from those starts, and starts and parameters are then refitted in turn (the
-//! joint estimate, `airsus_estimate::estimate_jointly`). With `--initial-state equilibrium`
+//! joint estimate, `airsus_estimate::estimate_jointly`); `--initial-state prefix` fits the
+//! starts once under the start values and holds them. With `--initial-state equilibrium`
 //! each run starts in static equilibrium at its first measured sensor height (the reference
 //! truck's effective area is flat near its working point, so the pressure would pin the
 //! height poorly), or at its first measured pressure with `--initial pressure`.
@@ -93,10 +94,11 @@ pub struct GreyboxArgs {
     /// What fixes each run's initial equilibrium.
     #[arg(long, value_enum, default_value_t = InitialArg::Height)]
     pub initial: InitialArg,
-    /// How runs start: `prefix` (the default, except with `--initial pressure`) fits the
+    /// How runs start: `joint` (the default, except with `--initial pressure`) fits the
     /// states that carry each run's history (friction, creep, gas temperature, air amount) to
-    /// its first seconds and estimates starts and parameters jointly; `equilibrium` starts
-    /// every run in static equilibrium.
+    /// its first seconds and estimates starts and parameters in turn; `prefix` fits them
+    /// once under the start values and holds them while the parameters are fitted;
+    /// `equilibrium` starts every run in static equilibrium.
     #[arg(long, value_enum)]
     pub initial_state: Option<crate::commands::simulate::StartArg>,
     /// Length of the prefix each start is fitted to, s.
@@ -297,6 +299,7 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         start,
         &PrefixOptions {
             prefix_s: args.prefix_s,
+            refit_starts: args.initial_state.is_none_or(|arg| arg.refits_starts()),
             ..PrefixOptions::default()
         },
         args.load_ramp.into(),

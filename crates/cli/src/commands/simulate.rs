@@ -81,11 +81,12 @@ pub struct SimulateArgs {
     /// Start in static equilibrium at this sensor height (mm).
     #[arg(long, conflicts_with = "initial_state")]
     pub initial_height_mm: Option<f64>,
-    /// How a run with measured outputs starts: `prefix` (default, as the grey-box estimator
-    /// and the study start runs) is static equilibrium with the states that carry the run's
-    /// history (friction, creep, gas temperature, air amount, and the height it is anchored
-    /// at) fitted to its first seconds; `equilibrium` is static equilibrium at the first
-    /// measured height.
+    /// How a run with measured outputs starts: `prefix` (default, as the study starts its
+    /// validation runs) is static equilibrium with the states that carry the run's history
+    /// (friction, creep, gas temperature, air amount, and the height it is anchored at)
+    /// fitted to its first seconds; `equilibrium` is static equilibrium at the first
+    /// measured height; `joint` belongs to an estimation (`greybox`, `study`) and is refused
+    /// here.
     #[arg(long, value_enum, default_value_t = StartArg::Prefix)]
     pub initial_state: StartArg,
     /// Length of the prefix the start is fitted to, s.
@@ -110,20 +111,40 @@ pub struct SimulateArgs {
 /// `--initial-state`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum StartArg {
+    /// Static equilibrium with the history states fitted to the run's first seconds; in an
+    /// estimation, fitted once under the start values and held.
     Prefix,
+    /// Static equilibrium at the first measured height.
     Equilibrium,
+    /// In an estimation (`greybox`, `study`): the estimation runs' starts fitted to their
+    /// first seconds and refitted with the parameters in turn (validation runs: prefix, the
+    /// parameters fixed).
+    Joint,
 }
 
 impl From<StartArg> for StartMethod {
     fn from(s: StartArg) -> Self {
         match s {
-            StartArg::Prefix => StartMethod::Prefix,
+            StartArg::Prefix | StartArg::Joint => StartMethod::Prefix,
             StartArg::Equilibrium => StartMethod::Equilibrium,
         }
     }
 }
 
+impl StartArg {
+    /// Whether an estimation refits the starts with the parameters
+    /// ([`PrefixOptions::refit_starts`]).
+    pub fn refits_starts(self) -> bool {
+        self == StartArg::Joint
+    }
+}
+
 pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
+    if args.initial_state == StartArg::Joint {
+        bail!(
+            "--initial-state joint estimates each run's start together with parameters, which `greybox` and `study` do; `simulate` fits no parameters: use prefix (the start fitted to the first seconds) or equilibrium"
+        );
+    }
     if !(args.rtol.is_finite() && args.rtol > 0.0 && args.rtol < 1.0) {
         bail!("--rtol {} must be between 0 and 1", args.rtol);
     }

@@ -39,10 +39,12 @@ pub struct StudyArgs {
     /// Models to estimate (comma-separated).
     #[arg(long, value_delimiter = ',', default_values_t = study_models().iter().map(|m| (*m).to_owned()).collect::<Vec<_>>())]
     pub models: Vec<String>,
-    /// How runs start: `prefix` (default: each run's history states fitted to its first
-    /// 10 s; in estimation runs jointly with the parameters, in validation runs with the
-    /// parameters fixed) or `equilibrium` (static, at the first measured height).
-    #[arg(long, value_enum, default_value_t = crate::commands::simulate::StartArg::Prefix)]
+    /// How runs start: `joint` (default: each run's history states fitted to its first
+    /// 10 s; in estimation runs refitted with the parameters in turn, in validation runs with
+    /// the parameters fixed), `prefix` (the same, but the estimation runs' starts fitted once
+    /// under the start values and held) or `equilibrium` (static, at the first measured
+    /// height).
+    #[arg(long, value_enum, default_value_t = crate::commands::simulate::StartArg::Joint)]
     pub initial_state: crate::commands::simulate::StartArg,
     /// How the grey-box loss weighs runs and outputs: `pooled-spread` (each output by its
     /// spread over all runs; long runs count more) or `noise-level` (each run and output by
@@ -121,6 +123,10 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
         models: args.models.clone(),
         max_iterations: args.max_iterations,
         initial: args.initial_state.into(),
+        prefix: airsus_estimate::PrefixOptions {
+            refit_starts: args.initial_state.refits_starts(),
+            ..airsus_estimate::PrefixOptions::default()
+        },
         normalisation: args.normalisation.into(),
         starts: args.starts,
         load_ramp: args.load_ramp.into(),
