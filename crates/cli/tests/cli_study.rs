@@ -15,6 +15,8 @@ fn study_builtin_writes_the_report_and_prints_the_summary() {
             "m2",
             "--max-iterations",
             "5",
+            "--prefix-s",
+            "12",
         ])
         .output()
         .unwrap();
@@ -51,6 +53,11 @@ fn study_builtin_writes_the_report_and_prints_the_summary() {
         .unwrap();
     let m2 = &valve["models"][0];
     assert_eq!(m2["model"], "m2");
+    // The default start, and the prefix asked for, recorded and reported.
+    assert_eq!(json["initial_state"], "joint");
+    assert_eq!(json["prefix_s"], 12.0);
+    let html = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+    assert!(html.contains("history states fitted to the first 12 s"));
     let ds3 = m2["runs"]
         .as_array()
         .unwrap()
@@ -91,4 +98,17 @@ fn study_needs_a_source_and_rejects_unknown_models() {
     ]);
     assert!(!res.status.success());
     assert!(String::from_utf8_lossy(&res.stderr).contains("unknown model `m9`"));
+    let res = run(&[
+        "study",
+        "--builtin",
+        "--out",
+        dir.path().to_str().unwrap(),
+        "--prefix-s",
+        "0",
+    ]);
+    assert!(!res.status.success());
+    assert!(
+        String::from_utf8_lossy(&res.stderr)
+            .contains("--prefix-s 0: expected a positive number of seconds")
+    );
 }

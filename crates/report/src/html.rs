@@ -120,11 +120,15 @@ fn render_html(results: &StudyResults, charts: &[(&Chart, Result<String, String>
         esc(&results.study),
         esc(&results.truck),
         match results.initial_state.as_str() {
-            "joint" =>
-                "history states fitted to the first 10 s, refitted with the parameters in turn in estimation runs",
-            "prefix" =>
-                "history states fitted to the first 10 s, held in estimation runs while the parameters were fitted",
-            _ => "static equilibrium at the first measured height",
+            "joint" => format!(
+                "history states fitted to the first {:.0} s, refitted with the parameters in turn in estimation runs",
+                results.prefix_s
+            ),
+            "prefix" => format!(
+                "history states fitted to the first {:.0} s, held in estimation runs while the parameters were fitted",
+                results.prefix_s
+            ),
+            _ => "static equilibrium at the first measured height".to_owned(),
         },
         esc(&results.airsus_version),
         results.elapsed_s
@@ -723,6 +727,7 @@ mod tests {
             study: "built-in".to_owned(),
             truck: "truck.toml".to_owned(),
             initial_state: "equilibrium".to_owned(),
+            prefix_s: 10.0,
             load_ramp: None,
             exclude_after_load_change_s: 0.0,
             validation_transitions: None,

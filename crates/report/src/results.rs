@@ -24,6 +24,10 @@ pub struct StudyResults {
     /// parameters fixed under both.
     #[serde(default = "equilibrium")]
     pub initial_state: String,
+    /// The prefix the runs' starts are fitted to, s (`--prefix-s`; 10 in files written
+    /// before it was recorded).
+    #[serde(default = "default_prefix_s")]
+    pub prefix_s: f64,
     /// How the logged load reached the models: `estimate` (each change eased, see
     /// `ModelResult::load_transitions`) or `logged`; absent in files written before it was.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -48,6 +52,10 @@ pub struct StudyResults {
 
 fn one() -> usize {
     1
+}
+
+fn default_prefix_s() -> f64 {
+    10.0
 }
 
 fn equilibrium() -> String {
@@ -366,6 +374,7 @@ mod tests {
             study: "study.toml".to_owned(),
             truck: "truck.toml".to_owned(),
             initial_state: "equilibrium".to_owned(),
+            prefix_s: 10.0,
             load_ramp: Some("estimate".to_owned()),
             exclude_after_load_change_s: 0.0,
             validation_transitions: None,
@@ -549,6 +558,7 @@ mod tests {
             "findings",
             "exclude_after_load_change_s",
             "initial_state",
+            "prefix_s",
             "load_ramp",
             "validation_transitions",
             "findings.uses",

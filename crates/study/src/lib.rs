@@ -320,6 +320,7 @@ pub fn run_study(
             .prefix
             .estimation_start_name(options.initial)
             .to_owned(),
+        prefix_s: options.prefix.prefix_s,
         load_ramp: Some(options.load_ramp.as_str().to_owned()),
         exclude_after_load_change_s: options.exclude_after_load_change_s,
         validation_transitions: (options.load_ramp == LoadRamp::Estimate).then(|| {

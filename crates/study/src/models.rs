@@ -396,16 +396,17 @@ fn merge_refitted_parameters(
 
 /// Simulates `model` over a measured run for scoring; it starts by `method` (the estimator's
 /// assumption: static equilibrium, or that with the history states fitted to the first
-/// seconds). `load_ramp_s`: the run's load was eased over that time
+/// seconds, `prefix`). `load_ramp_s`: the run's load was eased over that time
 /// ([`ramp_logged_load`]) and is followed linearly between samples. The score covers the
 /// whole run.
 pub fn simulate_run(
     model: &dyn SuspensionModel,
     run: &Run,
     method: StartMethod,
+    prefix: &PrefixOptions,
     load_ramp_s: Option<f64>,
 ) -> Result<SimulationResponse, String> {
-    let choice = StartChoice::FromRun(method, PrefixOptions::default());
+    let choice = StartChoice::FromRun(method, *prefix);
     let (initial, _) = resolve_start(model, run, &choice).map_err(|e| e.to_string())?;
     simulate_from(model, run, initial, load_ramp_s)
 }
@@ -433,10 +434,11 @@ fn validation_transitions(
     model: &dyn SuspensionModel,
     run: &Run,
     method: StartMethod,
+    prefix: &PrefixOptions,
     common_s: f64,
     normalisation: airsus_estimate::Normalisation,
 ) -> Result<(Vec<f64>, InitialState), String> {
-    let choice = StartChoice::FromRun(method, PrefixOptions::default());
+    let choice = StartChoice::FromRun(method, *prefix);
     let (initial, _) = resolve_start(model, &ramp_logged_load(run, common_s), &choice)
         .map_err(|e| e.to_string())?;
     let problem = GreyboxProblem {
@@ -872,7 +874,7 @@ pub fn fit_and_validate(
             }
             .to_owned(),
             // The start values as the user had them: the load as logged.
-            nominal: simulate_run(&*nominal, &run.run, initial, None)
+            nominal: simulate_run(&*nominal, &run.run, initial, &prefix, None)
                 .ok()
                 .and_then(|r| output_fit(&run.run, &r)),
             estimated: None,
@@ -896,6 +898,7 @@ pub fn fit_and_validate(
                     &*estimated,
                     &run.run,
                     initial,
+                    &prefix,
                     common_s,
                     normalisation,
                 ) {
@@ -927,7 +930,7 @@ pub fn fit_and_validate(
             }
             (None, None) => {
                 let fed = felt.feed(&run.run);
-                let simulated = simulate_run(&*estimated, &fed, initial, load_ramp_s);
+                let simulated = simulate_run(&*estimated, &fed, initial, &prefix, load_ramp_s);
                 (fed, simulated)
             }
         };

@@ -90,7 +90,8 @@ fn with_the_true_parameters_the_prefix_start_reaches_the_noise_ceiling() {
             let ceiling = noise_ceiling(run).unwrap();
             let measured = run.run.outputs.as_ref().unwrap();
             let score = |method| {
-                let sim = simulate_run(&*model, &run.run, method, None).unwrap();
+                let sim = simulate_run(&*model, &run.run, method, &PrefixOptions::default(), None)
+                    .unwrap();
                 (
                     nrmse_percent(&measured.sensor_height_m, &sim.sensor_height_m).unwrap(),
                     nrmse_percent(&measured.bellow_gauge_pa, &sim.bellow_gauge_pa).unwrap(),
@@ -127,7 +128,14 @@ fn the_prefix_start_of_a_noise_free_run_after_a_move_reproduces_it() {
     for file in ["road1", "ds3"] {
         let run = airsus_data::read_run(&dir.path().join(format!("truth/{file}.csv"))).unwrap();
         let measured = run.outputs.as_ref().unwrap();
-        let sim = simulate_run(&*model, &run, StartMethod::Prefix, None).unwrap();
+        let sim = simulate_run(
+            &*model,
+            &run,
+            StartMethod::Prefix,
+            &PrefixOptions::default(),
+            None,
+        )
+        .unwrap();
         let h = nrmse_percent(&measured.sensor_height_m, &sim.sensor_height_m).unwrap();
         let p = nrmse_percent(&measured.bellow_gauge_pa, &sim.bellow_gauge_pa).unwrap();
         assert!(h > 99.8 && p > 99.8, "{file}: {h:.3}/{p:.3} %");

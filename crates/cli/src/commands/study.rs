@@ -46,6 +46,10 @@ pub struct StudyArgs {
     /// height).
     #[arg(long, value_enum, default_value_t = crate::commands::simulate::StartArg::Joint)]
     pub initial_state: crate::commands::simulate::StartArg,
+    /// Length of the prefix each run's start is fitted to, s (estimation and validation
+    /// runs).
+    #[arg(long, default_value_t = airsus_estimate::initial_state::DEFAULT_PREFIX_S)]
+    pub prefix_s: f64,
     /// How the grey-box loss weighs runs and outputs: `pooled-spread` (each output by its
     /// spread over all runs; long runs count more) or `noise-level` (each run and output by
     /// its own measurement noise, every run equally).
@@ -119,11 +123,18 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
             }
         }
     };
+    if !(args.prefix_s.is_finite() && args.prefix_s > 0.0) {
+        anyhow::bail!(
+            "--prefix-s {}: expected a positive number of seconds",
+            args.prefix_s
+        );
+    }
     let options = StudyOptions {
         models: args.models.clone(),
         max_iterations: args.max_iterations,
         initial: args.initial_state.into(),
         prefix: airsus_estimate::PrefixOptions {
+            prefix_s: args.prefix_s,
             refit_starts: args.initial_state.refits_starts(),
             ..airsus_estimate::PrefixOptions::default()
         },
