@@ -305,7 +305,7 @@ fn run_the_study(
 /// `study` is None). Returns `{"results": path of results.json, "report": path of report.html,
 /// "notes", "chart_failures"}`.
 #[pyfunction]
-#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, variant=None, load_ramp=None, exclude_after_load_change_s=None, validation_transitions=None))]
+#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, variant=None, load_ramp=None, exclude_after_load_change_s=None, validation_transitions=None, prefix_s=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn study<'py>(
     py: Python<'py>,
@@ -322,7 +322,14 @@ pub fn study<'py>(
     load_ramp: Option<String>,
     exclude_after_load_change_s: Option<f64>,
     validation_transitions: Option<String>,
+    prefix_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let prefix_s = prefix_s.unwrap_or(airsus_estimate::initial_state::DEFAULT_PREFIX_S);
+    if !(prefix_s.is_finite() && prefix_s > 0.0) {
+        return Err(crate::error::to_py(anyhow::anyhow!(
+            "prefix_s {prefix_s}: expected a positive number of seconds"
+        )));
+    }
     let validation_transitions = match validation_transitions.as_deref().unwrap_or("fitted") {
         "fitted" => true,
         "common" => false,
@@ -356,6 +363,7 @@ pub fn study<'py>(
         max_iterations: max_iterations.unwrap_or(60),
         initial: start,
         prefix: airsus_estimate::PrefixOptions {
+            prefix_s,
             refit_starts,
             ..airsus_estimate::PrefixOptions::default()
         },

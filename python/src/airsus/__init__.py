@@ -970,6 +970,7 @@ def study(
     progress: Progress = None,
     exclude_after_load_change_s: float = 0.0,
     validation_transitions: str = "fitted",
+    prefix_s: float = 10.0,
 ) -> Dict[str, Any]:
     """Run the whole thesis pipeline, as ``airsus study STUDY.toml --out OUT``: submodel fits,
     grey-box estimation of every model, validation with residual analysis on every run, and
@@ -999,6 +1000,8 @@ def study(
             eased over its own transition time, fitted to the run with the parameters fixed,
             as its start is to its first seconds) or ``"common"`` (the one time fitted to the
             estimation runs), as ``--validation-transitions``.
+        prefix_s: length of the prefix every run's start is fitted to, s, as
+            ``--prefix-s`` (recorded as ``prefix_s`` in the results).
         progress: called with a dict per event (the GIL is released while the study runs):
             ``{"event": "stage", "message": ...}`` or ``{"event": "model_done", "protocol",
             "model", "seconds", "done", "total"}``.
@@ -1021,6 +1024,7 @@ def study(
         load_ramp=load_ramp,
         exclude_after_load_change_s=float(exclude_after_load_change_s),
         validation_transitions=validation_transitions,
+        prefix_s=float(prefix_s),
     )
     with open(native["results"], encoding="utf-8") as f:
         results: Dict[str, Any] = json.load(f)
