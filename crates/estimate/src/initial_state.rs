@@ -82,6 +82,16 @@ impl Default for PrefixOptions {
     }
 }
 
+/// Checks a prefix length given by a user (`--prefix-s`, Python's `prefix_s`): the message
+/// follows the flag's name.
+pub fn check_prefix_s(seconds: f64) -> Result<f64, String> {
+    if seconds.is_finite() && seconds > 0.0 {
+        Ok(seconds)
+    } else {
+        Err(format!("{seconds}: expected a positive number of seconds"))
+    }
+}
+
 impl PrefixOptions {
     /// How an estimation's runs start, as `--initial-state` names it: `equilibrium`,
     /// `prefix` (fitted once and held) or `joint` (refitted with the parameters).
@@ -383,12 +393,8 @@ pub fn estimate_initial_state(
     if method == StartMethod::Equilibrium {
         return Ok(unchanged(f64::NAN));
     }
-    if !(options.prefix_s.is_finite() && options.prefix_s > 0.0) {
-        return Err(EstimateError::InvalidOption(format!(
-            "the prefix must be a positive time in s, got {}",
-            options.prefix_s
-        )));
-    }
+    check_prefix_s(options.prefix_s)
+        .map_err(|e| EstimateError::InvalidOption(format!("the prefix length {e}")))?;
     let outputs = run.measured().map_err(|e| invalid(&e.to_string()))?;
     let t0 = run.time_s.first().copied().unwrap_or(0.0);
     let n = run

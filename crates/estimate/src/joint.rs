@@ -112,10 +112,23 @@ impl JointEstimate {
 
     /// One line for a report.
     pub fn describe(&self, prefix_s: f64) -> String {
-        if self.starts_held && self.transitions_s.is_none() {
-            return format!(
-                "each estimation run's start fitted to its first {prefix_s:.0} s under the start values and held while the parameters were fitted (--initial-state prefix; joint refits the starts with the parameters)"
+        if self.starts_held {
+            let held = format!(
+                "each estimation run's start fitted to its first {prefix_s:.0} s under the start values and held while the parameters"
             );
+            return match (&self.transitions_s, self.rounds.is_empty()) {
+                (None, _) => format!(
+                    "{held} were fitted (--initial-state prefix; joint refits the starts with the parameters)"
+                ),
+                (Some(_), true) => format!(
+                    "{held} were fitted; each logged load change's own transition time did not improve the fit: every change eased over the common time"
+                ),
+                (Some(_), false) => format!(
+                    "{held} and each logged load change's transition time were estimated in turn: {} (loss {})",
+                    self.rounds_counted(),
+                    self.round_losses()
+                ),
+            };
         }
         if let Some(transitions) = &self.transitions_s {
             return self.describe_transitions(prefix_s, transitions);
@@ -158,20 +171,7 @@ impl JointEstimate {
     }
 
     fn describe_transitions(&self, prefix_s: f64, transitions: &[Vec<f64>]) -> String {
-        let starts = if self.starts_held {
-            return format!(
-                "each estimation run's start fitted to its first {prefix_s:.0} s under the start values and held while the parameters {}",
-                if self.rounds.is_empty() {
-                    "were fitted; each logged load change's own transition time did not improve the fit: every change eased over the common time".to_owned()
-                } else {
-                    format!(
-                        "and each logged load change's transition time were estimated in turn: {} (loss {})",
-                        self.rounds_counted(),
-                        self.round_losses()
-                    )
-                }
-            );
-        } else if self.starts.iter().any(Option::is_some) {
+        let starts = if self.starts.iter().any(Option::is_some) {
             format!("each estimation run's start (fitted to its first {prefix_s:.0} s), ")
         } else {
             String::new()
@@ -441,11 +441,7 @@ pub fn estimate_with_starts(
     let prefix_if = (method == StartMethod::Prefix && prefix.refit_starts).then_some(prefix);
     let held = method == StartMethod::Prefix && !prefix.refit_starts;
     let mut joint = match (prefix_if, common_s) {
-        (None, None) if held => {
-            let mut joint = JointEstimate::single(first, started.start_states.clone());
-            joint.starts_held = true;
-            joint
-        }
+        (None, None) if held => JointEstimate::single(first, started.start_states.clone()),
         (None, None) => JointEstimate::single(first, vec![]),
         (Some(prefix), None) => estimate_jointly(first, &started, options, prefix),
         (prefix, Some(tau)) => estimate_jointly_with_transitions(

@@ -44,7 +44,8 @@ pub use greybox::{
     estimate_multistart, loss_at,
 };
 pub use initial_state::{
-    EstimatedStart, PrefixOptions, StartChoice, StartMethod, estimate_initial_state, resolve_start,
+    EstimatedStart, PrefixOptions, StartChoice, StartMethod, check_prefix_s,
+    estimate_initial_state, resolve_start,
 };
 pub use joint::{
     JointEstimate, JointRound, continue_jointly, estimate_jointly,

@@ -328,12 +328,11 @@ fn refit_on_road(
         est.loss_nominal,
         est.loss_estimated
     ));
-    let identifiability = est.identifiability;
     notes.extend(merge_refitted_parameters(
         &mut joint.estimate.parameters,
         &mut joint.estimate.identifiability.not_identifiable,
         est.parameters,
-        identifiability.not_identifiable,
+        est.identifiability.not_identifiable,
         &run_names.join(" + "),
     ));
     for (&i, start) in road.iter().zip(road_fit.starts) {
@@ -643,10 +642,12 @@ pub fn fit_and_validate(
     if start_truck.bellow.gas_volume != start.truck.bellow.gas_volume {
         result.notes.push(format!(
             "the gas volume starts as the area integral with a dead volume of {:.1} L fitted to the closed-valve run, in place of the file's law (the submodel `dead_volume` says why)",
-            match start_truck.bellow.gas_volume {
-                airsus_data::GasVolumeLaw::AreaIntegral { dead_volume_m3, .. } => dead_volume_m3,
-                airsus_data::GasVolumeLaw::CrossSection { .. } => f64::NAN,
-            } * 1e3
+            start_truck
+                .bellow
+                .gas_volume
+                .get(Field::DeadVolume)
+                .unwrap_or(f64::NAN)
+                * 1e3
         ));
     }
     let lab_valve = start_truck.valve != start.truck.valve;

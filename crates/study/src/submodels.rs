@@ -310,13 +310,8 @@ pub fn fit_submodels(
                 // virtual truck, whose wall the built-in value describes exactly, the map
                 // reads 116.6 ± 7.6 N for 120 N; writing it cost data-set 4's pressure a point.)
                 let field = airsus_data::params::Field::WallFrictionForce;
-                let start = airsus_data::params::get(&truck, field);
                 // A file without `[effects] friction_force_n`: the structure's built-in value.
-                let start = if start.is_nan() {
-                    airsus_truck::truth::EffectParameters::default().friction_force_n
-                } else {
-                    start
-                };
+                let start = airsus_truck::truth::EffectParameters::of_file(&truck).friction_force_n;
                 let agrees = (fit.friction_force_n - start).abs() <= 3.0 * fit.friction_force_std_n;
                 let written =
                     !agrees && airsus_data::params::set(&mut truck, field, fit.friction_force_n);

@@ -124,6 +124,20 @@ pub const TRUE_CROSS_SECTION_M2: [f64; 2] = [0.262, -0.040];
 /// thesis' cross-section volume), so that what is measured on them stays comparable.
 pub const FIRST_OTHER_FORM_VARIANT: u32 = 4;
 
+impl EffectParameters {
+    /// The effect values the `truck` structure simulates `truck`'s file with: the file's
+    /// `[effects]` where it names them, the built-in ones elsewhere
+    /// ([`VirtualTruck::resolve_laws`], what [`crate::model::TruckModel`] does).
+    pub fn of_file(truck: &TruckParameters) -> Self {
+        let mut structure = VirtualTruck {
+            physical: truck.clone(),
+            ..VirtualTruck::reference()
+        };
+        structure.resolve_laws();
+        structure.effect_parameters
+    }
+}
+
 /// The virtual truck: true physical parameters in the thesis' structure, and the effects.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VirtualTruck {
@@ -281,9 +295,8 @@ impl VirtualTruck {
     /// the effective area a monotone spline through the drawn quartic's values with a local
     /// bulge or waist no quartic follows (a lobe rolling over a piston's contour), stretched
     /// by the drawn pressure growth; and the gas volume the area's integral plus a dead volume
-    /// (`dV/dh = N A_eff`, #13 item 3) plus a dead volume, the circuit 50-70 % of the drawn
-    /// cross-section law's volume at the working height, its valve and supply line scaled
-    /// with it.
+    /// (`dV/dh = N A_eff`, #13 item 3), the circuit 50-70 % of the drawn cross-section law's
+    /// volume at the working height, its valve and supply line scaled with it.
     fn draw_other_forms(&mut self, uniform: &mut impl FnMut(f64, f64) -> f64) {
         let bellow = &self.physical.bellow;
         let (amplitude, centre_m, width_m) = (

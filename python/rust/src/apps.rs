@@ -324,12 +324,10 @@ pub fn study<'py>(
     validation_transitions: Option<String>,
     prefix_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let prefix_s = prefix_s.unwrap_or(airsus_estimate::initial_state::DEFAULT_PREFIX_S);
-    if !(prefix_s.is_finite() && prefix_s > 0.0) {
-        return Err(crate::error::to_py(anyhow::anyhow!(
-            "prefix_s {prefix_s}: expected a positive number of seconds"
-        )));
-    }
+    let prefix_s = airsus_estimate::check_prefix_s(
+        prefix_s.unwrap_or(airsus_estimate::initial_state::DEFAULT_PREFIX_S),
+    )
+    .map_err(|e| crate::error::to_py(anyhow::anyhow!("prefix_s {e}")))?;
     let validation_transitions = match validation_transitions.as_deref().unwrap_or("fitted") {
         "fitted" => true,
         "common" => false,

@@ -14,7 +14,6 @@
 //! overshoot costs a reversal, an undershoot only a second pulse in the same direction). It
 //! shares the deadband controller's guard and measurement path.
 
-use airsus_data::params::Field;
 use airsus_data::{GasVolumeLaw, TruckParameters, ValveFlowLaw, ValveState};
 use airsus_truck::ecu::{
     DRIVING_INNER_BAND_SHARE_FACTOR, INNER_BAND_M, INNER_BAND_SHARE_FACTOR, MARGIN_SHARE_OF_BAND,
@@ -48,12 +47,8 @@ impl ValveModel {
     /// names none, the `truck` structure's built-in value: what that structure would simulate
     /// the file with.
     pub fn from_truck(truck: &TruckParameters) -> Self {
-        let line = airsus_data::params::get(truck, Field::LineResistance);
-        let line = if line.is_finite() && line >= 0.0 {
-            line
-        } else {
-            airsus_truck::truth::EffectParameters::default().line_resistance_pa_s_per_mol
-        };
+        let line =
+            airsus_truck::truth::EffectParameters::of_file(truck).line_resistance_pa_s_per_mol;
         Self {
             law: StaticLaw::from_truck(truck),
             volume: truck.bellow.gas_volume.clone(),
@@ -278,8 +273,19 @@ mod tests {
             exhaust_pa_s_per_mol: 1e6,
         };
         let mut model = ValveModel::from_truck(&truck);
-        // The reference file names no line: the `truck` structure's built-in one.
+        // The reference file names no line: the `truck` structure's built-in one; a file
+        // that names one gets its own.
         assert_eq!(model.line_resistance_pa_s_per_mol, r_line);
+        let mut named = truck.clone();
+        assert!(airsus_data::params::set(
+            &mut named,
+            airsus_data::params::Field::LineResistance,
+            3e5
+        ));
+        assert_eq!(
+            ValveModel::from_truck(&named).line_resistance_pa_s_per_mol,
+            3e5
+        );
         let (bellow, supply) = (450e3, 900e3);
         let series = model.fill_flow_through_line_mol_s(bellow, supply);
         let expected = (supply - bellow) / (r_fill + r_line);

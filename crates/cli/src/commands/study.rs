@@ -94,6 +94,8 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
     check_models(&args.models)?;
     airsus_estimate::check_load_change_exclusion_s(args.exclude_after_load_change_s)
         .map_err(|e| anyhow::anyhow!("--exclude-after-load-change-s {e}"))?;
+    airsus_estimate::check_prefix_s(args.prefix_s)
+        .map_err(|e| anyhow::anyhow!("--prefix-s {e}"))?;
     if args.max_iterations == 0 {
         bail!("--max-iterations must be at least 1");
     }
@@ -123,12 +125,6 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
             }
         }
     };
-    if !(args.prefix_s.is_finite() && args.prefix_s > 0.0) {
-        anyhow::bail!(
-            "--prefix-s {}: expected a positive number of seconds",
-            args.prefix_s
-        );
-    }
     let options = StudyOptions {
         models: args.models.clone(),
         max_iterations: args.max_iterations,
