@@ -100,28 +100,43 @@ fn static_weighing_on_the_virtual_truck_true_vs_nominal() {
         StaticLaw::from_virtual_truck(&vt),
         WeighingUncertainty::default(),
     );
-    // Noise-free truth: within 1 % at standstill with the complete true static law (wall
-    // friction and the creep still relaxing 30 s after a step are what is left).
+    // Data-set 1 starts after the truck was lowered onto its height (the generator's plan).
+    let start = HysteresisStart::Lowered;
+    // Noise-free truth: with the complete true law, its wall's creep and friction among it,
+    // what is left is the lever's and the gas's motion 30 s after a step.
     let clean = score(
         &generated.truth,
         truth,
-        &weigh_static(&generated.truth, &full, 1).unwrap(),
+        &weigh_static_from(&generated.truth, &full, 1, start).unwrap(),
     );
     println!(
         "virtual truck, true law, noise-free: {:?}",
         clean.standstill
     );
-    assert!(clean.standstill.max_abs_error_percent < 1.0);
-    assert!(clean.standstill.mean_error_percent.abs() < 0.3);
-    // Logged (noisy, quantised) data, 2 s average: the same within a few tenths of a percent.
+    assert!(clean.standstill.max_abs_error_percent < 0.02);
+    assert!(clean.standstill.mean_error_percent.abs() < 0.01);
+    // Logged (noisy, quantised) data, 2 s average: the sensors' noise adds a few kilograms.
     let noisy = score(
         &generated.logged,
         truth,
-        &weigh_static(&generated.logged, &full, 20).unwrap(),
+        &weigh_static_from(&generated.logged, &full, 20, start).unwrap(),
     );
     println!("virtual truck, true law, logged: {:?}", noisy.standstill);
-    assert!(noisy.standstill.max_abs_error_percent < 1.1);
-    assert!(noisy.standstill.mean_error_percent.abs() < 0.3);
+    assert!(noisy.standstill.max_abs_error_percent < 0.15);
+    assert!(noisy.standstill.mean_error_percent.abs() < 0.05);
+    // The true law without its wall: the creep and the friction, 0.5 % at most and 0.04 %
+    // on average (measured; it was this test's figure before the law had a wall).
+    let gas_only = StaticWeigher::new(full.law.clone().without_wall(), full.uncertainty.clone());
+    let g = score(
+        &generated.logged,
+        truth,
+        &weigh_static(&generated.logged, &gas_only, 20).unwrap(),
+    );
+    assert!(
+        g.standstill.max_abs_error_percent > 0.4,
+        "{:?}",
+        g.standstill
+    );
     // The thesis structure with the true values lacks the wall stretch: about -1.2 %.
     let thesis = StaticWeigher::new(
         StaticLaw::from_truck(&vt.physical),
@@ -604,60 +619,63 @@ impl StudiedVariant {
     }
 }
 
-/// Issue #14: the EKF on the `truck` structure with each variant's study estimate, on runs
-/// the study did not see (new noise and step seeds). Data-sets 1-2 start after the truck was
-/// lowered onto its height, 3-4 after it was raised (the generator's plan), levelling runs with
-/// the wall unloaded: said to the filter. The interval is sized on the study's estimation
-/// runs (data-sets 1 and 3, levelling 1, their logged loads, each start told as for the
-/// held-out runs) and must hold the held-out truth on 95 ± 3 % of the standstills, pooled and
-/// on the average run, and of the samples while the valve works and after it.
-/// Before the filter drove the wall friction through a play, the noise's jitter wore the
-/// friction away and standstills read 0.5-0.9 % off, by the friction's sign.
-#[test]
-fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
+/// One held-out run weighed with a variant's study estimate ([`weigh_variants_held_out`]).
+struct HeldOut {
+    who: String,
+    calibration: LinearCalibration,
+    score: AccuracySummary,
+}
+
+/// Each variant's study estimate weighing runs the study did not see (new noise and step
+/// seeds), by `weigh(variant, run, start)`. The interval is sized on the study's estimation
+/// runs (data-sets 1 and 3, levelling 1, their logged loads; `terms` says what the calibration
+/// may also correct); then data-set 2, data-set 4 and levelling 2 are weighed. Data-sets 1-2
+/// start after the truck was lowered onto its height, 3-4 after it was raised (the
+/// generator's plan), levelling runs with the wall unloaded: said to the estimator.
+fn weigh_variants_held_out(
+    weigh: &dyn Fn(&StudiedVariant, &Run, HysteresisStart) -> WeighSeries,
+    terms: CalibrationTerms,
+) -> Vec<HeldOut> {
     use airsus_truck::experiments::{GeneratedRun, levelling_run};
     use airsus_truck::scenario::{levelling_1, levelling_2};
-    let (mut covered, mut standstills, mut run_coverages) = (0.0, 0usize, Vec::new());
-    let (mut valve_covered, mut valve_samples) = (0.0, 0usize);
-    let (mut after_covered, mut after_samples) = (0.0, 0usize);
+    let mut out = Vec::new();
     for k in 0..=3 {
         let variant = StudiedVariant::new(k);
         let (vt, m2, friction) = (&variant.truck, variant.unsprung_kg, variant.friction_n);
-        let ekf = |run: &Run, start| variant.ekf(run, start);
         let seed = 100 + u64::from(k);
         let experiment =
             |scenario, f: f64| -> GeneratedRun { run_experiment(vt, &scenario, f, seed).unwrap() };
-        let calibration: Vec<Run> = vec![
-            experiment(data_set_1(m2, seed), -friction).logged,
-            experiment(data_set_3(m2, seed), friction).logged,
-            levelling_run(vt, levelling_1(m2, seed), seed)
-                .unwrap()
-                .logged,
+        let calibration = [
+            (
+                experiment(data_set_1(m2, seed), -friction).logged,
+                HysteresisStart::Lowered,
+            ),
+            (
+                experiment(data_set_3(m2, seed), friction).logged,
+                HysteresisStart::Raised,
+            ),
+            (
+                levelling_run(vt, levelling_1(m2, seed), seed)
+                    .unwrap()
+                    .logged,
+                HysteresisStart::Unknown,
+            ),
         ];
         let estimates: Vec<WeighSeries> = calibration
             .iter()
-            .zip([
-                HysteresisStart::Lowered,
-                HysteresisStart::Raised,
-                HysteresisStart::Unknown,
-            ])
-            .map(|(run, start)| ekf(run, start))
+            .map(|(run, start)| weigh(&variant, run, *start))
             .collect();
-        let pairs: Vec<(&Run, &WeighSeries)> = calibration.iter().zip(&estimates).collect();
-        let cal = LinearCalibration::fit_weighed_runs(
-            &pairs,
-            &StandstillRule::default(),
-            CalibrationTerms::IntervalOnly,
-        )
-        .unwrap();
-        // Nothing corrected: the model carries the scale.
-        assert_eq!((cal.gain, cal.offset_kg), (1.0, 0.0));
+        let pairs: Vec<(&Run, &WeighSeries)> = calibration
+            .iter()
+            .map(|(run, _)| run)
+            .zip(&estimates)
+            .collect();
+        let cal =
+            LinearCalibration::fit_weighed_runs(&pairs, &StandstillRule::default(), terms).unwrap();
         println!(
-            "variant {k}: interval: the filter's own σ × {:.3}, beside it {:.2} kg at standstill",
+            "variant {k}: interval: the estimate's own σ × {:.3}, beside it {:.2} kg at standstill",
             cal.own_std_scale, cal.standstill_std_kg
         );
-        // The filter's covariance is wider than its errors at standstill: scaled down.
-        assert!(cal.own_std_scale < 0.9, "{cal:?}");
         let held_out = [
             (
                 "ds2",
@@ -676,7 +694,7 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
             ),
         ];
         for (name, run, start) in held_out {
-            let raw = ekf(&run.logged, start);
+            let raw = weigh(&variant, &run.logged, start);
             let heights = run.logged.measured().unwrap().sensor_height_m.clone();
             let flags = flags(&run.logged);
             let weighed = cal
@@ -695,43 +713,83 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
                 a.valve_activity.within_95_interval,
                 a.after_valve.max_abs_error_percent,
             );
-            assert!(a.standstill.samples > 1000, "{who}: {a:?}");
-            // Measured: at most 0.136 % (variant 0's data-set 4); 0.303 % on variant 2's
-            // before its study reached data-set 4's ceiling (the valve held at the lab's).
-            assert!(a.standstill.max_abs_error_percent < 0.25, "{who}: {a:?}");
-            assert!(a.valve_activity.max_abs_error_percent < 1.0, "{who}: {a:?}");
-            assert!(a.after_valve.max_abs_error_percent < 1.0, "{who}: {a:?}");
-            // An interval of a few kilograms (0.3 % of the load at most), not the 36-38 kg
-            // the assumed parameter errors give.
-            assert!(a.standstill.mean_std_kg < 12.0, "{who}: {a:?}");
-            // Each run's standstills mostly inside it. Measured 0.927-0.999. Data-set 4's long
-            // valve steps lift the bellow 10-30 mm above the calibration's heights, where the
-            // study's law reads up to 4 kg off (variant 0): before the interval widened beyond
-            // the calibrated heights, that run held 0.841.
-            assert!(a.standstill.within_95_interval > 0.9, "{who}: {a:?}");
-            run_coverages.push(a.standstill.within_95_interval);
-            covered += a.standstill.within_95_interval * a.standstill.samples as f64;
-            standstills += a.standstill.samples;
-            valve_covered += a.valve_activity.within_95_interval * a.valve_activity.samples as f64;
-            valve_samples += a.valve_activity.samples;
-            after_covered += a.after_valve.within_95_interval * a.after_valve.samples as f64;
-            after_samples += a.after_valve.samples;
+            out.push(HeldOut {
+                who,
+                calibration: cal.clone(),
+                score: a,
+            });
         }
     }
-    let (valve_coverage, after_coverage) = (
-        valve_covered / valve_samples as f64,
-        after_covered / after_samples as f64,
+    out
+}
+
+/// The coverage of the 95 % interval over the held-out runs' samples of one class: pooled,
+/// and on the average run.
+fn held_out_coverage(runs: &[HeldOut], class: fn(&AccuracySummary) -> &ErrorStats) -> (f64, f64) {
+    let (mut covered, mut samples) = (0.0, 0usize);
+    let mut per_run = Vec::new();
+    for run in runs {
+        let stats = class(&run.score);
+        covered += stats.within_95_interval * stats.samples as f64;
+        samples += stats.samples;
+        if stats.samples > 0 {
+            per_run.push(stats.within_95_interval);
+        }
+    }
+    (
+        covered / samples as f64,
+        per_run.iter().sum::<f64>() / per_run.len() as f64,
+    )
+}
+
+/// Issue #14: the EKF on the `truck` structure with each variant's study estimate, on runs
+/// the study did not see ([`weigh_variants_held_out`]). Its interval must hold the held-out
+/// truth on 95 ± 3 % of the standstills, pooled and on the average run, and of the samples
+/// while the valve works and after it.
+/// Before the filter drove the wall friction through a play, the noise's jitter wore the
+/// friction away and standstills read 0.5-0.9 % off, by the friction's sign.
+#[test]
+fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
+    let runs = weigh_variants_held_out(
+        &|variant, run, start| variant.ekf(run, start),
+        CalibrationTerms::IntervalOnly,
     );
+    for HeldOut {
+        who,
+        calibration: cal,
+        score: a,
+    } in &runs
+    {
+        // Nothing corrected: the model carries the scale.
+        assert_eq!((cal.gain, cal.offset_kg), (1.0, 0.0));
+        // The filter's covariance is wider than its errors at standstill: scaled down.
+        assert!(cal.own_std_scale < 0.9, "{cal:?}");
+        assert!(a.standstill.samples > 1000, "{who}: {a:?}");
+        // Measured: at most 0.136 % (variant 0's data-set 4); 0.303 % on variant 2's
+        // before its study reached data-set 4's ceiling (the valve held at the lab's).
+        assert!(a.standstill.max_abs_error_percent < 0.25, "{who}: {a:?}");
+        assert!(a.valve_activity.max_abs_error_percent < 1.0, "{who}: {a:?}");
+        assert!(a.after_valve.max_abs_error_percent < 1.0, "{who}: {a:?}");
+        // An interval of a few kilograms (0.3 % of the load at most), not the 36-38 kg
+        // the assumed parameter errors give.
+        assert!(a.standstill.mean_std_kg < 12.0, "{who}: {a:?}");
+        // Each run's standstills mostly inside it. Measured 0.927-0.999. Data-set 4's long
+        // valve steps lift the bellow 10-30 mm above the calibration's heights, where the
+        // study's law reads up to 4 kg off (variant 0): before the interval widened beyond
+        // the calibrated heights, that run held 0.841.
+        assert!(a.standstill.within_95_interval > 0.9, "{who}: {a:?}");
+    }
+    let (valve_coverage, _) = held_out_coverage(&runs, |a| &a.valve_activity);
+    let (after_coverage, _) = held_out_coverage(&runs, |a| &a.after_valve);
     println!(
-        "coverage of the 95 % interval while the valve works {valve_coverage:.3} ({valve_samples} samples), at standstill after it {after_coverage:.3} ({after_samples})"
+        "coverage of the 95 % interval while the valve works {valve_coverage:.3}, at standstill after it {after_coverage:.3}"
     );
     // Measured 0.931 and 0.976. Without the interval's widening beyond the calibrated
     // heights, 0.914 and 0.933: data-set 4's valve steps and their settling are where the
     // bellow leaves the calibration's heights.
     assert!((0.92..=0.98).contains(&valve_coverage), "{valve_coverage}");
     assert!((0.92..=0.98).contains(&after_coverage), "{after_coverage}");
-    let coverage = covered / standstills as f64;
-    let run_mean = run_coverages.iter().sum::<f64>() / run_coverages.len() as f64;
+    let (coverage, run_mean) = held_out_coverage(&runs, |a| &a.standstill);
     // Measured: 0.976 pooled and on the average run (0.963 and 0.953 without the widening
     // beyond the calibrated heights). With the filter's own covariance unscaled, 0.994: the
     // interval said less than it could.
@@ -740,6 +798,65 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
     );
     assert!((0.92..=0.98).contains(&coverage), "{coverage}");
     assert!((0.92..=0.98).contains(&run_mean), "{run_mean}");
+}
+
+/// Issue #14: static weighing with each variant's study estimate, on the runs the EKF weighs
+/// above. The estimate is a `truck`-structure file, so the static law carries its wall: the
+/// creep still relaxing after a load step and the friction where the last movement slid it
+/// ([`WallForces`]), told how each run starts. Without the wall, the same file read data-set
+/// 2's standstills up to 0.86-1.07 % off (0.52-0.74 % after a calibration's gain, offset,
+/// hysteresis and height terms): the creep held 30 s after a 300 kg step is worth 0.5-1 %.
+#[test]
+fn static_weighing_with_the_study_estimate_reads_its_wall() {
+    let weigh_with = |wall: bool| {
+        move |variant: &StudiedVariant, run: &Run, start| {
+            let weigher = if wall {
+                variant.weigher.clone()
+            } else {
+                StaticWeigher::new(
+                    variant.weigher.law.clone().without_wall(),
+                    WeighingUncertainty::default(),
+                )
+            };
+            weigh_static_from(run, &weigher, 20, start).unwrap()
+        }
+    };
+    let runs = weigh_variants_held_out(&weigh_with(true), CalibrationTerms::IntervalOnly);
+    for HeldOut {
+        who,
+        calibration: cal,
+        score: a,
+    } in &runs
+    {
+        assert!(a.standstill.samples > 1000, "{who}: {a:?}");
+        // Measured at most 0.108 % (variant 0's levelling 2), 0.04-0.11 % on every run.
+        assert!(a.standstill.max_abs_error_percent < 0.25, "{who}: {a:?}");
+        // Measured 0.11-0.58 % while the valve works: the gas's temperature and the
+        // lever's dynamics are not in a static law, and its 2 s average lags.
+        assert!(a.valve_activity.max_abs_error_percent < 1.0, "{who}: {a:?}");
+        assert!(a.after_valve.max_abs_error_percent < 0.25, "{who}: {a:?}");
+        // A standstill interval of 1.2-3.6 kg (0.1 % of the load), not the 36-38 kg the
+        // assumed parameter errors give.
+        assert!(a.standstill.mean_std_kg < 5.0, "{who}: {a:?} {cal:?}");
+        assert!(a.standstill.within_95_interval > 0.95, "{who}: {a:?}");
+    }
+    // The interval holds, but more than it says: measured 0.999 pooled, 0.998-1.0 per run.
+    // Its part beside the estimate's own is sized to hold every calibration run, and the
+    // levelling run, whose standstills follow valve action, sets it at about twice what
+    // data-sets 1 and 3 need (variant 0: 1.49 kg against 0.61 and 0.95).
+    let (coverage, run_mean) = held_out_coverage(&runs, |a| &a.standstill);
+    println!("static, standstill coverage: pooled {coverage:.3}, average run {run_mean:.3}");
+    assert!(coverage >= 0.95, "{coverage}");
+    // The wall is what reads to a tenth of a percent: the same file without it, calibrated
+    // with every term a static law lacks, misses 0.5 % on data-set 2.
+    let plain =
+        weigh_variants_held_out(&weigh_with(false), CalibrationTerms::ScaleHysteresisHeight);
+    let worst_ds2 = plain
+        .iter()
+        .filter(|r| r.who.ends_with("ds2"))
+        .map(|r| r.score.standstill.max_abs_error_percent)
+        .fold(0.0, f64::max);
+    assert!(worst_ds2 > 0.5, "without the wall: {worst_ds2} %");
 }
 
 /// Weighing while the truck drives (#14): the EKF on the `truck` structure with each variant's

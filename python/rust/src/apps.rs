@@ -11,7 +11,7 @@ use pyo3::types::PyDict;
 use airsus_apps::weigh::{
     CalibrationTerms, EkfTuning, HysteresisStart, LinearCalibration, StandstillDetector,
     StandstillRule, StaticLaw, StaticWeigher, WeighSeries, WeighingUncertainty, quality_flags,
-    weigh_ekf, weigh_static,
+    weigh_ekf, weigh_static_from,
 };
 use airsus_data::{Outputs, Run, TruckParameters};
 use airsus_study::{
@@ -77,21 +77,23 @@ fn run_weigh(
     model_name: &str,
     window_s: f64,
     start_hysteresis: &str,
-    calibration: &[RunSource],
+    calibration: &[(RunSource, String)],
 ) -> anyhow::Result<Weighed> {
     let ekf = match method {
         "static" => false,
         "ekf" => true,
         other => bail!("unknown method `{other}`; the methods are: static, ekf"),
     };
-    let start = match start_hysteresis {
-        "unknown" => HysteresisStart::Unknown,
-        "lowered" => HysteresisStart::Lowered,
-        "raised" => HysteresisStart::Raised,
-        other => {
-            bail!("unknown start_hysteresis `{other}`; it is one of: unknown, lowered, raised")
-        }
+    let parse_start = |name: &str, what: &str| -> anyhow::Result<HysteresisStart> {
+        Ok(match name {
+            "unknown" => HysteresisStart::Unknown,
+            "lowered" => HysteresisStart::Lowered,
+            "raised" => HysteresisStart::Raised,
+            other => bail!("unknown {what} `{other}`; it is one of: unknown, lowered, raised"),
+        })
     };
+    let start = parse_start(start_hysteresis, "start_hysteresis")?;
+
     // Weighing estimates the load: a run without a wheel-load column is weighed as it is.
     let weighed = airsus_data::RunSource {
         load_optional: true,
@@ -114,7 +116,7 @@ fn run_weigh(
             };
             weigh_ekf(run, model, &weigher, &tuning)?
         } else {
-            weigh_static(run, &weigher, window)?
+            weigh_static_from(run, &weigher, window, start)?
         })
     };
     let mut series =
@@ -126,21 +128,21 @@ fn run_weigh(
     if !calibration.is_empty() {
         let rule = StandstillRule::default();
         let mut cal_runs = Vec::new();
-        for cal_source in calibration {
+        for (cal_source, cal_start) in calibration {
+            let cal_start = parse_start(cal_start, "calibration_start")?;
             let cal_run = cal_source
                 .load(Outputs::Required)
                 .with_context(|| format!("reading {}", cal_source.label()))?;
-            let cal_est = estimate(&cal_run, HysteresisStart::Unknown)
+            let cal_est = estimate(&cal_run, cal_start)
                 .with_context(|| format!("weighing {}", cal_source.label()))?;
             cal_runs.push((cal_run, cal_est));
         }
         let runs: Vec<_> = cal_runs.iter().map(|(run, est)| (run, est)).collect();
-        let ekf_model = if ekf {
-            Some(build_any_model(model_name, truck)?)
+        let terms = if ekf {
+            CalibrationTerms::for_estimate(Some(build_any_model(model_name, truck)?.as_ref()))
         } else {
-            None
+            CalibrationTerms::for_static(&weigher.law)
         };
-        let terms = CalibrationTerms::for_estimate(ekf_model.as_deref());
         let cal =
             LinearCalibration::fit_weighed_runs(&runs, &rule, terms).context("calibrating")?;
         series = cal.apply_with_quality(
@@ -162,7 +164,7 @@ fn run_weigh(
 /// Returns `{"time_s", "wheel_load_kg", "wheel_load_std_kg", "quality", "calibration"}` at full
 /// precision (the command's CSV rounds to 3 decimals).
 #[pyfunction]
-#[pyo3(signature = (truck, run, method=None, model=None, window_s=None, calibration_run=None, start_hysteresis=None))]
+#[pyo3(signature = (truck, run, method=None, model=None, window_s=None, calibration_run=None, start_hysteresis=None, calibration_start=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn weigh<'py>(
     py: Python<'py>,
@@ -173,6 +175,7 @@ pub fn weigh<'py>(
     window_s: Option<f64>,
     calibration_run: Option<Vec<RunSpec<'py>>>,
     start_hysteresis: Option<String>,
+    calibration_start: Option<Vec<String>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = truck.params.clone();
     drop(truck);
@@ -182,6 +185,19 @@ pub fn weigh<'py>(
         .into_iter()
         .map(RunSource::from_spec)
         .collect::<PyResult<Vec<_>>>()?;
+    // Each calibration run with how it starts: as given, one per run, or all unknown.
+    let starts = match calibration_start {
+        None => vec!["unknown".to_owned(); calibration.len()],
+        Some(starts) if starts.len() == calibration.len() => starts,
+        Some(starts) => {
+            return Err(crate::error::AirsusError::new_err(format!(
+                "calibration_start gives {} start(s) for {} calibration run(s): give one per run, in the same order",
+                starts.len(),
+                calibration.len()
+            )));
+        }
+    };
+    let calibration: Vec<(RunSource, String)> = calibration.into_iter().zip(starts).collect();
     // The command's defaults: `--method static --model m2 --window-s 2`.
     let method = method.unwrap_or_else(|| "static".to_owned());
     let model = model.unwrap_or_else(|| "m2".to_owned());

@@ -874,6 +874,7 @@ def weigh(
     window_s: float = 2.0,
     calibration_run: Union[None, RunLike, Sequence[RunLike]] = None,
     start_hysteresis: str = "unknown",
+    calibration_start: Union[None, str, Sequence[str]] = None,
 ) -> pd.DataFrame:
     """Estimate the wheel load over a run from its measured pressure and height (the logged
     load is not used), as ``airsus weigh`` does.
@@ -881,21 +882,27 @@ def weigh(
     Args:
         truck: the parameters (nominal or identified): a :class:`Truck` or a truck file path.
         run: a run with ``height_mm`` and ``pressure_kpa``.
-        method: ``static`` (the static force balance inverted, averaged over ``window_s``) or
-            ``ekf`` (an extended Kalman filter on ``model`` with the load as a random walk).
+        method: ``static`` (the static force balance inverted, averaged over ``window_s``;
+            with a ``truck``-structure file, one with an ``[effects]`` section, the bellow
+            wall's creep and friction are followed over the run's heights) or ``ekf`` (an
+            extended Kalman filter on ``model`` with the load as a random walk).
         calibration_run: a run whose logged load is trusted at standstill (weighbridge), or
             a list of them: the interval is sized on their standstills, and a gain and offset
             are fitted on them and applied, with the wall friction's hysteresis and a height
             term when the runs determine them (a loading run and a run at one load with the
             valve moving the height do; a loading run alone cannot tell the height from the
-            load), except to the EKF on a model with wall friction (``truck``), which
-            carries all four and is not corrected.
-        start_hysteresis: how the truck came to the run's first reading, for the EKF on a
-            model with wall friction (``truck``): ``unknown`` (its interval holds the
+            load), except to an estimator with the wall (the EKF on ``truck``, the static
+            method with a ``truck``-structure file), which carries all four and is not
+            corrected.
+        start_hysteresis: how the truck came to the run's first reading, for an estimator
+            with wall friction (the EKF on ``truck``, the static method with a
+            ``truck``-structure file): ``unknown`` (its interval holds the
             friction's whole range until the bellow moves; where the valve moved it first,
             the load read after that movement is taken back to the start, and
             ``df.attrs["notes"]`` says so), ``lowered`` (a load set down, an exhaust) or
             ``raised`` (a fill, a load taken off).
+        calibration_start: how each calibration run starts (as ``start_hysteresis``), one
+            per run in the same order; ``None``: every one ``unknown``.
 
     Returns:
         A DataFrame ``time_s, wheel_load_kg, wheel_load_std_kg, quality`` at full precision
@@ -931,6 +938,7 @@ def weigh(
         calibration = [_run_spec(r) for r in calibration_run]
     else:
         calibration = None if calibration_run is None else [_run_spec(calibration_run)]
+    starts = [calibration_start] if isinstance(calibration_start, str) else calibration_start
     result = _native.weigh(
         _as_truck(truck)._native,
         _run_spec(run),
@@ -939,6 +947,7 @@ def weigh(
         window_s=float(window_s),
         calibration_run=calibration,
         start_hysteresis=start_hysteresis,
+        calibration_start=None if starts is None else list(starts),
     )
     frame = pd.DataFrame(
         {

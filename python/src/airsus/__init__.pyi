@@ -151,6 +151,7 @@ def weigh(
     window_s: float = 2.0,
     calibration_run: Union[None, RunLike, Sequence[RunLike]] = None,
     start_hysteresis: str = "unknown",
+    calibration_start: Union[None, str, Sequence[str]] = None,
 ) -> pd.DataFrame: ...
 def study(
     path: Optional[PathLike],

@@ -121,10 +121,22 @@ fn trailing_range(values: &[f64], window: usize) -> Vec<f64> {
     out
 }
 
-/// The normalised wall-friction state at every sample (module docs).
+/// The normalised wall-friction state at every sample (module docs), starting at 0.
 pub fn friction_state(height_m: &[f64], sample_s: f64, presliding_m: f64, play_m: f64) -> Vec<f64> {
+    friction_state_from(height_m, sample_s, presliding_m, play_m, 0.0)
+}
+
+/// [`friction_state`] starting at `z0` in `[-1, 1]` (−1: the friction holds the bellow up,
+/// after it was lowered; +1: after it was raised).
+pub fn friction_state_from(
+    height_m: &[f64],
+    sample_s: f64,
+    presliding_m: f64,
+    play_m: f64,
+    z0: f64,
+) -> Vec<f64> {
     let window = ((1.0 / sample_s).round() as usize).max(1);
-    let mut z = 0.0;
+    let mut z = z0.clamp(-1.0, 1.0);
     let mut out = Vec::with_capacity(height_m.len());
     // The moving mean over the finite readings of the last `window` samples: a missing
     // reading (NaN) holds the state and stays out of the mean.

@@ -29,10 +29,22 @@
 //!
 //! Averaging `N` samples divides the measurement part by `√N` (white noise, the quantisation
 //! dithered by it); the parameter part does not average out. Both are reported.
+//!
+//! # The bellow wall (quasi-static)
+//! A truck file of the `truck` structure (one with an `[effects]` section) also says what the
+//! bellow wall holds beside the gas: `F = p A_eff + k_c (s − h_b) − F_dahl` (the structure's
+//! bellow force, [`airsus_truck::model`]). At rest both wall forces are history, not noise: the
+//! Maxwell creep still relaxes minutes after the bellow moved (`ds/dt = (h_b − s)/τ_c`), and
+//! the Dahl friction stays where the last movement slid it. [`WallForces::series`] runs both
+//! laws over the measured heights, so the load at a standstill 30 s after a load step is read
+//! without the 0.5-1 % the relaxing creep puts on the gas pressure (variant 1's study file).
 
-use airsus_data::{EffectiveAreaLaw, TruckParameters};
+use airsus_data::{EffectValues, EffectiveAreaLaw, TruckParameters};
 use airsus_model::submodels::lever_gain;
-use airsus_truck::truth::VirtualTruck;
+use airsus_truck::truth::{EffectParameters, VirtualTruck};
+
+use crate::weigh::ekf::HysteresisStart;
+use crate::weigh::standstill::friction_state_from;
 
 use crate::error::AppError;
 
@@ -52,6 +64,118 @@ pub struct StaticLaw {
     /// The effective-area law: eq 5.4 in the thesis structure, or the truck file's (the
     /// virtual truck's stretches with pressure, κ = 0.004).
     pub area: EffectiveAreaLaw,
+    /// The bellow wall's creep and friction (module docs), when the file gives them; `None`:
+    /// the gas carries the whole load (the thesis' static balance).
+    pub wall: Option<WallForces>,
+}
+
+/// The `truck` structure's bellow-wall laws, SI units: the Maxwell creep element and the Dahl
+/// friction (the file's `[effects]`: `kc`, `tc`, `fc`, `kdahl`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallForces {
+    pub creep_stiffness_n_per_m: f64,
+    pub creep_time_constant_s: f64,
+    pub friction_force_n: f64,
+    pub friction_stiffness_n_per_m: f64,
+    /// The bellow-height play the friction is driven through, m: the height sensor's noise
+    /// (0.15 mm, a lever gain of about 1.6 onto the bellow) would otherwise wear the friction
+    /// away at rest. The EKF's [`super::EkfTuning::hysteresis_play_m`] for the same reason.
+    pub friction_play_m: f64,
+}
+
+impl WallForces {
+    /// The wall of a truck file of the `truck` structure: `None` for a file without an
+    /// `[effects]` section (a thesis model's), whose gas carries the whole load. A file that
+    /// names only some of the values gets the structure's built-in ones for the rest, as the
+    /// structure simulates it ([`EffectParameters::of_file`]).
+    pub fn of_file(truck: &TruckParameters) -> Option<Self> {
+        (truck.effects != EffectValues::default())
+            .then(|| Self::of_effects(&EffectParameters::of_file(truck), true, true))
+    }
+
+    fn of_effects(e: &EffectParameters, creep: bool, friction: bool) -> Self {
+        Self {
+            creep_stiffness_n_per_m: if creep {
+                e.creep_stiffness_n_per_m
+            } else {
+                0.0
+            },
+            creep_time_constant_s: e.creep_time_constant_s,
+            friction_force_n: if friction { e.friction_force_n } else { 0.0 },
+            friction_stiffness_n_per_m: e.friction_stiffness_n_per_m,
+            friction_play_m: 0.3e-3,
+        }
+    }
+
+    /// The wall's force on the lever beside the gas's, `k_c (s − h_b) − F_dahl`, at every
+    /// sample of a run at `sample_s` with bellow heights `bellow_height_m` (finite), and the
+    /// standard deviation of its friction part.
+    ///
+    /// Assumptions: the creep starts relaxed (`s = h_b`: a run's history before its first
+    /// sample is not known, and a truck parked for minutes has relaxed); the friction starts
+    /// as `start` says. An unknown start is uniform over the friction's band, and each
+    /// movement maps it affinely (the Dahl law over a monotone path), so its spread at a
+    /// sample is half the distance between the states started at either end, over `√3`:
+    /// the band's whole `F_c / √3` until the bellow first moves, nothing once a movement has
+    /// slid it to one side. The friction follows a 1 s moving mean of the heights through
+    /// [`Self::friction_play_m`], as the calibration's friction state does
+    /// ([`friction_state_from`]); the creep follows every sample (its force is a fraction of
+    /// a kilogram per sensor-noise step).
+    pub fn series(
+        &self,
+        bellow_height_m: &[f64],
+        sample_s: f64,
+        start: HysteresisStart,
+    ) -> WallSeries {
+        let n = bellow_height_m.len();
+        let friction_from = |z0: f64| {
+            if self.friction_force_n > 0.0 && self.friction_stiffness_n_per_m > 0.0 {
+                friction_state_from(
+                    bellow_height_m,
+                    sample_s,
+                    self.friction_force_n / self.friction_stiffness_n_per_m,
+                    self.friction_play_m,
+                    z0,
+                )
+            } else {
+                vec![0.0; n]
+            }
+        };
+        let friction = friction_from(start.preload());
+        let friction_std_n = match start {
+            HysteresisStart::Unknown => friction_from(1.0)
+                .iter()
+                .zip(friction_from(-1.0))
+                .map(|(high, low)| 0.5 * (high - low) * self.friction_force_n / 3f64.sqrt())
+                .collect(),
+            HysteresisStart::Lowered | HysteresisStart::Raised => vec![0.0; n],
+        };
+        // The Maxwell element's damper position, integrated exactly over each sample with the
+        // height held (a first-order lag).
+        let decay = (-sample_s / self.creep_time_constant_s.max(1e-6)).exp();
+        let mut damper_m = bellow_height_m.first().copied().unwrap_or(0.0);
+        let force_n = bellow_height_m
+            .iter()
+            .zip(friction)
+            .map(|(&h_b, z)| {
+                damper_m = h_b + (damper_m - h_b) * decay;
+                self.creep_stiffness_n_per_m * (damper_m - h_b) - z * self.friction_force_n
+            })
+            .collect();
+        WallSeries {
+            force_n,
+            friction_std_n,
+        }
+    }
+}
+
+/// What [`WallForces::series`] gives for a run.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct WallSeries {
+    /// The wall's force on the lever beside the gas's, N.
+    pub force_n: Vec<f64>,
+    /// The standard deviation of its friction part from an unknown start, N.
+    pub friction_std_n: Vec<f64>,
 }
 
 impl StaticLaw {
@@ -66,16 +190,28 @@ impl StaticLaw {
             lever_compliance_m_per_n: g.lever_compliance_m_per_n,
             unsprung_kg: truck.mass.unsprung_kg,
             area: truck.bellow.effective_area.clone(),
+            wall: WallForces::of_file(truck),
         }
     }
 
-    /// The virtual truck's complete static law: its true parameters and the pressure
-    /// dependence of the effective area (what a perfect static model would know).
+    /// The virtual truck's complete static law: its true parameters, the pressure dependence
+    /// of the effective area and its wall's creep and friction (what a perfect quasi-static
+    /// model would know).
     pub fn from_virtual_truck(truck: &VirtualTruck) -> Self {
         Self {
             area: truck.area_law(),
+            wall: Some(WallForces::of_effects(
+                &truck.effect_parameters,
+                truck.effects.creep,
+                truck.effects.hysteresis,
+            )),
             ..Self::from_truck(&truck.physical)
         }
+    }
+
+    /// The law without the wall: the gas carries the whole load.
+    pub fn without_wall(self) -> Self {
+        Self { wall: None, ..self }
     }
 
     /// Bellow height for a sensor reading under a wheel load, m (SPEC §1 inverted).
@@ -97,6 +233,17 @@ impl StaticLaw {
 
     /// The wheel load `m_tot` that the measured height and pressure carry in statics, kg.
     pub fn wheel_load_kg(&self, sensor_height_m: f64, gauge_pa: f64) -> Result<f64, AppError> {
+        self.wheel_load_with_wall_kg(sensor_height_m, gauge_pa, 0.0)
+    }
+
+    /// The same with the wall adding `wall_force_n` to the gas's force on the lever
+    /// ([`WallForces::series`]), kg.
+    pub fn wheel_load_with_wall_kg(
+        &self,
+        sensor_height_m: f64,
+        gauge_pa: f64,
+        wall_force_n: f64,
+    ) -> Result<f64, AppError> {
         let what = || {
             format!(
                 "sensor height {:.1} mm and bellow pressure {:.1} kPa",
@@ -136,7 +283,8 @@ impl StaticLaw {
                     reason: format!("the effective area is {area:.5} m² there"),
                 });
             }
-            let next = self.unsprung_kg + self.lever_gain * gauge_pa * area / self.gravity_m_s2;
+            let next = self.unsprung_kg
+                + self.lever_gain * (gauge_pa * area + wall_force_n) / self.gravity_m_s2;
             if (next - load).abs() < 1e-9 {
                 return Ok(next);
             }
@@ -236,6 +384,42 @@ impl StaticWeigher {
 
     /// The load for one reading with its first-order standard deviation (module docs).
     pub fn estimate(&self, sensor_height_m: f64, gauge_pa: f64) -> Result<LoadEstimate, AppError> {
+        self.estimate_gas(sensor_height_m, gauge_pa, true)
+    }
+
+    /// [`Self::estimate`] with the wall adding `wall_force_n` to the gas's force
+    /// ([`StaticLaw::wheel_load_with_wall_kg`]) and its friction part uncertain by
+    /// `friction_std_n` ([`WallSeries`]). The law's wall replaces the assumed friction band
+    /// ([`WeighingUncertainty::wall_friction_n`]): what is left of it, an unknown start's
+    /// friction, is state, not parameter, and joins the measurement part, as the EKF's
+    /// covariance holds it.
+    pub fn estimate_with_wall(
+        &self,
+        sensor_height_m: f64,
+        gauge_pa: f64,
+        wall_force_n: f64,
+        friction_std_n: f64,
+    ) -> Result<LoadEstimate, AppError> {
+        let shift = self
+            .law
+            .wheel_load_with_wall_kg(sensor_height_m, gauge_pa, wall_force_n)?
+            - self.law.wheel_load_kg(sensor_height_m, gauge_pa)?;
+        let mut estimate = self.estimate_gas(sensor_height_m, gauge_pa, false)?;
+        let friction_kg = self.law.lever_gain * friction_std_n / self.law.gravity_m_s2;
+        estimate.wheel_load_kg += shift;
+        estimate.measurement_std_kg = estimate.measurement_std_kg.hypot(friction_kg);
+        estimate.std_kg = estimate.measurement_std_kg.hypot(estimate.parameter_std_kg);
+        Ok(estimate)
+    }
+
+    /// The gas's load and its uncertainty, the assumed wall friction band among the
+    /// parameters' part when `with_friction_band`.
+    fn estimate_gas(
+        &self,
+        sensor_height_m: f64,
+        gauge_pa: f64,
+        with_friction_band: bool,
+    ) -> Result<LoadEstimate, AppError> {
         let load = self.law.wheel_load_kg(sensor_height_m, gauge_pa)?;
         let u = &self.uncertainty;
         // Sensitivities by central differences of the solved load.
@@ -273,8 +457,11 @@ impl StaticWeigher {
         } else {
             0.0
         };
-        let friction_std =
-            self.law.lever_gain * u.wall_friction_n / (self.law.gravity_m_s2 * 3f64.sqrt());
+        let friction_std = if with_friction_band {
+            self.law.lever_gain * u.wall_friction_n / (self.law.gravity_m_s2 * 3f64.sqrt())
+        } else {
+            0.0
+        };
         let parameter_var = area_var
             + gain_sens.powi(2)
             + compliance_sens.powi(2)
@@ -286,5 +473,87 @@ impl StaticWeigher {
             measurement_std_kg: measurement_var.sqrt(),
             parameter_std_kg: parameter_var.sqrt(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wall() -> WallForces {
+        WallForces {
+            creep_stiffness_n_per_m: 20_000.0,
+            creep_time_constant_s: 30.0,
+            friction_force_n: 100.0,
+            friction_stiffness_n_per_m: 250_000.0,
+            friction_play_m: 0.3e-3,
+        }
+    }
+
+    /// A 20 mm rise over 2 s, then 300 s at rest, at 10 Hz.
+    fn rise() -> Vec<f64> {
+        (0..3021)
+            .map(|k| 0.200 + 0.020 * (f64::from(k) / 20.0).min(1.0))
+            .collect()
+    }
+
+    #[test]
+    fn the_creep_relaxes_with_its_time_constant_and_the_friction_holds_after_a_rise() {
+        let w = wall();
+        let s = w.series(&rise(), 0.1, HysteresisStart::Unknown);
+        // At rest the friction has slid to +F_c (20 mm is 50 pre-sliding lengths), so the
+        // wall pulls the lever down by F_c plus what the creep still holds: k_c Δh e^(−t/τ)
+        // with the rise's lag taken into the start.
+        let at = |t_s: f64| s.force_n[20 + (t_s * 10.0) as usize];
+        let creep = |t_s: f64| at(t_s) + w.friction_force_n;
+        assert!(
+            creep(30.0) < 0.0,
+            "the creep resists the rise: {}",
+            creep(30.0)
+        );
+        let ratio = creep(60.0) / creep(30.0);
+        assert!(
+            (ratio - (-1.0f64).exp()).abs() < 1e-3,
+            "e^(-30 s / 30 s) expected, {ratio}"
+        );
+        // The rise's 20 mm, less what relaxed during the 2 s ramp: 400 N at most.
+        assert!((-400.0..-360.0).contains(&creep(0.0)), "{}", creep(0.0));
+        assert!(creep(300.0).abs() < 0.03, "{}", creep(300.0));
+        // The unknown start's spread: the band's F_c/√3 before the bellow moves, none after.
+        assert!((s.friction_std_n[0] - 100.0 / 3f64.sqrt()).abs() < 1e-9);
+        assert!(s.friction_std_n[500] < 1e-6, "{}", s.friction_std_n[500]);
+    }
+
+    #[test]
+    fn a_told_start_sets_the_friction_and_leaves_no_spread() {
+        let flat = vec![0.22; 100];
+        let lowered = wall().series(&flat, 0.1, HysteresisStart::Lowered);
+        let raised = wall().series(&flat, 0.1, HysteresisStart::Raised);
+        // Lowered onto its height, the friction holds the bellow up: the wall carries F_c.
+        assert!(lowered.force_n.iter().all(|&f| (f - 100.0).abs() < 1e-9));
+        assert!(raised.force_n.iter().all(|&f| (f + 100.0).abs() < 1e-9));
+        assert!(lowered.friction_std_n.iter().all(|&s| s == 0.0));
+    }
+
+    #[test]
+    fn only_a_file_with_effects_has_a_wall_and_the_wall_moves_the_load_by_its_force() {
+        let mut truck = TruckParameters::reference();
+        assert_eq!(WallForces::of_file(&truck), None);
+        truck.effects.friction_force_n = Some(80.0);
+        let wall = WallForces::of_file(&truck).expect("a wall");
+        assert_eq!(wall.friction_force_n, 80.0);
+        // The rest from the structure's built-in values, not zero.
+        assert!(wall.creep_stiffness_n_per_m > 0.0 && wall.creep_time_constant_s > 0.0);
+        let law = StaticLaw::from_truck(&truck);
+        let gas = law.wheel_load_kg(0.24, 350e3).unwrap();
+        let with = law.wheel_load_with_wall_kg(0.24, 350e3, 100.0).unwrap();
+        // 100 N at the bellow is k_l × 100 N / g at the wheel, within the lever compliance's
+        // feedback through the area (0.012 kg here).
+        let expected = law.lever_gain * 100.0 / law.gravity_m_s2;
+        assert!(
+            ((with - gas) - expected).abs() < 0.03,
+            "{} {expected}",
+            with - gas
+        );
     }
 }

@@ -9,7 +9,7 @@ use airsus_apps::plot::{WeighingPlot, plot_weighing};
 use airsus_apps::weigh::{
     CalibrationTerms, EkfTuning, HysteresisStart, LinearCalibration, StandstillDetector,
     StandstillRule, StaticLaw, StaticWeigher, WeighQuality, WeighingUncertainty, evaluate_weighing,
-    quality_flags, weigh_ekf, weigh_static, write_weigh_csv,
+    quality_flags, weigh_ekf, weigh_static_from, write_weigh_csv,
 };
 use airsus_data::{Outputs, RunSource, read_run, read_truck};
 
@@ -63,9 +63,10 @@ pub struct WeighArgs {
     /// Model the EKF runs (`airsus models`).
     #[arg(long, default_value = "m2")]
     pub model: String,
-    /// How the truck came to the run's first reading, for the EKF on a model with wall
-    /// friction (`truck`): at rest the friction and the load trade off exactly, so until the
-    /// bellow first moves an unknown start is uncertain by the friction's whole range.
+    /// How the truck came to the run's first reading, for an estimator with wall friction
+    /// (the EKF on `truck`; the static method with a `truck`-structure file, one with an
+    /// `[effects]` section): at rest the friction and the load trade off exactly, so until
+    /// the bellow first moves an unknown start is uncertain by the friction's whole range.
     #[arg(long, value_enum, default_value_t = StartHysteresis::Unknown)]
     pub start_hysteresis: StartHysteresis,
     /// Averaging window of the static method, s.
@@ -78,9 +79,14 @@ pub struct WeighArgs {
     /// except to the EKF on a model with wall friction (`truck`), which carries all four.
     /// Repeat it to fit on several runs at once: a loading run and a run at one load with the
     /// valve moving the height determine the height term, a loading run alone not.
-    /// Calibration runs start with an unknown wall friction.
+    /// Calibration runs start as --calibration-start says, else with an unknown wall
+    /// friction.
     #[arg(long, value_name = "C.csv")]
     pub calibration_run: Vec<PathBuf>,
+    /// How each calibration run starts (as --start-hysteresis), one per --calibration-run in
+    /// the same order, comma-separated or repeated: `--calibration-start lowered,raised`.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub calibration_start: Vec<StartHysteresis>,
     /// A run carrying the true load (the virtual truck's truth/ file): score the estimate.
     #[arg(long, value_name = "TRUTH.csv")]
     pub truth: Option<PathBuf>,
@@ -125,7 +131,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     let window = ((args.window_s / run.sample_time_s).round() as usize).max(1);
     let estimate = |run: &airsus_data::Run, start: HysteresisStart| -> anyhow::Result<_> {
         Ok(match args.method {
-            Method::Static => weigh_static(run, &weigher, window)?,
+            Method::Static => weigh_static_from(run, &weigher, window, start)?,
             Method::Ekf => {
                 let model = airsus_truck::models::build_any_model(&args.model, &truck)?;
                 let tuning = EkfTuning {
@@ -145,11 +151,13 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
     // How far each sample can be trusted, from the run alone.
     let quality = quality_flags(&run, &StandstillDetector::default())
         .with_context(|| format!("flagging the samples of {}", args.run.display()))?;
+    let calibration_starts =
+        calibration_starts(&args.calibration_start, args.calibration_run.len())?;
     if !args.calibration_run.is_empty() {
         let mut cal_runs = Vec::new();
-        for path in &args.calibration_run {
+        for (path, &start) in args.calibration_run.iter().zip(&calibration_starts) {
             let cal_run = read_run_file(path, Outputs::Required, &source)?;
-            let cal_est = estimate(&cal_run, HysteresisStart::Unknown)
+            let cal_est = estimate(&cal_run, start)
                 .with_context(|| format!("weighing {}", path.display()))?;
             cal_runs.push((cal_run, cal_est));
         }
@@ -160,11 +168,12 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             .map(|p| p.display().to_string())
             .collect::<Vec<_>>()
             .join(", ");
-        let ekf_model = match args.method {
-            Method::Static => None,
-            Method::Ekf => Some(airsus_truck::models::build_any_model(&args.model, &truck)?),
+        let terms = match args.method {
+            Method::Static => CalibrationTerms::for_static(&weigher.law),
+            Method::Ekf => CalibrationTerms::for_estimate(Some(
+                airsus_truck::models::build_any_model(&args.model, &truck)?.as_ref(),
+            )),
         };
-        let terms = CalibrationTerms::for_estimate(ekf_model.as_deref());
         let cal = LinearCalibration::fit_weighed_runs(&runs, &rule, terms)
             .with_context(|| format!("calibrating on {names}"))?;
         println!(
@@ -339,4 +348,22 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
         eprintln!("wrote {}", out.display());
     }
     Ok(())
+}
+
+/// The start of each of `runs` calibration runs: as given, one per run, or all unknown when
+/// none is given.
+fn calibration_starts(
+    given: &[StartHysteresis],
+    runs: usize,
+) -> anyhow::Result<Vec<HysteresisStart>> {
+    if given.is_empty() {
+        return Ok(vec![HysteresisStart::Unknown; runs]);
+    }
+    if given.len() != runs {
+        anyhow::bail!(
+            "--calibration-start gives {} start(s) for {runs} --calibration-run(s): give one per run, in the same order",
+            given.len()
+        );
+    }
+    Ok(given.iter().map(|&s| s.into()).collect())
 }
