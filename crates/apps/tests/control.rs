@@ -388,3 +388,40 @@ fn a_narrow_band_is_held_without_chained_pulses() {
         assert!(s.openings <= most, "{who}: {} openings", s.openings);
     }
 }
+
+/// A controller designed on a study's estimate must be tried on another truck: `control`'s
+/// default plant is the family member next to the one the design file is nearest. Each
+/// variant's study estimate (the weighing fixtures: the `truck` structure, seed 1) is nearest
+/// its own variant, by a margin: measured 0.04-0.5 % from its own, 3.7 % or more from any
+/// other. The nominal file is nearest the reference truck, variant 0, whose nominal values
+/// it carries.
+#[test]
+fn a_study_estimate_is_nearest_its_own_variant() {
+    for k in 0..=3 {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join(format!("tests/fixtures/study_truck_variant{k}.toml"));
+        let estimate = airsus_data::read_truck(&path).unwrap().parameters;
+        let (nearest, distance) = VirtualTruck::nearest_variant(&estimate, 0..=7);
+        let others = (0..=7u32)
+            .filter(|&j| j != k)
+            .map(|j| VirtualTruck::nearest_variant(&estimate, j..=j).1)
+            .fold(f64::INFINITY, f64::min);
+        println!(
+            "variant {k}'s estimate: nearest {nearest} at {distance:.4}, the next at {others:.4}"
+        );
+        assert_eq!(nearest, k);
+        assert!(
+            distance < 0.01 && others > 5.0 * distance,
+            "{distance} {others}"
+        );
+    }
+    // The nominal file has the thesis' laws (no area stretch, a linear valve), 5.4 % from
+    // the reference's resolved ones, and 6.7 % or more from every other member.
+    let nominal = TruckParameters::reference();
+    let (nearest, distance) = VirtualTruck::nearest_variant(&nominal, 0..=7);
+    let others = (1..=7u32)
+        .map(|j| VirtualTruck::nearest_variant(&nominal, j..=j).1)
+        .fold(f64::INFINITY, f64::min);
+    println!("the nominal file: nearest {nearest} at {distance:.4}, the next at {others:.4}");
+    assert_eq!(nearest, 0);
+}

@@ -319,11 +319,13 @@ fn control_holds_the_band_with_both_controllers_and_plots_atomically() {
         "--plot",
         &p("c.svg"),
     ]));
-    // By default the plant is a truck the controllers were not designed on.
+    // By default the plant is a truck the controllers were not designed on: the member
+    // after the one the design file is nearest (the nominal file: variant 0).
     assert!(
         report.contains("on virtual truck variant 1") && report.contains("designed on"),
         "{report}"
     );
+    assert!(report.contains("is nearest variant 0, "), "{report}");
     // The summary row of each controller: name, settle s, overshoot mm, steady mm,
     // switches, openings, reversals, fill mol, fill l, exhaust mol, time outside the band.
     for name in ["deadband", "predictive"] {

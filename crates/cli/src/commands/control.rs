@@ -32,9 +32,11 @@ pub struct ControlArgs {
     /// The plant the controllers are tried on: `variant:K`, member K of the virtual truck
     /// family (its true laws and values, with a simulated supply tank and compressor; 0 is the
     /// built-in truck the reference experiments come from), or a truck file simulated with
-    /// `--model`. The default is a truck the controllers were not designed on.
-    #[arg(long, default_value = "variant:1", value_name = "variant:K | P.toml")]
-    pub plant: String,
+    /// `--model`. The default is a truck the controllers were not designed on: the member
+    /// after the one of variants 0-7 the --truck file is nearest (by its effective area,
+    /// gas volume, unsprung mass and valve flows; variant 1 for the nominal file).
+    #[arg(long, value_name = "variant:K | P.toml")]
+    pub plant: Option<String>,
     /// Target sensor height, mm.
     #[arg(long, default_value_t = 240.0)]
     pub target_mm: f64,
@@ -63,13 +65,28 @@ pub struct ControlArgs {
 
 pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
     if let Some(plot) = &args.plot {
-        let plant_file = PathBuf::from(&args.plant);
-        refuse_overwriting_inputs(plot, &[&args.truck, &plant_file])?;
+        let mut inputs = vec![args.truck.clone()];
+        inputs.extend(args.plant.as_ref().map(PathBuf::from));
+        let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+        refuse_overwriting_inputs(plot, &inputs)?;
     }
     let truck = read_truck(&args.truck)
         .with_context(|| format!("reading truck file {}", args.truck.display()))?
         .parameters;
-    let (plant, plant_name) = build_plant(&args.plant, args.model.as_deref())?;
+    let plant_arg = match &args.plant {
+        Some(plant) => plant.clone(),
+        None => {
+            let (design, distance) = VirtualTruck::nearest_variant(&truck, 0..=FAMILY_LAST);
+            let plant = (design + 1) % (FAMILY_LAST + 1);
+            println!(
+                "plant: virtual truck variant {plant} (--plant not given: {} is nearest variant {design}, {:.1} % apart, so the controllers are tried on the next member)",
+                args.truck.display(),
+                distance * 100.0
+            );
+            format!("variant:{plant}")
+        }
+    };
+    let (plant, plant_name) = build_plant(&plant_arg, args.model.as_deref())?;
     let scenario = level_scenario(&args.scenario, args.target_mm * 1e-3, args.load_kg)
         .with_context(|| format!("scenarios: {}", SCENARIO_NAMES.join(", ")))?;
     if !(args.band_mm.is_finite() && args.band_mm > 0.0) {
@@ -180,6 +197,9 @@ pub fn run(args: &ControlArgs) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// The last member of the virtual truck family the default plant is chosen from.
+const FAMILY_LAST: u32 = 7;
 
 /// The plant of `--plant`: a virtual truck variant (`variant:K`) or a truck file simulated
 /// with `model`; and how to name it.
