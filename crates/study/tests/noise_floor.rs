@@ -8,7 +8,7 @@
 
 use airsus_apps::weigh::{
     EkfTuning, HysteresisStart, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty,
-    evaluate_weighing, weigh_ekf,
+    evaluate_weighing, weigh_ekf, weigh_static_from,
 };
 use airsus_data::read_run;
 use airsus_study::{LoadRamp, Protocol, StudyOptions, load_study, run_study};
@@ -106,6 +106,18 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
         truck.notes
     );
     assert_eq!(r.validation_transitions.as_deref(), Some("fitted"));
+    // At least its nominal fit on every estimation run and output (issue #12; the thesis
+    // models' in `every_model.rs`). Measured: every one gains.
+    for fit in truck.runs.iter().filter(|f| f.role == "estimation") {
+        let (start, estimate) = (fit.nominal.unwrap(), fit.estimated.unwrap());
+        println!("{}: {start:?} -> {estimate:?}", fit.run);
+        assert!(
+            estimate.height_percent >= start.height_percent - 0.1
+                && estimate.pressure_percent >= start.pressure_percent - 0.1,
+            "{}: {start:?} -> {estimate:?}",
+            fit.run
+        );
+    }
 
     // Issue #14: weighing with what the study estimated, nothing else. The load filter on the
     // estimated `truck` file, told how each held-out run starts (data-set 2 after the truck
@@ -165,5 +177,25 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
                 score.valve_activity
             );
         }
+        // The static method with the same file follows its wall (creep and friction) over
+        // the heights: measured 0.07 / 0.11 / 0.10 % at standstills (this is the study's own
+        // file, as estimated today; the weighing tests use the variants' fixtures).
+        let static_series = weigh_static_from(&logged, &weigher, 20, start).unwrap();
+        let static_score = evaluate_weighing(
+            &logged.time_s,
+            &static_series.wheel_load_kg,
+            &static_series.std_kg,
+            &truth.inputs.wheel_load_kg,
+            &logged.inputs.valve,
+            Some(&logged.inputs.road_height_m),
+            &StandstillRule::default(),
+        )
+        .unwrap();
+        println!("{run}, static: {:?}", static_score.standstill);
+        assert!(
+            static_score.standstill.max_abs_error_percent < 0.15,
+            "{run} static standstill: {:?}",
+            static_score.standstill
+        );
     }
 }

@@ -1,0 +1,91 @@
+//! Issue #12: every model's estimate is at least its nominal fit on every estimation run, or
+//! the result says where it is not. The thesis models on the built-in virtual truck under our
+//! protocol (loading, valve, levelling and road runs), a richer truck than any of them: the
+//! data are not the fitted model's own, so an estimate can only trade runs against each
+//! other, not overfit one structure's noise.
+
+use airsus_study::{Protocol, StudyOptions, load_study, run_study};
+
+/// `(run, output, start %, estimate %)` of each estimation run and output the estimate
+/// explains worse than the start values did, by more than `margin` NRMSE points.
+fn worse_than_the_start(
+    model: &airsus_report::results::ModelResult,
+    margin: f64,
+) -> Vec<(String, &'static str, f64, f64)> {
+    let mut worse = Vec::new();
+    for fit in model.runs.iter().filter(|f| f.role == "estimation") {
+        let (start, estimate) = (fit.nominal.unwrap(), fit.estimated.unwrap());
+        for (output, before, after) in [
+            ("height", start.height_percent, estimate.height_percent),
+            (
+                "pressure",
+                start.pressure_percent,
+                estimate.pressure_percent,
+            ),
+        ] {
+            if after < before - margin {
+                worse.push((fit.run.clone(), output, before, after));
+            }
+        }
+    }
+    worse
+}
+
+#[test]
+fn every_thesis_model_gains_on_every_estimation_run_or_says_what_it_traded() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let generated = airsus_truck::experiments::generate(&data, 1, &mut |_| {}).unwrap();
+    let input = load_study(&generated.study_valve).unwrap();
+    let options = StudyOptions {
+        models: ["m1", "m2", "m2x", "m2xh", "m3"]
+            .map(str::to_owned)
+            .to_vec(),
+        ..StudyOptions::new(vec![Protocol::from_roles(&input)])
+    };
+    let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
+    let protocol = &outcome.results.protocols[0];
+    let estimation_runs = ["data-set 1", "data-set 3", "levelling 1", "road 1"];
+    for model in &protocol.models {
+        assert!(model.error.is_none(), "{}: {:?}", model.model, model.error);
+        let estimated: Vec<&str> = model
+            .runs
+            .iter()
+            .filter(|f| f.role == "estimation")
+            .map(|f| f.run.as_str())
+            .collect();
+        assert_eq!(estimated, estimation_runs, "{}", model.model);
+        for fit in model.runs.iter().filter(|f| f.role == "estimation") {
+            println!(
+                "{} {}: {:?} -> {:?}",
+                model.model, fit.run, fit.nominal, fit.estimated
+            );
+        }
+        let worse = worse_than_the_start(model, 0.1);
+        match model.model.as_str() {
+            // Measured: every estimation run and output gains, 4-315 points on the height
+            // and 4-96 on the pressure (seed 1).
+            "m1" | "m2" | "m2x" | "m2xh" => {
+                assert!(worse.is_empty(), "{}: {worse:?}", model.model);
+            }
+            // Model 3's OE, identified on data-set 1 where load and pressure rise together,
+            // cannot tell a valve's pressure change from a load's: the loss pools the runs,
+            // and the estimate trades data-set 1's pressure (-0.9 point) and the levelling
+            // run (-9.4 / -4.7 points, from a start at -481 / -34 %) for data-set 3's
+            // pressure (+751 points). The result names each such run and output.
+            _ => {
+                for (run, output, before, after) in &worse {
+                    let said = format!(
+                        "the estimate explains {run}'s {output} worse than the start values did ({before:.1} → {after:.1} %)"
+                    );
+                    assert!(
+                        model.notes.iter().any(|n| n.starts_with(&said)),
+                        "{}: no note says {said}: {:?}",
+                        model.model,
+                        model.notes
+                    );
+                }
+            }
+        }
+    }
+}
