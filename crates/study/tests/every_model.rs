@@ -4,6 +4,11 @@
 //! data are not the fitted model's own, so an estimate can only trade runs against each
 //! other, not overfit one structure's noise.
 
+use airsus_apps::weigh::{
+    EkfTuning, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty, evaluate_weighing,
+    weigh_ekf,
+};
+use airsus_data::read_run;
 use airsus_study::{Protocol, StudyOptions, load_study, run_study};
 
 /// `(run, output, start %, estimate %)` of each estimation run and output the estimate
@@ -86,6 +91,58 @@ fn every_thesis_model_gains_on_every_estimation_run_or_says_what_it_traded() {
                     );
                 }
             }
+        }
+        // Issue #14: the load filter on each model's estimated file (nothing of the truth)
+        // neither fails nor runs away on the held-out runs. An issue measured Model 1's
+        // file diverging on another truck's loading run and the others spiking to 200 %.
+        let file = dir
+            .path()
+            .join("out")
+            .join(model.truck_file.as_ref().unwrap());
+        let estimated = airsus_data::read_truck(&file).unwrap().parameters;
+        let weigher = StaticWeigher::new(
+            StaticLaw::from_truck(&estimated),
+            WeighingUncertainty::default(),
+        );
+        for run in ["ds2", "ds4", "lev2"] {
+            let logged = read_run(&data.join(format!("{run}.csv"))).unwrap();
+            let truth = read_run(&data.join(format!("truth/{run}.csv"))).unwrap();
+            let filter = airsus_truck::models::build_any_model(&model.model, &estimated).unwrap();
+            let series = weigh_ekf(&logged, filter, &weigher, &EkfTuning::default())
+                .unwrap_or_else(|e| panic!("{} on {run}: {e}", model.model));
+            let score = evaluate_weighing(
+                &logged.time_s,
+                &series.wheel_load_kg,
+                &series.std_kg,
+                &truth.inputs.wheel_load_kg,
+                &logged.inputs.valve,
+                Some(&logged.inputs.road_height_m),
+                &StandstillRule::default(),
+            )
+            .unwrap();
+            println!(
+                "{} EKF on {run}: every sample max {:.2} %, standstills max {:.2} %",
+                model.model,
+                score.all.max_abs_error_percent,
+                score.standstill.max_abs_error_percent
+            );
+            assert!(series.wheel_load_kg.iter().all(|m| m.is_finite()));
+            // Measured (seed 1), every sample / standstills: m1, m2, m2x 1.9-4.5 / 0.3-1.9 %;
+            // m2xh 1.5-5.4 / 0.5-4.7 %; m3 2.7-39 / 1.1-32 %, its OE unable to tell a
+            // valve's pressure change from a load's (data-set 4, the levelling run). None
+            // runs away; only the `truck` structure weighs to 0.5 % (README, Weighing).
+            let (every_max, standstill_max) = match model.model.as_str() {
+                "m3" => (50.0, 40.0),
+                "m2xh" => (7.0, 6.0),
+                _ => (6.0, 2.5),
+            };
+            assert!(
+                score.all.max_abs_error_percent < every_max
+                    && score.standstill.max_abs_error_percent < standstill_max,
+                "{} on {run}: {:?}",
+                model.model,
+                score.all
+            );
         }
     }
 }
