@@ -1,4 +1,4 @@
-//! Road input: linearised vs nonlinear Model 2, and the ISO 8608 generator.
+//! Road input: linearised vs nonlinear models, and the ISO 8608 generator.
 
 use airsus_apps::road::*;
 use airsus_data::{TruckParameters, ValveState};
@@ -22,7 +22,15 @@ fn bump_road(time: &[f64], speed: f64, height: f64) -> Vec<f64> {
 
 /// `‖y_nl - y_lin‖ / ‖y_nl - y0‖` for the sensor height and the tire force.
 fn linear_error(truck: &TruckParameters, height: f64) -> (f64, f64, f64) {
-    let model = Model2::new(truck);
+    linear_error_of(&Model2::new(truck), truck, height)
+}
+
+/// [`linear_error`] of any model with a tire.
+fn linear_error_of(
+    model: &dyn SuspensionModel,
+    truck: &TruckParameters,
+    height: f64,
+) -> (f64, f64, f64) {
     let load = 3390.0;
     let u0 = InputSample {
         wheel_load_kg: load,
@@ -34,11 +42,11 @@ fn linear_error(truck: &TruckParameters, height: f64) -> (f64, f64, f64) {
     let x0 = model
         .initial_state(&u0, &InitialCondition::SensorHeight { height_m: 0.24 })
         .unwrap();
-    let axle = AxleGeometry::of(&model, truck).unwrap();
-    let lin = linearize(&model, &axle, &Tire::new(&truck.tire), &x0, &u0).unwrap();
+    let axle = AxleGeometry::of(model, truck).unwrap();
+    let lin = linearize(model, &axle, &Tire::new(&truck.tire), &x0, &u0).unwrap();
     let time = time_axis(3.0, 0.002).unwrap();
     let road = bump_road(&time, 10.0, height);
-    let nl = simulate_road(&model, truck, &time, &road, load, 0.24).unwrap();
+    let nl = simulate_road(model, truck, &time, &road, load, 0.24).unwrap();
     let li = simulate_linear(&lin, &time, &road).unwrap();
     let rel = |i: usize, nl: &[f64]| {
         let (mut num, mut den) = (0.0, 0.0);
@@ -75,6 +83,48 @@ fn linearised_model_2_matches_for_a_small_bump_and_not_for_a_large_one() {
     let (h_ref, f_ref, _) = linear_error(&TruckParameters::reference(), 0.002);
     println!("2 mm bump, reference damper: height error {h_ref:.4}, tire force error {f_ref:.4}");
     assert!(h_ref > h_small);
+}
+
+/// #13: every model with a tire, the `truck` structure among them (creep, wall friction, gas
+/// heat exchange, the supply line), linearised about rest follows its own nonlinear response
+/// to a small bump and not to a large one. "Small" is the wall friction's to say for the
+/// `truck` structure: its Dahl law is not linear even before it slides (the force's growth
+/// slows as it nears `F_c`, over a pre-sliding travel of about 5 mm of bellow), so its
+/// linearisation errs by 0.7 % (height) on a 0.5 mm bump, 1.0 % on 1 mm and 4.1 % on 2 mm,
+/// where the other models err by 0.2-0.3 % (and the structure without its wall friction
+/// 0.4 %). Measured on a 100 mm bump: 68-73 % (height),
+/// 102-114 % (tire force), the wheel leaving the road.
+#[test]
+fn every_model_with_a_tire_linearises_for_a_small_bump() {
+    let truck = symmetric_damper_truck();
+    for name in ["m1", "m2", "m2x", "m2xh", "truck"] {
+        let model = airsus_truck::models::build_any_model(name, &truck).unwrap();
+        let small_m = if name == "truck" { 0.0005 } else { 0.002 };
+        let (h_small, f_small, _) = linear_error_of(model.as_ref(), &truck, small_m);
+        let (h_large, f_large, _) = linear_error_of(model.as_ref(), &truck, 0.10);
+        println!(
+            "{name}: {} mm bump height error {h_small:.4}, tire force {f_small:.4}; 100 mm {h_large:.4}, {f_large:.4}",
+            small_m * 1e3
+        );
+        assert!(
+            h_small < 0.01 && f_small < 0.01,
+            "{name}: {h_small} {f_small}"
+        );
+        assert!(
+            h_large > 0.5 && f_large > 0.5,
+            "{name}: {h_large} {f_large}"
+        );
+    }
+    let wall = airsus_truck::models::build_any_model("truck", &truck).unwrap();
+    let (h_2mm, _, _) = linear_error_of(wall.as_ref(), &truck, 0.002);
+    assert!(h_2mm > 0.02, "the wall friction's pre-sliding: {h_2mm}");
+    // Without the wall friction the structure linearises as the others do.
+    let mut frictionless = truck.clone();
+    frictionless.effects.friction_force_n = Some(0.0);
+    let smooth = airsus_truck::models::build_any_model("truck", &frictionless).unwrap();
+    let (h, f, _) = linear_error_of(smooth.as_ref(), &frictionless, 0.002);
+    println!("truck without wall friction: 2 mm bump height error {h:.4}, tire force {f:.4}");
+    assert!(h < 0.01 && f < 0.01, "{h} {f}");
 }
 
 /// A tire with a damper beside its spring (#13 item 2): the linearised model, which takes the
