@@ -119,6 +119,48 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
         );
     }
 
+    // Issue #13: the tire force the estimate simulates over a road it never saw (an ISO
+    // 8608 class C road at 50 km/h, a new seed) against the truth's, both from the run's
+    // first height at its load. The weighing and road tests hold the variants' fixtures to
+    // this; here the study as it estimates today.
+    {
+        use airsus_apps::road::simulate_road;
+        use airsus_truck::model::TruckModel;
+        let mut truth = airsus_truck::truth::VirtualTruck::reference();
+        let (m2, friction) = (
+            truth.physical.mass.unsprung_kg,
+            truth.effect_parameters.friction_force_n,
+        );
+        let road = airsus_truck::experiments::run_experiment(
+            &truth,
+            &airsus_truck::scenario::road_2(m2, 300).unwrap(),
+            friction,
+            300,
+        )
+        .unwrap();
+        truth.resolve_laws();
+        let file = dir
+            .path()
+            .join("out")
+            .join(truck.truck_file.as_ref().unwrap());
+        let estimate = airsus_data::read_truck(&file).unwrap().parameters;
+        let (time, road_m) = (&road.logged.time_s, &road.logged.inputs.road_height_m);
+        let load_kg = road.truth.inputs.wheel_load_kg[0];
+        let height_m = road.logged.measured().unwrap().sensor_height_m[0];
+        let tire_force = |p: &airsus_data::TruckParameters| {
+            let model = TruckModel::from_truck_parameters(p);
+            simulate_road(&model, p, time, road_m, load_kg, height_m)
+                .unwrap()
+                .tire_force_n
+        };
+        let fit =
+            airsus_validate::nrmse_percent(&tire_force(&truth.physical), &tire_force(&estimate))
+                .unwrap();
+        // Measured 99.18 % (the fixture of variant 0 gives the same).
+        println!("tire force on a new road: NRMSE {fit:.2} %");
+        assert!(fit > 98.0, "{fit:.2} %");
+    }
+
     // Issue #14: weighing with what the study estimated, nothing else. The load filter on the
     // estimated `truck` file, told how each held-out run starts (data-set 2 after the truck
     // was lowered, data-set 4 after it was raised, the levelling run with the wall
