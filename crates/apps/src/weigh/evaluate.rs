@@ -69,6 +69,14 @@ pub struct AccuracySummary {
     pub valve_activity: ErrorStats,
     /// Samples with the road moving or moved less than `settle_s` ago, the load steady.
     pub driving: ErrorStats,
+    /// Samples while the load changes and less than `load_settle_s` after it last changed,
+    /// whatever the valve and the road do: what the estimate lags while a load arrives (the
+    /// other classes wait for a steady load).
+    pub load_change: ErrorStats,
+    /// Samples at a steady load with the valve closed and the road still, not yet rested
+    /// `settle_s` (the 10-30 s after a load change, and a run's first `settle_s`): what the
+    /// estimate misses while the truck settles.
+    pub settling: ErrorStats,
     /// Mean standstill error per true load level (rounded to 10 kg): `(load_kg, stats)`.
     pub by_load_level: Vec<(f64, ErrorStats)>,
 }
@@ -140,6 +148,8 @@ pub fn evaluate_weighing(
         after,
         valve_activity,
         driving,
+        load_change,
+        settling,
     } = classify(time_s, true_kg, valve, road_m, rule);
     let all: Vec<usize> = (0..n).collect();
     let mut levels: Vec<(f64, Vec<usize>)> = Vec::new();
@@ -158,6 +168,8 @@ pub fn evaluate_weighing(
         after_valve: stats(&after, estimate_kg, true_kg, std_kg),
         valve_activity: stats(&valve_activity, estimate_kg, true_kg, std_kg),
         driving: stats(&driving, estimate_kg, true_kg, std_kg),
+        load_change: stats(&load_change, estimate_kg, true_kg, std_kg),
+        settling: stats(&settling, estimate_kg, true_kg, std_kg),
         by_load_level: levels
             .into_iter()
             .map(|(l, idx)| (l, stats(&idx, estimate_kg, true_kg, std_kg)))
@@ -207,6 +219,8 @@ struct Classes {
     after: Vec<usize>,
     valve_activity: Vec<usize>,
     driving: Vec<usize>,
+    load_change: Vec<usize>,
+    settling: Vec<usize>,
 }
 
 /// The least change of the logged road between samples that counts as the road moving, m:
@@ -227,6 +241,8 @@ fn classify(
     let mut after = Vec::new();
     let mut valve_activity = Vec::new();
     let mut driving = Vec::new();
+    let mut load_change = Vec::new();
+    let mut settling = Vec::new();
     // Last time the load changed, the valve was open or the road moved, scanning forward.
     let load_changed_s = last_load_change_s(&time_s[..n], &true_kg[..n], rule);
     let mut last_valve_s = f64::NEG_INFINITY;
@@ -252,6 +268,9 @@ fn classify(
         if t - last_road_s < rule.settle_s && load_steady {
             driving.push(k);
         }
+        if !load_steady {
+            load_change.push(k);
+        }
         if since_start >= rule.settle_s && rested >= rule.settle_s {
             standstill.push(k);
             if t - last_valve_s <= rule.settle_s + rule.after_valve_window_s {
@@ -259,6 +278,11 @@ fn classify(
             } else {
                 quiet.push(k);
             }
+        } else if load_steady
+            && t - last_valve_s >= rule.settle_s
+            && t - last_road_s >= rule.settle_s
+        {
+            settling.push(k);
         }
     }
     Classes {
@@ -267,6 +291,8 @@ fn classify(
         after,
         valve_activity,
         driving,
+        load_change,
+        settling,
     }
 }
 
@@ -318,6 +344,9 @@ mod tests {
         assert_eq!(without.driving.samples, 0);
         assert_eq!(without.standstill.samples, 301 - 30);
         assert!((without.standstill.max_abs_error_kg - 30.0).abs() < 1e-9);
+        // No load change: nothing lags one; the run's first 30 s are settling.
+        assert_eq!(with_road.load_change.samples, 0);
+        assert_eq!(with_road.settling.samples, 30);
         // A road of another length is an error.
         let err = evaluate_weighing(
             &time,
@@ -329,5 +358,61 @@ mod tests {
             &rule,
         );
         assert!(err.is_err());
+    }
+
+    /// Every sample lands in a class: a load step at 100 s (over 5 s), a fill at 200-205 s.
+    #[test]
+    fn a_load_change_and_its_settling_are_scored_apart() {
+        let time: Vec<f64> = (0..=400).map(f64::from).collect();
+        let n = time.len();
+        let truth: Vec<f64> = time
+            .iter()
+            .map(|&t| 3000.0 + 300.0 * ((t - 100.0) / 5.0).clamp(0.0, 1.0))
+            .collect();
+        // The estimate lags the step by 20 kg while it arrives, 5 kg while it settles.
+        let estimate: Vec<f64> = time
+            .iter()
+            .zip(&truth)
+            .map(|(&t, &m)| match t {
+                t if (100.0..115.0).contains(&t) => m - 20.0,
+                t if (115.0..135.0).contains(&t) => m - 5.0,
+                _ => m,
+            })
+            .collect();
+        let valve: Vec<ValveState> = time
+            .iter()
+            .map(|&t| {
+                if (200.0..205.0).contains(&t) {
+                    ValveState::Fill
+                } else {
+                    ValveState::Closed
+                }
+            })
+            .collect();
+        let a = evaluate_weighing(
+            &time,
+            &estimate,
+            &[10.0; 401],
+            &truth,
+            &valve,
+            None,
+            &StandstillRule::default(),
+        )
+        .unwrap();
+        // The load moves from 101 s to 105 s and is steady 10 s after: 101-114 s.
+        assert_eq!(a.load_change.samples, 14, "{a:?}");
+        assert!((a.load_change.max_abs_error_kg - 20.0).abs() < 1e-9);
+        // Settling: the run's first 30 s and 115-134 s (standstill from 135 s).
+        assert_eq!(a.settling.samples, 30 + 20, "{a:?}");
+        assert!((a.settling.max_abs_error_kg - 5.0).abs() < 1e-9);
+        // Valve at work from 200 s until 30 s after its last open sample (204 s).
+        assert_eq!(a.valve_activity.samples, 34);
+        assert_eq!(
+            a.standstill.samples
+                + a.load_change.samples
+                + a.settling.samples
+                + a.valve_activity.samples,
+            n
+        );
     }
 }

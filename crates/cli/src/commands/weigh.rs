@@ -298,9 +298,11 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             ("  after valve activity", acc.after_valve),
             ("valve at work", acc.valve_activity),
             ("driving", acc.driving),
+            (LOAD_CHANGING, acc.load_change),
+            ("settling", acc.settling),
         ] {
-            // A run that never drives has no such row.
-            if name == "driving" && s.samples == 0 {
+            // A run that never drives (or never changes its load) has no such row.
+            if (name == "driving" || name == LOAD_CHANGING) && s.samples == 0 {
                 continue;
             }
             println!(
@@ -367,3 +369,6 @@ fn calibration_starts(
     }
     Ok(given.iter().map(|&s| s.into()).collect())
 }
+
+/// The scoring row of the samples while a load arrives (`StandstillRule::load_settle_s`).
+const LOAD_CHANGING: &str = "load arriving (10 s)";
