@@ -486,15 +486,54 @@ impl VirtualTruck {
 mod tests {
     use super::*;
 
+    /// A variant's file a study got 1 % wrong in each compared value (the area 1 % large
+    /// (and the volume with it where it integrates the area), the unsprung mass 1 % light, the valve 1 % slow) is still nearest
+    /// its own member: measured its own at 0.65-0.93 %, the others 3.4 % and more away.
     #[test]
-    fn a_variants_own_file_is_nearest_to_it() {
+    fn a_variants_file_one_percent_off_is_nearest_to_it() {
         for k in 0..=7 {
-            // What `generate` writes as truth/truck_structure.toml.
+            // What `generate` writes as truth/truck_structure.toml, then off.
             let mut member = VirtualTruck::variant(k);
             member.resolve_laws();
-            let (nearest, distance) = VirtualTruck::nearest_variant(&member.physical, 0..=7);
-            println!("variant {k}: nearest {nearest} at {distance:.4}");
+            let mut file = member.physical.clone();
+            match &mut file.bellow.effective_area {
+                EffectiveAreaLaw::Polynomial { coefficients_m2 }
+                | EffectiveAreaLaw::PressurePolynomial {
+                    coefficients_m2, ..
+                } => coefficients_m2.iter_mut().for_each(|c| *c *= 1.01),
+                // Variants 4 and up: their spline's knots stay; the mass and valve are off.
+                EffectiveAreaLaw::Spline { .. } => {}
+            }
+            file.mass.unsprung_kg *= 0.99;
+            file.valve = match file.valve {
+                ValveFlowLaw::LinearResistance {
+                    fill_pa_s_per_mol,
+                    exhaust_pa_s_per_mol,
+                } => ValveFlowLaw::LinearResistance {
+                    fill_pa_s_per_mol: fill_pa_s_per_mol / 0.99,
+                    exhaust_pa_s_per_mol: exhaust_pa_s_per_mol / 0.99,
+                },
+                ValveFlowLaw::Orifice {
+                    fill_conductance_m3_s_pa,
+                    exhaust_conductance_m3_s_pa,
+                    critical_pressure_ratio,
+                } => ValveFlowLaw::Orifice {
+                    fill_conductance_m3_s_pa: fill_conductance_m3_s_pa * 0.99,
+                    exhaust_conductance_m3_s_pa: exhaust_conductance_m3_s_pa * 0.99,
+                    critical_pressure_ratio,
+                },
+            };
+            let (nearest, distance) = VirtualTruck::nearest_variant(&file, 0..=7);
+            let others = (0..=7u32)
+                .filter(|&j| j != k)
+                .map(|j| VirtualTruck::nearest_variant(&file, j..=j).1)
+                .fold(f64::INFINITY, f64::min);
+            println!("variant {k}: nearest {nearest} at {distance:.4}, the next at {others:.4}");
             assert_eq!(nearest, k);
+            assert!(
+                distance > 0.005 && others > 3.0 * distance,
+                "{distance} {others}"
+            );
         }
     }
 

@@ -197,6 +197,15 @@ pub fn weigh<'py>(
             )));
         }
     };
+    // Said before any run is weighed, not after the first.
+    if let Some(bad) = starts
+        .iter()
+        .find(|s| !["unknown", "lowered", "raised"].contains(&s.as_str()))
+    {
+        return Err(crate::error::AirsusError::new_err(format!(
+            "unknown calibration_start `{bad}`; it is one of: unknown, lowered, raised"
+        )));
+    }
     let calibration: Vec<(RunSource, String)> = calibration.into_iter().zip(starts).collect();
     // The command's defaults: `--method static --model m2 --window-s 2`.
     let method = method.unwrap_or_else(|| "static".to_owned());

@@ -61,8 +61,11 @@ pub fn standstills<'py>(
         })
     };
     let (speed, segment) = (optional(&speed_kmh)?, optional(&segment)?);
+    // The gas alone, whatever the file's wall: a standstill is read 120 s after the valve
+    // and 60 s steady, when the creep has relaxed, and the fleet's calibration regresses the
+    // friction's state itself (a wall here would count it twice).
     let weigher = StaticWeigher::new(
-        StaticLaw::from_truck(&truck.params),
+        StaticLaw::from_truck(&truck.params).without_wall(),
         WeighingUncertainty::default(),
     );
     let detector = StandstillDetector {

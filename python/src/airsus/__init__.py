@@ -883,8 +883,9 @@ def weigh(
         truck: the parameters (nominal or identified): a :class:`Truck` or a truck file path.
         run: a run with ``height_mm`` and ``pressure_kpa``.
         method: ``static`` (the static force balance inverted, averaged over ``window_s``;
-            with a ``truck``-structure file, one with an ``[effects]`` section, the bellow
-            wall's creep and friction are followed over the run's heights) or ``ekf`` (an
+            with a ``truck``-structure file, one whose ``[effects]`` name ``kc``, ``tc``,
+            ``fc`` and ``kdahl``, the bellow wall's creep and friction are followed over the
+            run's heights) or ``ekf`` (an
             extended Kalman filter on ``model`` with the load as a random walk).
         calibration_run: a run whose logged load is trusted at standstill (weighbridge), or
             a list of them: the interval is sized on their standstills, and a gain and offset
@@ -897,10 +898,10 @@ def weigh(
         start_hysteresis: how the truck came to the run's first reading, for an estimator
             with wall friction (the EKF on ``truck``, the static method with a
             ``truck``-structure file): ``unknown`` (its interval holds the
-            friction's whole range until the bellow moves; where the valve moved it first,
-            the load read after that movement is taken back to the start, and
-            ``df.attrs["notes"]`` says so), ``lowered`` (a load set down, an exhaust) or
-            ``raised`` (a fill, a load taken off).
+            friction's whole range until the bellow moves; for the EKF, where the valve
+            moved it first, the load read after that movement is taken back to the start,
+            and ``df.attrs["notes"]`` says so), ``lowered`` (a load set down, an exhaust)
+            or ``raised`` (a fill, a load taken off).
         calibration_start: how each calibration run starts (as ``start_hysteresis``), one
             per run in the same order; ``None``: every one ``unknown``.
 

@@ -125,7 +125,7 @@ impl HysteresisStart {
 
 /// The spread of a known start's hysteresis, as a fraction of its half range: the last
 /// movement may not have slid the friction all the way.
-const KNOWN_START_SPREAD: f64 = 0.1;
+pub(crate) const KNOWN_START_SPREAD: f64 = 0.1;
 
 /// A travel of the hysteresis coordinate that slides it to its limit whichever way (a Dahl
 /// wall friction saturates within `F_c / σ`, millimetres).

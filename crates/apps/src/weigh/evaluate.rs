@@ -9,7 +9,10 @@
 //! controller at work after a load change: what the estimate reads while the air moves). A
 //! sample is **driving** when the road under the wheel moved less than `settle_s` ago while
 //! the load has been steady for `load_settle_s` (when the run logs the road): it is no
-//! standstill, whatever the valve did.
+//! standstill, whatever the valve did. A sample is **load change** while the load changes and
+//! less than `load_settle_s` after it last changed (what the estimate lags while a load
+//! arrives), and **settling** at a steady load with the valve closed and the road still but
+//! not yet rested `settle_s` (after a load change, and a run's first `settle_s`).
 
 use airsus_data::ValveState;
 

@@ -138,7 +138,13 @@ pub fn weigh_static_from(
         }
         let n = (k + 1).min(window) as f64;
         let mean = sum / n;
-        let meas = raw[k].measurement_std_kg / n.sqrt();
+        // The sensors' part averages down; a wall friction's unknown state is the same at
+        // every sample of the window and does not.
+        let friction = raw[k].friction_state_std_kg;
+        let sensors = (raw[k].measurement_std_kg.powi(2) - friction.powi(2))
+            .max(0.0)
+            .sqrt();
+        let meas = (sensors / n.sqrt()).hypot(friction);
         series.wheel_load_kg.push(mean);
         series.measurement_std_kg.push(meas);
         series
@@ -348,11 +354,12 @@ impl CalibrationTerms {
     }
 
     /// The terms for an estimate made by the static `law`: a law with the `truck`
-    /// structure's wall ([`StaticLaw::wall`]) carries the hysteresis and is left uncorrected
+    /// structure's wall ([`StaticLaw::wall`], its friction not zero) carries the hysteresis
+    /// and is left uncorrected
     /// (on the variants' study files a gain, an offset and the other terms moved the
     /// held-out standstills by under 0.02 % of the load, either way).
     pub fn for_static(law: &StaticLaw) -> Self {
-        if law.wall.is_some() {
+        if law.wall.is_some_and(|w| w.friction_force_n > 0.0) {
             Self::IntervalOnly
         } else {
             Self::for_estimate(None)

@@ -11,7 +11,9 @@
 //! lets the creep of the bellow wall (time constants 12–45 s on the virtual truck family) and
 //! the gas temperature settle after the last valve action. A **standstill** is a maximal run
 //! of such samples at least `min_duration_s` long; it is weighed once, from its mean height and
-//! mean pressure through the static law ([`super::StaticWeigher`]).
+//! mean pressure through the static law ([`super::StaticWeigher`]), the gas's force alone
+//! (the law's wall, [`super::WallForces`], is not used: by then the creep has relaxed, and
+//! the wall friction's state is the calibration's `z`, below).
 //!
 //! # The wall friction state
 //! The bellow wall's friction holds the same load at a different pressure after the bellow

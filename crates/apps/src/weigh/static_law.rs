@@ -39,11 +39,11 @@
 //! laws over the measured heights, so the load at a standstill 30 s after a load step is read
 //! without the 0.5-1 % the relaxing creep puts on the gas pressure (variant 1's study file).
 
-use airsus_data::{EffectValues, EffectiveAreaLaw, TruckParameters};
+use airsus_data::{EffectiveAreaLaw, TruckParameters};
 use airsus_model::submodels::lever_gain;
 use airsus_truck::truth::{EffectParameters, VirtualTruck};
 
-use crate::weigh::ekf::HysteresisStart;
+use crate::weigh::ekf::{HysteresisStart, KNOWN_START_SPREAD};
 use crate::weigh::standstill::friction_state_from;
 
 use crate::error::AppError;
@@ -84,12 +84,24 @@ pub struct WallForces {
 }
 
 impl WallForces {
-    /// The wall of a truck file of the `truck` structure: `None` for a file without an
-    /// `[effects]` section (a thesis model's), whose gas carries the whole load. A file that
-    /// names only some of the values gets the structure's built-in ones for the rest, as the
-    /// structure simulates it ([`EffectParameters::of_file`]).
+    /// The wall of a truck file of the `truck` structure: one that names its four wall
+    /// values, `kc`, `tc`, `fc` and `kdahl` (a `truck` study writes all of them, and
+    /// `generate`'s `truth/truck_structure.toml`). `None` otherwise: the gas carries the
+    /// whole load. A thesis model's file can carry `fc` alone (the study's lab stage writes
+    /// the wall friction it reads into the start every model shares; `airsus fit
+    /// wall-friction` writes `fc` and `kdahl`), and its model never estimated a creep: the
+    /// structure's built-in one would be a guess.
     pub fn of_file(truck: &TruckParameters) -> Option<Self> {
-        (truck.effects != EffectValues::default())
+        let e = &truck.effects;
+        let named = [
+            e.creep_stiffness_n_per_m,
+            e.creep_time_constant_s,
+            e.friction_force_n,
+            e.friction_stiffness_n_per_m,
+        ];
+        named
+            .iter()
+            .all(Option::is_some)
             .then(|| Self::of_effects(&EffectParameters::of_file(truck), true, true))
     }
 
@@ -117,7 +129,9 @@ impl WallForces {
     /// movement maps it affinely (the Dahl law over a monotone path), so its spread at a
     /// sample is half the distance between the states started at either end, over `√3`:
     /// the band's whole `F_c / √3` until the bellow first moves, nothing once a movement has
-    /// slid it to one side. The friction follows a 1 s moving mean of the heights through
+    /// slid it to one side. A told start keeps a tenth of the band's half width as the EKF
+    /// does (the last movement may not have slid it all the way), shrinking the same way.
+    /// A height that is not a number holds both states (the force there is not a number). The friction follows a 1 s moving mean of the heights through
     /// [`Self::friction_play_m`], as the calibration's friction state does
     /// ([`friction_state_from`]); the creep follows every sample (its force is a fraction of
     /// a kilogram per sensor-noise step).
@@ -142,23 +156,32 @@ impl WallForces {
             }
         };
         let friction = friction_from(start.preload());
-        let friction_std_n = match start {
-            HysteresisStart::Unknown => friction_from(1.0)
-                .iter()
-                .zip(friction_from(-1.0))
-                .map(|(high, low)| 0.5 * (high - low) * self.friction_force_n / 3f64.sqrt())
-                .collect(),
-            HysteresisStart::Lowered | HysteresisStart::Raised => vec![0.0; n],
+        // What is left of the start's spread, as a fraction of the band's half width: the
+        // states started at either end, half their distance apart.
+        let start_spread = match start {
+            HysteresisStart::Unknown => 1.0 / 3f64.sqrt(),
+            HysteresisStart::Lowered | HysteresisStart::Raised => KNOWN_START_SPREAD,
         };
+        let friction_std_n = friction_from(1.0)
+            .iter()
+            .zip(friction_from(-1.0))
+            .map(|(high, low)| 0.5 * (high - low) * start_spread * self.friction_force_n)
+            .collect();
         // The Maxwell element's damper position, integrated exactly over each sample with the
         // height held (a first-order lag).
         let decay = (-sample_s / self.creep_time_constant_s.max(1e-6)).exp();
-        let mut damper_m = bellow_height_m.first().copied().unwrap_or(0.0);
+        let mut damper_m = bellow_height_m
+            .iter()
+            .copied()
+            .find(|h| h.is_finite())
+            .unwrap_or(0.0);
         let force_n = bellow_height_m
             .iter()
             .zip(friction)
             .map(|(&h_b, z)| {
-                damper_m = h_b + (damper_m - h_b) * decay;
+                if h_b.is_finite() {
+                    damper_m = h_b + (damper_m - h_b) * decay;
+                }
                 self.creep_stiffness_n_per_m * (damper_m - h_b) - z * self.friction_force_n
             })
             .collect();
@@ -179,7 +202,8 @@ pub struct WallSeries {
 }
 
 impl StaticLaw {
-    /// The law with a truck file's parameters and effective-area law.
+    /// The law with a truck file's parameters and effective-area law, and its wall where
+    /// the file names one ([`WallForces::of_file`]).
     pub fn from_truck(truck: &TruckParameters) -> Self {
         let g = &truck.geometry;
         Self {
@@ -368,6 +392,10 @@ pub struct LoadEstimate {
     pub measurement_std_kg: f64,
     /// Part from the parameters and the wall friction, kg.
     pub parameter_std_kg: f64,
+    /// Part from a modelled wall friction's unknown state ([`WallSeries::friction_std_n`]),
+    /// kg: among the measurement part (state, as the EKF's covariance holds it), but the
+    /// same at every sample of a window, so an average does not shrink it.
+    pub friction_state_std_kg: f64,
 }
 
 /// A static weigher: the law and what is uncertain about it.
@@ -407,6 +435,7 @@ impl StaticWeigher {
         let mut estimate = self.estimate_gas(sensor_height_m, gauge_pa, false)?;
         let friction_kg = self.law.lever_gain * friction_std_n / self.law.gravity_m_s2;
         estimate.wheel_load_kg += shift;
+        estimate.friction_state_std_kg = friction_kg;
         estimate.measurement_std_kg = estimate.measurement_std_kg.hypot(friction_kg);
         estimate.std_kg = estimate.measurement_std_kg.hypot(estimate.parameter_std_kg);
         Ok(estimate)
@@ -472,6 +501,7 @@ impl StaticWeigher {
             std_kg: (measurement_var + parameter_var).sqrt(),
             measurement_std_kg: measurement_var.sqrt(),
             parameter_std_kg: parameter_var.sqrt(),
+            friction_state_std_kg: 0.0,
         })
     }
 }
@@ -525,25 +555,38 @@ mod tests {
     }
 
     #[test]
-    fn a_told_start_sets_the_friction_and_leaves_no_spread() {
+    fn a_told_start_sets_the_friction_and_leaves_a_tenth_of_the_band() {
         let flat = vec![0.22; 100];
         let lowered = wall().series(&flat, 0.1, HysteresisStart::Lowered);
         let raised = wall().series(&flat, 0.1, HysteresisStart::Raised);
         // Lowered onto its height, the friction holds the bellow up: the wall carries F_c.
         assert!(lowered.force_n.iter().all(|&f| (f - 100.0).abs() < 1e-9));
         assert!(raised.force_n.iter().all(|&f| (f + 100.0).abs() < 1e-9));
-        assert!(lowered.friction_std_n.iter().all(|&s| s == 0.0));
+        // A tenth of the band's half width, as the EKF's told start.
+        assert!(
+            lowered
+                .friction_std_n
+                .iter()
+                .all(|&s| (s - 10.0).abs() < 1e-9)
+        );
     }
 
     #[test]
-    fn only_a_file_with_effects_has_a_wall_and_the_wall_moves_the_load_by_its_force() {
+    fn only_a_file_naming_the_whole_wall_has_one_and_it_moves_the_load_by_its_force() {
         let mut truck = TruckParameters::reference();
         assert_eq!(WallForces::of_file(&truck), None);
+        // A thesis model's file from a study can carry the lab's wall friction alone; with
+        // its stiffness too (`airsus fit wall-friction`) it still names no creep.
         truck.effects.friction_force_n = Some(80.0);
+        truck.effects.friction_stiffness_n_per_m = Some(20e3);
+        assert_eq!(WallForces::of_file(&truck), None);
+        truck.effects.creep_stiffness_n_per_m = Some(15e3);
+        truck.effects.creep_time_constant_s = Some(40.0);
         let wall = WallForces::of_file(&truck).expect("a wall");
-        assert_eq!(wall.friction_force_n, 80.0);
-        // The rest from the structure's built-in values, not zero.
-        assert!(wall.creep_stiffness_n_per_m > 0.0 && wall.creep_time_constant_s > 0.0);
+        assert_eq!(
+            (wall.friction_force_n, wall.creep_time_constant_s),
+            (80.0, 40.0)
+        );
         let law = StaticLaw::from_truck(&truck);
         let gas = law.wheel_load_kg(0.24, 350e3).unwrap();
         let with = law.wheel_load_with_wall_kg(0.24, 350e3, 100.0).unwrap();

@@ -76,7 +76,8 @@ pub struct WeighArgs {
     /// estimation runs): the interval then comes from its residuals (the part the estimate's
     /// own noise does not explain, sized to hold 95 % of each run's known loads). A gain, an
     /// offset, the wall friction's hysteresis and a height term are fitted on it and applied,
-    /// except to the EKF on a model with wall friction (`truck`), which carries all four.
+    /// except to an estimator with the wall, which carries all four: the EKF on `truck`, and
+    /// the static method with a `truck`-structure file (one naming kc, tc, fc and kdahl).
     /// Repeat it to fit on several runs at once: a loading run and a run at one load with the
     /// valve moving the height determine the height term, a loading run alone not.
     /// Calibration runs start as --calibration-start says, else with an unknown wall
@@ -291,6 +292,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             "    {:<24} {:>8} {:>10} {:>10} {:>10} {:>9} {:>9} {:>9}",
             "samples", "n", "mean %", "max |%|", "rms kg", "in ±1 %", "mean σ kg", "in 95 %"
         );
+        let load_changing = format!("load arriving ({:.0} s)", rule.load_settle_s);
         for (name, s) in [
             ("all", acc.all),
             ("standstill", acc.standstill),
@@ -298,11 +300,11 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             ("  after valve activity", acc.after_valve),
             ("valve at work", acc.valve_activity),
             ("driving", acc.driving),
-            (LOAD_CHANGING, acc.load_change),
+            (load_changing.as_str(), acc.load_change),
             ("settling", acc.settling),
         ] {
             // A run that never drives (or never changes its load) has no such row.
-            if (name == "driving" || name == LOAD_CHANGING) && s.samples == 0 {
+            if (name == "driving" || name == load_changing) && s.samples == 0 {
                 continue;
             }
             println!(
@@ -369,6 +371,3 @@ fn calibration_starts(
     }
     Ok(given.iter().map(|&s| s.into()).collect())
 }
-
-/// The scoring row of the samples while a load arrives (`StandstillRule::load_settle_s`).
-const LOAD_CHANGING: &str = "load arriving (10 s)";
