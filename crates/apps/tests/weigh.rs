@@ -791,13 +791,13 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
     println!(
         "coverage of the 95 % interval while the valve works {valve_coverage:.3}, at standstill after it {after_coverage:.3}"
     );
-    // Measured 0.931 and 0.976. Without the interval's widening beyond the calibrated
+    // Measured 0.929 and 0.974. Without the interval's widening beyond the calibrated
     // heights, 0.914 and 0.933: data-set 4's valve steps and their settling are where the
     // bellow leaves the calibration's heights.
     assert!((0.92..=0.98).contains(&valve_coverage), "{valve_coverage}");
     assert!((0.92..=0.98).contains(&after_coverage), "{after_coverage}");
     let (coverage, run_mean) = held_out_coverage(&runs, |a| &a.standstill);
-    // Measured: 0.976 pooled and on the average run (0.963 and 0.953 without the widening
+    // Measured: 0.976 pooled, 0.975 on the average run (0.963 and 0.953 without the widening
     // beyond the calibrated heights). With the filter's own covariance unscaled, 0.994: the
     // interval said less than it could.
     println!(
@@ -805,6 +805,15 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
     );
     assert!((0.92..=0.98).contains(&coverage), "{coverage}");
     assert!((0.92..=0.98).contains(&run_mean), "{run_mean}");
+    // While a load arrives: the samples flagged `loading` (from the run alone) get the
+    // interval the calibration runs' arrivals measured. Before that flag they got the
+    // settling interval, sized at a steady load, and it held 39-68 % of them.
+    // Measured 0.896 pooled: data-set 2's arrivals 0.999-1.0, the levelling run's 0.74-0.78
+    // (there the controller opens the valve while the load arrives, and those samples get
+    // the valve's interval).
+    let (arriving, arriving_run_mean) = held_out_coverage(&runs, |a| &a.load_change);
+    println!("load arriving: pooled {arriving:.3}, average run {arriving_run_mean:.3}");
+    assert!(arriving > 0.85, "{arriving}");
 }
 
 /// Issue #14: static weighing with each variant's study estimate, on the runs the EKF weighs
@@ -859,6 +868,10 @@ fn static_weighing_with_the_study_estimate_reads_its_wall() {
     let (coverage, run_mean) = held_out_coverage(&runs, |a| &a.standstill);
     println!("static, standstill coverage: pooled {coverage:.3}, average run {run_mean:.3}");
     assert!(coverage >= 0.95, "{coverage}");
+    // Measured 0.948 (data-set 2 1.0, levelling 2 0.87-0.90).
+    let (arriving, _) = held_out_coverage(&runs, |a| &a.load_change);
+    println!("static, load arriving: pooled {arriving:.3}");
+    assert!(arriving > 0.9, "{arriving}");
     // The wall is what reads to a tenth of a percent: the same file without it, calibrated
     // with every term a static law lacks, misses 0.5 % on data-set 2.
     let plain =
@@ -1163,4 +1176,55 @@ fn static_averaging_does_not_shrink_an_unknown_wall_friction() {
         (unknown.measurement_std_kg[later] - lowered.measurement_std_kg[later]).abs() < 0.01
             && unknown.measurement_std_kg[later] < 0.1 * band_kg
     );
+}
+
+/// The `loading` flag from the run alone: a load step's arrival and the seconds after are
+/// flagged, a valve run's pulses and their settling hardly, a road run not at all (its
+/// pressure swings with the road, which the log shows moving).
+#[test]
+fn a_load_arriving_is_flagged_from_the_run_alone() {
+    use airsus_truck::scenario::road_2;
+    let vt = VirtualTruck::reference();
+    let m2 = vt.physical.mass.unsprung_kg;
+    let friction = vt.effect_parameters.friction_force_n;
+    let count = |run: &Run| {
+        flags(run)
+            .iter()
+            .filter(|&&q| q == WeighQuality::Loading)
+            .count()
+    };
+    let ds1 = run_experiment(&vt, &data_set_1(m2, 9), -friction, 9).unwrap();
+    // The samples within 10 s of a change of the true load, the valve closed.
+    let rule = StandstillRule::default();
+    let truth = &ds1.truth.inputs.wheel_load_kg;
+    let flagged = flags(&ds1.logged);
+    let (mut arriving, mut caught) = (0, 0);
+    let mut last_change = f64::NEG_INFINITY;
+    let mut level = truth[0];
+    for (k, &m) in truth.iter().enumerate() {
+        if (m - level).abs() > rule.steady_tolerance_kg {
+            last_change = ds1.logged.time_s[k];
+            level = m;
+        }
+        if ds1.logged.time_s[k] - last_change < rule.load_settle_s {
+            arriving += 1;
+            caught += usize::from(flagged[k] == WeighQuality::Loading);
+        }
+    }
+    let all = count(&ds1.logged);
+    println!("data-set 1: {caught} of {arriving} arriving samples flagged, {all} flagged in all");
+    assert!(
+        caught as f64 > 0.95 * arriving as f64,
+        "{caught} of {arriving}"
+    );
+    assert!(
+        (all as f64) < 1.1 * arriving as f64,
+        "{all} flagged, {arriving} arriving"
+    );
+    let ds3 = run_experiment(&vt, &data_set_3(m2, 9), friction, 9).unwrap();
+    let road = run_experiment(&vt, &road_2(m2, 9).unwrap(), friction, 9).unwrap();
+    let (valve_run, road_run) = (count(&ds3.logged), count(&road.logged));
+    println!("data-set 3 (no load change): {valve_run} flagged; road 2: {road_run}");
+    assert!(valve_run < ds3.logged.len() / 50, "{valve_run}");
+    assert_eq!(road_run, 0);
 }

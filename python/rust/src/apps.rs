@@ -251,6 +251,9 @@ pub fn weigh<'py>(
             cal.set_item("own_std_scale", c.own_std_scale)?;
             cal.set_item("settling_own_scale", c.settling_own_scale)?;
             cal.set_item("valve_own_scale", c.valve_own_scale)?;
+            cal.set_item("loading_q95_kg", c.loading_q95_kg)?;
+            cal.set_item("loading_std_kg", c.loading_std_kg)?;
+            cal.set_item("loading_own_scale", c.loading_own_scale)?;
             cal.set_item("height_range_mm", c.height_range_mm)?;
             cal.set_item("dropped", c.dropped)?;
             out.set_item("calibration", cal)?;

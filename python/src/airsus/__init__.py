@@ -908,23 +908,27 @@ def weigh(
     Returns:
         A DataFrame ``time_s, wheel_load_kg, wheel_load_std_kg, quality`` at full precision
         (the command's CSV rounds to 3 decimals). ``quality`` says how far a sample can be
-        trusted, from the run alone: ``standstill`` (read the scale here), ``settling`` or
-        ``valve``. ``df.attrs["notes"]`` lists what the estimator says about the run (the
-        EKF on ``truck`` with an unknown start: until when the friction held its interval
-        up). ``df.attrs["calibration"]`` holds the fitted ``gain, offset_kg,
-        hysteresis_kg, height_kg_per_mm, reference_height_mm, samples, residual_rms_kg,
-        residual_q95_kg, settling_q95_kg, valve_q95_kg, standstill_std_kg, settling_std_kg,
-        valve_std_kg, own_std_scale, settling_own_scale, valve_own_scale,
-        height_range_mm`` and ``dropped``
+        trusted, from the run alone: ``standstill`` (read the scale here), ``settling``,
+        ``valve`` or ``loading`` (a load arriving or leaving, the pressure's level shifting
+        with the valve closed, and 10 s after). ``df.attrs["notes"]`` lists what the
+        estimator says about the run (the EKF on ``truck`` with an unknown start: until when
+        the friction held its interval up). ``df.attrs["calibration"]`` holds the fitted
+        ``gain, offset_kg, hysteresis_kg, height_kg_per_mm, reference_height_mm, samples,
+        residual_rms_kg, residual_q95_kg, settling_q95_kg, valve_q95_kg, standstill_std_kg,
+        settling_std_kg, valve_std_kg, own_std_scale, settling_own_scale, valve_own_scale,
+        loading_q95_kg, loading_std_kg, loading_own_scale, height_range_mm`` and ``dropped``
         (the terms the runs did not determine, with why) when ``calibration_run`` is given:
         ``load = gain·estimate + offset + hysteresis·z + height·(h − reference)``, with ``z``
         the wall-friction state from the heights (a fill reads high, ``hysteresis_kg < 0``
         takes it out). The standard deviation then comes from the calibration's residuals,
         per quality class: ``√((s·own)² + σ_c²)`` with ``own`` the estimate's own noise part,
-        ``s`` (``own_std_scale``, ``settling_own_scale``, ``valve_own_scale``, at most 1) the
+        ``s`` (``own_std_scale``, ``settling_own_scale``, ``valve_own_scale``,
+        ``loading_own_scale``, at most 1) the
         smallest scale at which the own part alone held 95 % of the average calibration
         run's known loads (the EKF's covariance is wider than its errors at standstill), and
-        ``σ_c`` (``standstill_std_kg``, ``settling_std_kg``, ``valve_std_kg``) the smallest
+        ``σ_c`` (``standstill_std_kg``, ``settling_std_kg``, ``valve_std_kg``,
+        ``loading_std_kg``; the loading class sized on every arriving sample, the others at
+        a steady load) the smallest
         part beside it that held 95 % of each calibration run's known loads (the
         ``*_q95_kg``: what the residuals' 95th percentile was; None with too few such
         samples). Beyond the calibration's sensor heights (``height_range_mm``, lowest and

@@ -48,6 +48,14 @@ pub struct StandstillDetector {
     pub presliding_m: f64,
     /// Play of the height before it drives the friction state, m.
     pub play_m: f64,
+    /// A load arriving ([`super::WeighQuality::Loading`]): the mean bellow pressure over the
+    /// `loading_window_s` after a sample differs from the mean over the window before it by
+    /// more than `loading_shift_pa`, with the valve closed and the road still; the flag holds
+    /// for `loading_hold_s` after the last such sample. A 300 kg step moves the pressure by
+    /// about 30 kPa within seconds; the gas cooling after a fill by 1-2 kPa over 4 s.
+    pub loading_shift_pa: f64,
+    pub loading_window_s: f64,
+    pub loading_hold_s: f64,
 }
 
 impl Default for StandstillDetector {
@@ -61,6 +69,9 @@ impl Default for StandstillDetector {
             min_duration_s: 20.0,
             presliding_m: 4e-3,
             play_m: 0.25e-3,
+            loading_shift_pa: 3000.0,
+            loading_window_s: 2.0,
+            loading_hold_s: 10.0,
         }
     }
 }

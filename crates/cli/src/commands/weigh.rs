@@ -197,6 +197,9 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
                 cal.valve_std_kg.unwrap_or(f64::NAN)
             );
         }
+        if let (Some(q95), Some(std)) = (cal.loading_q95_kg, cal.loading_std_kg) {
+            println!("  while a load arrives, 95 % within {q95:.1} kg (σ {std:.1} kg)");
+        }
         if let Some((lo, hi)) = cal.height_range_mm {
             println!(
                 "  calibrated between sensor heights {lo:.1} and {hi:.1} mm; beyond them the interval widens toward the assumed parameter errors ({} samples of this run)",
