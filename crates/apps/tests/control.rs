@@ -404,7 +404,7 @@ fn a_study_estimate_is_nearest_its_own_variant() {
         let (nearest, distance) = VirtualTruck::nearest_variant(&estimate, 0..=7);
         let others = (0..=7u32)
             .filter(|&j| j != k)
-            .map(|j| VirtualTruck::nearest_variant(&estimate, j..=j).1)
+            .map(|j| VirtualTruck::variant_distance(&estimate, j))
             .fold(f64::INFINITY, f64::min);
         println!(
             "variant {k}'s estimate: nearest {nearest} at {distance:.4}, the next at {others:.4}"
@@ -420,7 +420,7 @@ fn a_study_estimate_is_nearest_its_own_variant() {
     let nominal = TruckParameters::reference();
     let (nearest, distance) = VirtualTruck::nearest_variant(&nominal, 0..=7);
     let others = (1..=7u32)
-        .map(|j| VirtualTruck::nearest_variant(&nominal, j..=j).1)
+        .map(|j| VirtualTruck::variant_distance(&nominal, j))
         .fold(f64::INFINITY, f64::min);
     println!("the nominal file: nearest {nearest} at {distance:.4}, the next at {others:.4}");
     assert_eq!(nearest, 0);

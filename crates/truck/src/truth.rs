@@ -431,64 +431,69 @@ impl VirtualTruck {
     }
 
     /// The member of `variants` whose truck `truck`'s file looks most like, and how far it
-    /// is: the rms relative difference of what a study determines best and the variants
-    /// differ in most, the effective area at three bellow heights over the stroke (at
-    /// 350 kPa), the gas volume at mid stroke, the unsprung mass, and the valve's fill and
-    /// exhaust flows at that pressure. A study's estimate lies
-    /// within about 0.5 % of its own variant, the variants 1-10 % apart. For a file of a
-    /// truck outside the family, the nearest member is only that.
+    /// is ([`Self::variant_distance`]). A study's estimate lies within about 0.5 % of its own
+    /// variant, the variants 1-10 % apart. For a file of a truck outside the family, the
+    /// nearest member is only that.
     pub fn nearest_variant(
         truck: &TruckParameters,
         variants: std::ops::RangeInclusive<u32>,
     ) -> (u32, f64) {
-        const HEIGHTS_M: [f64; 3] = [0.19, 0.22, 0.25];
-        const GAUGE_PA: f64 = 350e3;
-        // A fill from an 850 kPa supply and an exhaust, both at that bellow pressure.
-        const SUPPLY_ABS_PA: f64 = 951.325e3;
-        const BELLOW_ABS_PA: f64 = 451.325e3;
-        let signature = |truck: &TruckParameters| {
-            let (area, env) = (&truck.bellow.effective_area, &truck.environment);
-            let mut values: Vec<f64> = HEIGHTS_M
-                .iter()
-                .map(|&h| area.area_clamped_m2(h, GAUGE_PA))
-                .collect();
-            values.push(truck.bellow.gas_volume.volume_m3(area, HEIGHTS_M[1]));
-            values.push(truck.mass.unsprung_kg);
-            let valve = &truck.valve;
-            values.push(valve.fill_flow_mol_s(SUPPLY_ABS_PA, BELLOW_ABS_PA, env.temperature_k));
-            values.push(valve.exhaust_flow_mol_s(
-                BELLOW_ABS_PA,
-                env.ambient_pressure_pa,
-                env.temperature_k,
-            ));
-            values
-        };
-        let file = signature(truck);
         variants
-            .map(|k| {
-                // Its laws as the truck flows and carries by, as a study's file has them.
-                let mut member = Self::variant(k);
-                member.resolve_laws();
-                let theirs = signature(&member.physical);
-                let squares: f64 = file
-                    .iter()
-                    .zip(&theirs)
-                    .map(|(a, b)| ((a - b) / b).powi(2))
-                    .sum();
-                (k, (squares / file.len() as f64).sqrt())
-            })
+            .map(|k| (k, Self::variant_distance(truck, k)))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .unwrap_or((0, f64::INFINITY))
     }
+
+    /// How far `truck`'s file is from variant `k`: the rms relative difference of what a
+    /// study determines best and the variants differ in most, the effective area at three
+    /// bellow heights over the stroke (at 350 kPa), the gas volume at mid stroke, the
+    /// unsprung mass, and the valve's fill and exhaust flows at that pressure. The member's
+    /// laws are resolved as the truck flows and carries by, as a study's file has them.
+    pub fn variant_distance(truck: &TruckParameters, k: u32) -> f64 {
+        let mut member = Self::variant(k);
+        member.resolve_laws();
+        let (file, theirs) = (signature(truck), signature(&member.physical));
+        let squares: f64 = file
+            .iter()
+            .zip(&theirs)
+            .map(|(a, b)| ((a - b) / b).powi(2))
+            .sum();
+        (squares / file.len() as f64).sqrt()
+    }
+}
+
+/// What [`VirtualTruck::variant_distance`] compares.
+fn signature(truck: &TruckParameters) -> [f64; 7] {
+    const HEIGHTS_M: [f64; 3] = [0.19, 0.22, 0.25];
+    const GAUGE_PA: f64 = 350e3;
+    // A fill from an 850 kPa supply and an exhaust, both at that bellow pressure.
+    const SUPPLY_ABS_PA: f64 = 951.325e3;
+    const BELLOW_ABS_PA: f64 = 451.325e3;
+    let (area, env, valve) = (
+        &truck.bellow.effective_area,
+        &truck.environment,
+        &truck.valve,
+    );
+    let at = |h: f64| area.area_clamped_m2(h, GAUGE_PA);
+    [
+        at(HEIGHTS_M[0]),
+        at(HEIGHTS_M[1]),
+        at(HEIGHTS_M[2]),
+        truck.bellow.gas_volume.volume_m3(area, HEIGHTS_M[1]),
+        truck.mass.unsprung_kg,
+        valve.fill_flow_mol_s(SUPPLY_ABS_PA, BELLOW_ABS_PA, env.temperature_k),
+        valve.exhaust_flow_mol_s(BELLOW_ABS_PA, env.ambient_pressure_pa, env.temperature_k),
+    ]
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// A variant's file a study got 1 % wrong in each compared value (the area 1 % large
-    /// (and the volume with it where it integrates the area), the unsprung mass 1 % light, the valve 1 % slow) is still nearest
-    /// its own member: measured its own at 0.65-0.93 %, the others 3.4 % and more away.
+    /// A variant's file a study got 1 % wrong in each compared value (the area 1 % large,
+    /// and the volume with it where it integrates the area; the unsprung mass 1 % light; the
+    /// valve 1 % slow) is still nearest its own member: measured its own at 0.65-0.93 %, the
+    /// others 3.4 % and more away.
     #[test]
     fn a_variants_file_one_percent_off_is_nearest_to_it() {
         for k in 0..=7 {
@@ -526,7 +531,7 @@ mod tests {
             let (nearest, distance) = VirtualTruck::nearest_variant(&file, 0..=7);
             let others = (0..=7u32)
                 .filter(|&j| j != k)
-                .map(|j| VirtualTruck::nearest_variant(&file, j..=j).1)
+                .map(|j| VirtualTruck::variant_distance(&file, j))
                 .fold(f64::INFINITY, f64::min);
             println!("variant {k}: nearest {nearest} at {distance:.4}, the next at {others:.4}");
             assert_eq!(nearest, k);
