@@ -6,9 +6,16 @@ import csv
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import airsus
+
+
+def _standstill_errors(load: pd.DataFrame, truth: pd.Series) -> pd.Series:
+    """|estimate - truth| / truth at the samples ``weigh`` flagged ``standstill``."""
+    still = load["quality"] == "standstill"
+    return (np.abs(load["wheel_load_kg"] - truth) / truth)[still]
 
 
 def test_nrmse_is_thesis_eq_3_33() -> None:
@@ -106,8 +113,7 @@ def test_weigh_calibration_on_two_runs(reference: Path, tmp_path: Path, cli) -> 
     assert [r[1] for r in rows] == [f"{m:.3f}" for m in load["wheel_load_kg"]]
     # Held out, within 0.7 % of the true load at every standstill (nominal file).
     truth = airsus.read_run(reference / "truth" / "ds2.csv")["wheel_load_kg"]
-    still = load["quality"] == "standstill"
-    error = (np.abs(load["wheel_load_kg"] - truth) / truth)[still]
+    error = _standstill_errors(load, truth)
     assert error.max() < 0.007
 
 
@@ -133,8 +139,7 @@ def test_weigh_ekf_told_how_the_run_starts(reference: Path) -> None:
     assert load.attrs["notes"] == []
     unknown = airsus.weigh(truck, run, "ekf", model="truck")
     assert len(unknown.attrs["notes"]) == 1 and "first moved (1" in unknown.attrs["notes"][0]
-    still = load["quality"] == "standstill"
-    error = (np.abs(load["wheel_load_kg"] - truth) / truth)[still]
+    error = _standstill_errors(load, truth)
     assert error.max() < 0.0015
     # Model 2 has no wall friction: its EKF gets the static law's terms.
     m2 = airsus.weigh(reference / "truck.toml", run, "ekf", calibration_run=reference / "ds1.csv")
@@ -160,8 +165,7 @@ def test_weigh_static_reads_the_wall_of_a_truck_structure_file(reference: Path) 
     )
     cal = load.attrs["calibration"]
     assert (cal["gain"], cal["offset_kg"], cal["hysteresis_kg"]) == (1.0, 0.0, 0.0)
-    still = load["quality"] == "standstill"
-    error = (np.abs(load["wheel_load_kg"] - truth) / truth)[still]
+    error = _standstill_errors(load, truth)
     assert error.max() < 0.001
     with pytest.raises(airsus.AirsusError, match="calibration_start gives 1 start"):
         airsus.weigh(truck, run, calibration_run=[run, run], calibration_start="lowered")

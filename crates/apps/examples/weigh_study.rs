@@ -34,15 +34,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (label, law, params) in &laws {
             let w = StaticWeigher::new(law.clone(), WeighingUncertainty::default());
             let s = weigh_static(&run, &w, 20)?;
-            let a = evaluate_weighing(
-                &run.time_s,
-                &s.wheel_load_kg,
-                &s.std_kg,
-                &truth.inputs.wheel_load_kg,
-                &run.inputs.valve,
-                Some(&run.inputs.road_height_m),
-                &rule,
-            )?;
+            let a = evaluate_series(&run, &truth.inputs.wheel_load_kg, &s, &rule)?;
             let t0 = Instant::now();
             let model: Box<dyn airsus_model::SuspensionModel> = if label.contains("stretch") {
                 Box::new(TruckModel::new(vt.clone(), SupplyMode::Measured))
@@ -51,15 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             };
             let e = weigh_ekf(&run, model, &w, &EkfTuning::default())?;
             let el = t0.elapsed().as_secs_f64();
-            let b = evaluate_weighing(
-                &run.time_s,
-                &e.wheel_load_kg,
-                &e.std_kg,
-                &truth.inputs.wheel_load_kg,
-                &run.inputs.valve,
-                Some(&run.inputs.road_height_m),
-                &rule,
-            )?;
+            let b = evaluate_series(&run, &truth.inputs.wheel_load_kg, &e, &rule)?;
             for (m, acc) in [("static", &a), ("ekf", &b)] {
                 println!(
                     "{name} {label:26} {m:6} standstill mean {:+.3}% max {:.3}% (n={}) | quiet {:+.3}% max {:.3}% | after-valve {:+.3}% max {:.3}% (n={}) | all rms {:.1} kg | std {:.1} kg",

@@ -60,16 +60,7 @@ fn model2_run(noisy: bool) -> (Run, Vec<f64>, TruckParameters) {
 }
 
 fn score(run: &Run, truth: &[f64], s: &WeighSeries) -> AccuracySummary {
-    evaluate_weighing(
-        &run.time_s,
-        &s.wheel_load_kg,
-        &s.std_kg,
-        truth,
-        &run.inputs.valve,
-        Some(&run.inputs.road_height_m),
-        &StandstillRule::default(),
-    )
-    .unwrap()
+    evaluate_series(run, truth, s, &StandstillRule::default()).unwrap()
 }
 
 #[test]

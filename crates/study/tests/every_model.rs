@@ -5,7 +5,7 @@
 //! other, not overfit one structure's noise.
 
 use airsus_apps::weigh::{
-    EkfTuning, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty, evaluate_weighing,
+    EkfTuning, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty, evaluate_series,
     weigh_ekf,
 };
 use airsus_data::read_run;
@@ -110,13 +110,10 @@ fn every_thesis_model_gains_on_every_estimation_run_or_says_what_it_traded() {
             let filter = airsus_truck::models::build_any_model(&model.model, &estimated).unwrap();
             let series = weigh_ekf(&logged, filter, &weigher, &EkfTuning::default())
                 .unwrap_or_else(|e| panic!("{} on {run}: {e}", model.model));
-            let score = evaluate_weighing(
-                &logged.time_s,
-                &series.wheel_load_kg,
-                &series.std_kg,
+            let score = evaluate_series(
+                &logged,
                 &truth.inputs.wheel_load_kg,
-                &logged.inputs.valve,
-                Some(&logged.inputs.road_height_m),
+                &series,
                 &StandstillRule::default(),
             )
             .unwrap();

@@ -8,7 +8,7 @@
 
 use airsus_apps::weigh::{
     EkfTuning, HysteresisStart, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty,
-    evaluate_weighing, weigh_ekf, weigh_static_from,
+    evaluate_series, weigh_ekf, weigh_static_from,
 };
 use airsus_data::read_run;
 use airsus_study::{LoadRamp, Protocol, StudyOptions, load_study, run_study};
@@ -190,13 +190,10 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
             ..EkfTuning::default()
         };
         let series = weigh_ekf(&logged, model, &weigher, &tuning).unwrap();
-        let score = evaluate_weighing(
-            &logged.time_s,
-            &series.wheel_load_kg,
-            &series.std_kg,
+        let score = evaluate_series(
+            &logged,
             &truth.inputs.wheel_load_kg,
-            &logged.inputs.valve,
-            Some(&logged.inputs.road_height_m),
+            &series,
             &StandstillRule::default(),
         )
         .unwrap();
@@ -223,13 +220,10 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
         // the heights: measured 0.07 / 0.11 / 0.10 % at standstills (this is the study's own
         // file, as estimated today; the weighing tests use the variants' fixtures).
         let static_series = weigh_static_from(&logged, &weigher, 20, start).unwrap();
-        let static_score = evaluate_weighing(
-            &logged.time_s,
-            &static_series.wheel_load_kg,
-            &static_series.std_kg,
+        let static_score = evaluate_series(
+            &logged,
             &truth.inputs.wheel_load_kg,
-            &logged.inputs.valve,
-            Some(&logged.inputs.road_height_m),
+            &static_series,
             &StandstillRule::default(),
         )
         .unwrap();

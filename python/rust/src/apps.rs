@@ -70,29 +70,30 @@ struct Weighed {
     calibration: Option<LinearCalibration>,
 }
 
+/// How a run starts, by the name Python gives it; `what` names the argument in the error.
+fn parse_hysteresis_start(name: &str, what: &str) -> anyhow::Result<HysteresisStart> {
+    Ok(match name {
+        "unknown" => HysteresisStart::Unknown,
+        "lowered" => HysteresisStart::Lowered,
+        "raised" => HysteresisStart::Raised,
+        other => bail!("unknown {what} `{other}`; it is one of: unknown, lowered, raised"),
+    })
+}
+
 fn run_weigh(
     truck: &TruckParameters,
     source: &RunSource,
     method: &str,
     model_name: &str,
     window_s: f64,
-    start_hysteresis: &str,
-    calibration: &[(RunSource, String)],
+    start: HysteresisStart,
+    calibration: &[(RunSource, HysteresisStart)],
 ) -> anyhow::Result<Weighed> {
     let ekf = match method {
         "static" => false,
         "ekf" => true,
         other => bail!("unknown method `{other}`; the methods are: static, ekf"),
     };
-    let parse_start = |name: &str, what: &str| -> anyhow::Result<HysteresisStart> {
-        Ok(match name {
-            "unknown" => HysteresisStart::Unknown,
-            "lowered" => HysteresisStart::Lowered,
-            "raised" => HysteresisStart::Raised,
-            other => bail!("unknown {what} `{other}`; it is one of: unknown, lowered, raised"),
-        })
-    };
-    let start = parse_start(start_hysteresis, "start_hysteresis")?;
 
     // Weighing estimates the load: a run without a wheel-load column is weighed as it is.
     let weighed = airsus_data::RunSource {
@@ -128,8 +129,7 @@ fn run_weigh(
     if !calibration.is_empty() {
         let rule = StandstillRule::default();
         let mut cal_runs = Vec::new();
-        for (cal_source, cal_start) in calibration {
-            let cal_start = parse_start(cal_start, "calibration_start")?;
+        for &(ref cal_source, cal_start) in calibration {
             let cal_run = cal_source
                 .load(Outputs::Required)
                 .with_context(|| format!("reading {}", cal_source.label()))?;
@@ -185,10 +185,15 @@ pub fn weigh<'py>(
         .into_iter()
         .map(RunSource::from_spec)
         .collect::<PyResult<Vec<_>>>()?;
-    // Each calibration run with how it starts: as given, one per run, or all unknown.
+    // Each calibration run with how it starts: as given, one per run, or all unknown; said
+    // before any run is weighed, not after the first.
     let starts = match calibration_start {
-        None => vec!["unknown".to_owned(); calibration.len()],
-        Some(starts) if starts.len() == calibration.len() => starts,
+        None => vec![HysteresisStart::Unknown; calibration.len()],
+        Some(starts) if starts.len() == calibration.len() => starts
+            .iter()
+            .map(|name| parse_hysteresis_start(name, "calibration_start"))
+            .collect::<anyhow::Result<Vec<_>>>()
+            .or_py()?,
         Some(starts) => {
             return Err(crate::error::AirsusError::new_err(format!(
                 "calibration_start gives {} start(s) for {} calibration run(s): give one per run, in the same order",
@@ -197,21 +202,17 @@ pub fn weigh<'py>(
             )));
         }
     };
-    // Said before any run is weighed, not after the first.
-    if let Some(bad) = starts
-        .iter()
-        .find(|s| !["unknown", "lowered", "raised"].contains(&s.as_str()))
-    {
-        return Err(crate::error::AirsusError::new_err(format!(
-            "unknown calibration_start `{bad}`; it is one of: unknown, lowered, raised"
-        )));
-    }
-    let calibration: Vec<(RunSource, String)> = calibration.into_iter().zip(starts).collect();
+    let calibration: Vec<(RunSource, HysteresisStart)> =
+        calibration.into_iter().zip(starts).collect();
     // The command's defaults: `--method static --model m2 --window-s 2`.
     let method = method.unwrap_or_else(|| "static".to_owned());
     let model = model.unwrap_or_else(|| "m2".to_owned());
     let window_s = window_s.unwrap_or(2.0);
-    let start = start_hysteresis.unwrap_or_else(|| "unknown".to_owned());
+    let start = parse_hysteresis_start(
+        start_hysteresis.as_deref().unwrap_or("unknown"),
+        "start_hysteresis",
+    )
+    .or_py()?;
     let weighed = py
         .detach(|| {
             run_weigh(
@@ -220,7 +221,7 @@ pub fn weigh<'py>(
                 &method,
                 &model,
                 window_s,
-                &start,
+                start,
                 &calibration,
             )
         })

@@ -127,6 +127,10 @@ impl HysteresisStart {
 /// movement may not have slid the friction all the way.
 pub(crate) const KNOWN_START_SPREAD: f64 = 0.1;
 
+/// The default play of the hysteresis coordinate, m ([`EkfTuning::hysteresis_play_m`]; the
+/// static law's wall, [`super::WallForces::friction_play_m`], the same).
+pub(crate) const HYSTERESIS_PLAY_M: f64 = 0.3e-3;
+
 /// A travel of the hysteresis coordinate that slides it to its limit whichever way (a Dahl
 /// wall friction saturates within `F_c / σ`, millimetres).
 const SATURATING_TRAVEL_M: f64 = 1.0;
@@ -145,7 +149,7 @@ impl Default for EkfTuning {
             substeps: 20,
             innovation_gate_sigma: 6.0,
             glitch_samples: 2,
-            hysteresis_play_m: 0.3e-3,
+            hysteresis_play_m: HYSTERESIS_PLAY_M,
             start_hysteresis: HysteresisStart::Unknown,
         }
     }

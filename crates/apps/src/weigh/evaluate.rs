@@ -14,7 +14,9 @@
 //! arrives), and **settling** at a steady load with the valve closed and the road still but
 //! not yet rested `settle_s` (after a load change, and a run's first `settle_s`).
 
-use airsus_data::ValveState;
+use airsus_data::{Run, ValveState};
+
+use crate::weigh::WeighSeries;
 
 use crate::error::{AppError, invalid};
 
@@ -178,6 +180,26 @@ pub fn evaluate_weighing(
             .map(|(l, idx)| (l, stats(&idx, estimate_kg, true_kg, std_kg)))
             .collect(),
     })
+}
+
+/// [`evaluate_weighing`] of a weighed `series` of `run` against the true load `true_kg`,
+/// with the run's valve and its logged road (one value per sample; a run without a road
+/// logs zeros, which never move).
+pub fn evaluate_series(
+    run: &Run,
+    true_kg: &[f64],
+    series: &WeighSeries,
+    rule: &StandstillRule,
+) -> Result<AccuracySummary, AppError> {
+    evaluate_weighing(
+        &run.time_s,
+        &series.wheel_load_kg,
+        &series.std_kg,
+        true_kg,
+        &run.inputs.valve,
+        Some(&run.inputs.road_height_m),
+        rule,
+    )
 }
 
 /// Indices of the standstill samples (module docs): with the logged road (`road_m`, one value

@@ -23,7 +23,8 @@ use airsus_data::atomic::write_atomically;
 use crate::error::{AppError, invalid};
 pub use ekf::{EkfTuning, HysteresisStart, LoadEkf, weigh_ekf};
 pub use evaluate::{
-    AccuracySummary, ErrorStats, StandstillRule, evaluate_weighing, standstill_indices,
+    AccuracySummary, ErrorStats, StandstillRule, evaluate_series, evaluate_weighing,
+    standstill_indices,
 };
 pub use standstill::{
     Standstill, StandstillDetector, StandstillSignals, friction_state, friction_state_from,
@@ -140,11 +141,7 @@ pub fn weigh_static_from(
         let mean = sum / n;
         // The sensors' part averages down; a wall friction's unknown state is the same at
         // every sample of the window and does not.
-        let friction = raw[k].friction_state_std_kg;
-        let sensors = (raw[k].measurement_std_kg.powi(2) - friction.powi(2))
-            .max(0.0)
-            .sqrt();
-        let meas = (sensors / n.sqrt()).hypot(friction);
+        let meas = (raw[k].measurement_std_kg / n.sqrt()).hypot(raw[k].friction_state_std_kg);
         series.wheel_load_kg.push(mean);
         series.measurement_std_kg.push(meas);
         series

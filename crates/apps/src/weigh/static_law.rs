@@ -31,8 +31,8 @@
 //! dithered by it); the parameter part does not average out. Both are reported.
 //!
 //! # The bellow wall (quasi-static)
-//! A truck file of the `truck` structure (one with an `[effects]` section) also says what the
-//! bellow wall holds beside the gas: `F = p A_eff + k_c (s − h_b) − F_dahl` (the structure's
+//! A truck file of the `truck` structure (one whose `[effects]` name `kc`, `tc`, `fc` and
+//! `kdahl`, [`WallForces::of_file`]) also says what the bellow wall holds beside the gas: `F = p A_eff + k_c (s − h_b) − F_dahl` (the structure's
 //! bellow force, [`airsus_truck::model`]). At rest both wall forces are history, not noise: the
 //! Maxwell creep still relaxes minutes after the bellow moved (`ds/dt = (h_b − s)/τ_c`), and
 //! the Dahl friction stays where the last movement slid it. [`WallForces::series`] runs both
@@ -43,7 +43,7 @@ use airsus_data::{EffectiveAreaLaw, TruckParameters};
 use airsus_model::submodels::lever_gain;
 use airsus_truck::truth::{EffectParameters, VirtualTruck};
 
-use crate::weigh::ekf::{HysteresisStart, KNOWN_START_SPREAD};
+use crate::weigh::ekf::{HYSTERESIS_PLAY_M, HysteresisStart, KNOWN_START_SPREAD};
 use crate::weigh::standstill::friction_state_from;
 
 use crate::error::AppError;
@@ -115,7 +115,7 @@ impl WallForces {
             creep_time_constant_s: e.creep_time_constant_s,
             friction_force_n: if friction { e.friction_force_n } else { 0.0 },
             friction_stiffness_n_per_m: e.friction_stiffness_n_per_m,
-            friction_play_m: 0.3e-3,
+            friction_play_m: HYSTERESIS_PLAY_M,
         }
     }
 
@@ -131,7 +131,8 @@ impl WallForces {
     /// the band's whole `F_c / √3` until the bellow first moves, nothing once a movement has
     /// slid it to one side. A told start keeps a tenth of the band's half width as the EKF
     /// does (the last movement may not have slid it all the way), shrinking the same way.
-    /// A height that is not a number holds both states (the force there is not a number). The friction follows a 1 s moving mean of the heights through
+    /// A height that is not a number holds both states (the force there is not a number).
+    /// The friction follows a 1 s moving mean of the heights through
     /// [`Self::friction_play_m`], as the calibration's friction state does
     /// ([`friction_state_from`]); the creep follows every sample (its force is a fraction of
     /// a kilogram per sensor-noise step).
@@ -393,8 +394,8 @@ pub struct LoadEstimate {
     /// Part from the parameters and the wall friction, kg.
     pub parameter_std_kg: f64,
     /// Part from a modelled wall friction's unknown state ([`WallSeries::friction_std_n`]),
-    /// kg: among the measurement part (state, as the EKF's covariance holds it), but the
-    /// same at every sample of a window, so an average does not shrink it.
+    /// kg: state, not parameter (the estimate's own part, as the EKF's covariance holds it),
+    /// but the same at every sample of a window, so an average does not shrink it.
     pub friction_state_std_kg: f64,
 }
 
@@ -419,8 +420,7 @@ impl StaticWeigher {
     /// ([`StaticLaw::wheel_load_with_wall_kg`]) and its friction part uncertain by
     /// `friction_std_n` ([`WallSeries`]). The law's wall replaces the assumed friction band
     /// ([`WeighingUncertainty::wall_friction_n`]): what is left of it, an unknown start's
-    /// friction, is state, not parameter, and joins the measurement part, as the EKF's
-    /// covariance holds it.
+    /// friction, is state, not parameter ([`LoadEstimate::friction_state_std_kg`]).
     pub fn estimate_with_wall(
         &self,
         sensor_height_m: f64,
@@ -428,16 +428,13 @@ impl StaticWeigher {
         wall_force_n: f64,
         friction_std_n: f64,
     ) -> Result<LoadEstimate, AppError> {
-        let shift = self
-            .law
-            .wheel_load_with_wall_kg(sensor_height_m, gauge_pa, wall_force_n)?
-            - self.law.wheel_load_kg(sensor_height_m, gauge_pa)?;
         let mut estimate = self.estimate_gas(sensor_height_m, gauge_pa, false)?;
-        let friction_kg = self.law.lever_gain * friction_std_n / self.law.gravity_m_s2;
-        estimate.wheel_load_kg += shift;
-        estimate.friction_state_std_kg = friction_kg;
-        estimate.measurement_std_kg = estimate.measurement_std_kg.hypot(friction_kg);
-        estimate.std_kg = estimate.measurement_std_kg.hypot(estimate.parameter_std_kg);
+        estimate.wheel_load_kg =
+            self.law
+                .wheel_load_with_wall_kg(sensor_height_m, gauge_pa, wall_force_n)?;
+        estimate.friction_state_std_kg =
+            self.law.lever_gain * friction_std_n / self.law.gravity_m_s2;
+        estimate.std_kg = estimate.std_kg.hypot(estimate.friction_state_std_kg);
         Ok(estimate)
     }
 

@@ -8,7 +8,7 @@ use anyhow::Context;
 use airsus_apps::plot::{WeighingPlot, plot_weighing};
 use airsus_apps::weigh::{
     CalibrationTerms, EkfTuning, HysteresisStart, LinearCalibration, StandstillDetector,
-    StandstillRule, StaticLaw, StaticWeigher, WeighQuality, WeighingUncertainty, evaluate_weighing,
+    StandstillRule, StaticLaw, StaticWeigher, WeighQuality, WeighingUncertainty, evaluate_series,
     quality_flags, weigh_ekf, weigh_static_from, write_weigh_csv,
 };
 use airsus_data::{Outputs, RunSource, read_run, read_truck};
@@ -277,15 +277,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
         None => None,
     };
     if let (Some(path), Some(truth)) = (&args.truth, &truth) {
-        let acc = evaluate_weighing(
-            &series.time_s,
-            &series.wheel_load_kg,
-            &series.std_kg,
-            &truth.inputs.wheel_load_kg,
-            &run.inputs.valve,
-            Some(&run.inputs.road_height_m),
-            &rule,
-        )?;
+        let acc = evaluate_series(&run, &truth.inputs.wheel_load_kg, &series, &rule)?;
         println!(
             "  error against the true load ({}; standstill = load steady, valve closed and road still for {:.0} s):",
             path.display(),
