@@ -222,6 +222,7 @@ def test_study_takes_the_commands_fit_options(reference: Path, tmp_path: Path) -
         initial_state="prefix",
         normalisation="noise-level",
         starts=2,
+        screen=8,
         exclude_after_load_change_s=10.0,
         validation_transitions="common",
         prefix_s=8.0,
@@ -235,7 +236,9 @@ def test_study_takes_the_commands_fit_options(reference: Path, tmp_path: Path) -
         for note in results["protocols"][0]["models"][0]["notes"]
     ), results["protocols"][0]["models"][0]["notes"]
     (model,) = results["protocols"][0]["models"]
-    assert model["starts"] == 2
+    # The stage screened 8 points and fitted from the best one only if it beat the start.
+    assert model["screened_starts"] == 8
+    assert model["starts"] == 1 + min(1, model["screened_better"])
     # Every run carries its noise ceiling (the generated study names the truth files).
     assert all(run["ceiling"]["source"] == "truth" for run in results["runs"])
     with pytest.raises(airsus.AirsusError, match="normalisation `spread`"):

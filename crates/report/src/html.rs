@@ -481,12 +481,20 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
                 } else {
                     String::new()
                 };
+                let screened = if m.screened_starts > 0 {
+                    format!(
+                        "; {} points screened ({} did not simulate), {} better than the start",
+                        m.screened_starts, m.screened_failed, m.screened_better
+                    )
+                } else {
+                    String::new()
+                };
                 match m.local_optima_losses.as_slice() {
                     [best, .., worst] if m.starts > 1 => format!(
-                        "{stop}; {} starts{failed_starts}, local optima's losses {best:.3e} to {worst:.3e}",
+                        "{stop}{screened}; {} starts{failed_starts}, local optima's losses {best:.3e} to {worst:.3e}",
                         m.starts
                     ),
-                    _ => stop,
+                    _ => format!("{stop}{screened}"),
                 }
             })
         );
@@ -696,6 +704,9 @@ mod tests {
             local_optima_losses: vec![0.012, 0.013, 0.2, 1.5],
             failed_simulations: 3,
             failed_starts: 1,
+            screened_starts: 32,
+            screened_failed: 5,
+            screened_better: 3,
             estimation_time_s: 0.3,
             gradient_norm: Some(3.2e-7),
             load_ramp_s: Some(4.25),
@@ -851,7 +862,7 @@ mod tests {
         assert!(html.contains("Table 5.11"));
         assert!(
             html.contains(
-                "converged (gradient 3.2e-7); load eased over 4.2 s (estimation runs: each change over its own, 3.2–6.9 s); validation runs: each change over its own, fitted with the parameters fixed, 4.4–7.5 s; 4 starts (1 failed), local optima's losses 1.200e-2 to 1.500e0"
+                "converged (gradient 3.2e-7); load eased over 4.2 s (estimation runs: each change over its own, 3.2–6.9 s); validation runs: each change over its own, fitted with the parameters fixed, 4.4–7.5 s; 32 points screened (5 did not simulate), 3 better than the start; 4 starts (1 failed), local optima's losses 1.200e-2 to 1.500e0"
             ),
             "the global stage's spread"
         );

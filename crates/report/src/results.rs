@@ -295,6 +295,17 @@ pub struct ModelResult {
     pub failed_simulations: usize,
     /// Starts of the global stage whose local fit failed as a whole (of [`Self::starts`]).
     pub failed_starts: usize,
+    /// Design points the global stage screened by their loss before its local fits (0:
+    /// none, the starts were not screened).
+    #[serde(default)]
+    pub screened_starts: usize,
+    /// Of [`Self::screened_starts`], the points whose runs did not all simulate.
+    #[serde(default)]
+    pub screened_failed: usize,
+    /// Of [`Self::screened_starts`], the points that explained the estimation runs better
+    /// than the start did: the local fits beside the start's began at the best of them.
+    #[serde(default)]
+    pub screened_better: usize,
     pub estimation_time_s: f64,
     /// The norm of the loss gradient over the free parameters at the estimate (scaled
     /// coordinates: offsets from nominal in units of each parameter's scale); small against
@@ -346,6 +357,9 @@ impl ModelResult {
             local_optima_losses: vec![],
             failed_simulations: 0,
             failed_starts: 0,
+            screened_starts: 0,
+            screened_failed: 0,
+            screened_better: 0,
             estimation_time_s: 0.0,
             gradient_norm: None,
             load_ramp_s: None,
@@ -431,6 +445,9 @@ mod tests {
                     local_optima_losses: vec![0.01, 0.01, 0.5],
                     failed_simulations: 0,
                     failed_starts: 0,
+                    screened_starts: 32,
+                    screened_failed: 3,
+                    screened_better: 2,
                     estimation_time_s: 0.2,
                     gradient_norm: Some(2.5e-6),
                     load_ramp_s: Some(5.5),
@@ -609,6 +626,9 @@ mod tests {
             "protocols[].models[].model",
             "protocols[].models[].notes",
             "protocols[].models[].runs",
+            "protocols[].models[].screened_better",
+            "protocols[].models[].screened_failed",
+            "protocols[].models[].screened_starts",
             "protocols[].models[].runs[].error",
             "protocols[].models[].runs[].estimated",
             "protocols[].models[].runs[].estimated.height_percent",

@@ -688,6 +688,7 @@ pub fn fit_and_validate(
     let fit_options = GreyboxOptions::default().with_max_iterations(options.max_iterations);
     let global = MultiStart {
         count: options.starts,
+        screen: options.screen,
         ..MultiStart::default()
     };
     // The transition time the logged load is eased over, once estimated (None: as logged).
@@ -774,6 +775,9 @@ pub fn fit_and_validate(
             result.local_optima_losses = summary.losses;
             result.failed_simulations = est.failed_simulations;
             result.failed_starts = summary.failed;
+            result.screened_starts = summary.screened;
+            result.screened_failed = summary.screened_failed;
+            result.screened_better = summary.screened_better;
             if matches!(est.stop, StopReason::NoParameterMoved { .. }) {
                 result.notes.push(est.stop.to_string());
             } else if !est.stop.is_converged() {
@@ -794,8 +798,17 @@ pub fn fit_and_validate(
                     .iter()
                     .map(|(p, c)| format!("{p} ({c:+.3})"))
                     .collect();
+                // The fit this one refined may have moved it (an earlier round, or a start of
+                // the global stage other than the file's, which drew it).
+                let kept = match (est.parameter(&n.name), nominal.parameter(&n.name)) {
+                    (Some(p), Ok(file)) if p.estimate != file => format!(
+                        "kept at {:.4e}, where the global stage's winning start or an earlier round put it (the start values: {file:.4e})",
+                        p.estimate
+                    ),
+                    _ => "kept at its start value".to_owned(),
+                };
                 result.notes.push(format!(
-                    "{} is not determined by {} ({}): kept at its start value{}{}",
+                    "{} is not determined by {} ({}): {kept}{}{}",
                     n.name,
                     protocol.estimation.join(" + "),
                     n.reason.describe(),

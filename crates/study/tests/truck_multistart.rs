@@ -41,6 +41,7 @@ fn the_truck_structure_from_fifty_percent_off_reaches_the_optimum_of_a_start_at_
         count: 4,
         spread: 0.5,
         seed: 3,
+        screen: 0,
     };
     let (best, summary) = estimate_multistart(&off, &options, &ms, &mut NoProgress).unwrap();
     println!(

@@ -334,7 +334,7 @@ fn run_the_study(
 /// `study` is None). Returns `{"results": path of results.json, "report": path of report.html,
 /// "notes", "chart_failures"}`.
 #[pyfunction]
-#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, variant=None, load_ramp=None, exclude_after_load_change_s=None, validation_transitions=None, prefix_s=None))]
+#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, screen=None, variant=None, load_ramp=None, exclude_after_load_change_s=None, validation_transitions=None, prefix_s=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn study<'py>(
     py: Python<'py>,
@@ -347,6 +347,7 @@ pub fn study<'py>(
     initial_state: Option<String>,
     normalisation: Option<String>,
     starts: Option<usize>,
+    screen: Option<usize>,
     variant: Option<u32>,
     load_ramp: Option<String>,
     exclude_after_load_change_s: Option<f64>,
@@ -398,7 +399,8 @@ pub fn study<'py>(
             normalisation.as_deref().unwrap_or("pooled-spread"),
         )
         .or_py()?,
-        starts: starts.unwrap_or(1),
+        starts: starts.unwrap_or(airsus_study::DEFAULT_STARTS),
+        screen: screen.unwrap_or(airsus_study::DEFAULT_SCREEN),
         load_ramp,
         exclude_after_load_change_s,
         validation_transitions,

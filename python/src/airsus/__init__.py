@@ -978,7 +978,8 @@ def study(
     seed: Optional[int] = None,
     initial_state: str = "joint",
     normalisation: str = "pooled-spread",
-    starts: int = 1,
+    starts: int = 4,
+    screen: int = 32,
     variant: Optional[int] = None,
     load_ramp: str = "estimate",
     progress: Progress = None,
@@ -1002,7 +1003,11 @@ def study(
             validation runs), ``"prefix"`` (the estimation runs' starts fitted once under the
             start values and held) or ``"equilibrium"``, as ``--initial-state``.
         normalisation: ``"pooled-spread"`` or ``"noise-level"``, as ``--normalisation``.
-        starts: starts of each grey-box fit's global stage, as ``--starts``.
+        starts: local fits of each grey-box fit's global stage at most, the start's
+            included (1: the plain local fit), as ``--starts``.
+        screen: points of the global stage's design screened by their loss before any
+            local fit begins at the best of those better than the start, as ``--screen``
+            (0: the starts are the design's first points, unscreened).
         variant: member of the virtual truck family for the built-in study (only with
             ``path=None``; default 0, the reference truck), as ``--variant``.
         load_ramp: ``"estimate"`` (each logged load change eased over a transition time
@@ -1034,6 +1039,7 @@ def study(
         initial_state=initial_state,
         normalisation=normalisation,
         starts=int(starts),
+        screen=int(screen),
         variant=None if variant is None else int(variant),
         load_ramp=load_ramp,
         exclude_after_load_change_s=float(exclude_after_load_change_s),

@@ -160,14 +160,16 @@ def study(
     models: Optional[Sequence[str]] = None,
     max_iterations: int = 60,
     seed: Optional[int] = None,
-    initial_state: str = "prefix",
+    initial_state: str = "joint",
     normalisation: str = "pooled-spread",
-    starts: int = 1,
+    starts: int = 4,
+    screen: int = 32,
     variant: Optional[int] = None,
     load_ramp: str = "estimate",
     progress: Progress = None,
     exclude_after_load_change_s: float = 0.0,
     validation_transitions: str = "fitted",
+    prefix_s: float = 10.0,
 ) -> Dict[str, Any]: ...
 def generate(out: PathLike, seed: int = 1, *, progress: Progress = None) -> Dict[str, Any]: ...
 def nrmse(y: _ArrayLike, yhat: _ArrayLike) -> float: ...

@@ -107,10 +107,12 @@ def study(
     initial_state: Optional[str] = None,
     normalisation: Optional[str] = None,
     starts: Optional[int] = None,
+    screen: Optional[int] = None,
     variant: Optional[int] = None,
     load_ramp: Optional[str] = None,
     exclude_after_load_change_s: Optional[float] = None,
     validation_transitions: Optional[str] = None,
+    prefix_s: Optional[float] = None,
 ) -> Dict[str, Any]: ...
 def generate(out: str, seed: int = 1, progress: _Progress = None) -> Dict[str, Any]: ...
 def nrmse(measured: _Array, simulated: _Array) -> float: ...

@@ -131,6 +131,12 @@ pub struct GreyboxArgs {
     /// (1: the plain local fit).
     #[arg(long, default_value_t = 1)]
     pub starts: usize,
+    /// Points of the Latin hypercube screened by their loss (one simulation of each run
+    /// each) before any local fit: the starts beside the nominal one then begin at the best
+    /// of the points that explain the runs better than the nominal point does (fewer when
+    /// fewer do). 0: the starts are the hypercube's first points, unscreened.
+    #[arg(long, default_value_t = 0)]
+    pub screen: usize,
     /// Half-width of the starts' range around each nominal value, relative.
     #[arg(long, default_value_t = 0.5)]
     pub start_spread: f64,
@@ -295,6 +301,7 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
             count: args.starts,
             spread: args.start_spread,
             seed: 1,
+            screen: args.screen,
         },
         start,
         &PrefixOptions {
@@ -314,9 +321,8 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     let result = joint.estimate;
     if args.starts > 1 {
         eprintln!(
-            "global stage: {} starts ({} failed), best from start {}; local optima's losses {}",
-            global.starts,
-            global.failed,
+            "global stage: {}, best from start {}; local optima's losses {}",
+            global.describe(),
             global.best_start,
             global
                 .losses

@@ -55,10 +55,16 @@ pub struct StudyArgs {
     /// its own measurement noise, every run equally).
     #[arg(long, value_enum, default_value_t = crate::commands::greybox::NormalisationArg::PooledSpread)]
     pub normalisation: crate::commands::greybox::NormalisationArg,
-    /// Starts of each grey-box fit's global stage (the nominal point plus a Latin hypercube
-    /// over nominal ± 50 %; 1: the plain local fit). Fits run about this many times longer.
-    #[arg(long, default_value_t = 1)]
+    /// Local fits of each grey-box fit's global stage at most, the start's included (1: the
+    /// plain local fit). The others begin at the best of the `--screen` points that explain
+    /// the estimation runs better than the start does; each costs about one more fit.
+    #[arg(long, default_value_t = airsus_study::DEFAULT_STARTS)]
     pub starts: usize,
+    /// Points of a Latin hypercube over the start ± 50 % the global stage screens by their
+    /// loss (one simulation of each run each) before it starts a local fit from any; 0: the
+    /// local fits begin at the hypercube's first points unscreened.
+    #[arg(long, default_value_t = airsus_study::DEFAULT_SCREEN)]
+    pub screen: usize,
     /// Iteration limit of each grey-box fit.
     #[arg(long, default_value_t = 60)]
     pub max_iterations: usize,
@@ -136,6 +142,7 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
         },
         normalisation: args.normalisation.into(),
         starts: args.starts,
+        screen: args.screen,
         load_ramp: args.load_ramp.into(),
         exclude_after_load_change_s: args.exclude_after_load_change_s,
         validation_transitions: args.validation_transitions == ValidationTransitionsArg::Fitted,

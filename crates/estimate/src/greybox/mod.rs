@@ -183,6 +183,14 @@ fn all_simulated(ev: &Evaluator<'_>, responses: &Responses) -> Result<(), Estima
 /// `parallel`: the runs simulated in parallel. Fails where [`estimate`] would: a malformed
 /// problem, or a run that does not simulate.
 pub fn loss_at(problem: &GreyboxProblem<'_>, parallel: bool) -> Result<f64, EstimateError> {
+    loss_and_steps_at(problem, parallel).map(|(loss, _)| loss)
+}
+
+/// [`loss_at`], and the most solver steps (accepted and rejected) any run took.
+pub(crate) fn loss_and_steps_at(
+    problem: &GreyboxProblem<'_>,
+    parallel: bool,
+) -> Result<(f64, usize), EstimateError> {
     let mut ev = as_it_stands(problem)?;
     ev.parallel = parallel;
     let responses = ev.simulate(&[])?;
@@ -190,7 +198,16 @@ pub fn loss_at(problem: &GreyboxProblem<'_>, parallel: bool) -> Result<f64, Esti
     let n_data = ev.n_data();
     let mut residuals = vec![0.0; n_data];
     ev.residuals_into(&[], &responses, 0.0, &mut residuals);
-    Ok(residuals.iter().map(|r| r * r).sum::<f64>() / n_data as f64)
+    let steps = responses
+        .iter()
+        .flatten()
+        .map(|r| r.statistics.steps + r.statistics.rejected_steps)
+        .max()
+        .unwrap_or(0);
+    Ok((
+        residuals.iter().map(|r| r * r).sum::<f64>() / n_data as f64,
+        steps,
+    ))
 }
 
 /// Per run of `problem`, the factors its height and pressure residuals are multiplied by
