@@ -74,6 +74,12 @@ def test_weigh_equals_the_command(reference: Path, tmp_path: Path, cli) -> None:
     # Data-set 2's load changes arrive with the valve closed: flagged as such.
     assert (load["quality"] == "loading").sum() > 500
     assert (load["quality"] == "standstill").sum() > 5000
+    # The flag's thresholds, as the command's --loading-*: no 300 kg step moves the
+    # pressure by 80 kPa; a hold that is not positive is refused by name.
+    above = airsus.weigh(truck, run, loading_shift_kpa=80.0)
+    assert (above["quality"] == "loading").sum() == 0
+    with pytest.raises(airsus.AirsusError, match="loading hold must be a positive"):
+        airsus.weigh(truck, run, loading_hold_s=0.0)
 
 
 def test_weigh_calibration_on_two_runs(reference: Path, tmp_path: Path, cli) -> None:

@@ -1218,4 +1218,35 @@ fn a_load_arriving_is_flagged_from_the_run_alone() {
     println!("data-set 3 (no load change): {valve_run} flagged; road 2: {road_run}");
     assert!(valve_run < ds3.logged.len() / 50, "{valve_run}");
     assert_eq!(road_run, 0);
+
+    // The thresholds are the caller's (`weigh --loading-shift-kpa` etc.): a shift above what
+    // a 250-350 kg step moves the pressure by (about 30 kPa) flags no arrival, a longer hold
+    // flags more samples, a threshold that is not a positive number is an error naming it.
+    let flagged_by = |detector: &StandstillDetector| {
+        quality_flags(&ds1.logged, detector)
+            .unwrap()
+            .iter()
+            .filter(|&&q| q == WeighQuality::Loading)
+            .count()
+    };
+    let defaults = StandstillDetector::default();
+    assert_eq!(flagged_by(&defaults), all);
+    let above_any_step = defaults.clone().with_loading(80e3, 2.0, 10.0).unwrap();
+    assert_eq!(flagged_by(&above_any_step), 0);
+    let held_longer = defaults.clone().with_loading(3e3, 2.0, 20.0).unwrap();
+    let longer = flagged_by(&held_longer);
+    println!("held 20 s: {longer} flagged");
+    assert!(longer > all + 5 * 5, "{longer} against {all}");
+    for (shift, window, hold, named) in [
+        (-1.0, 2.0, 10.0, "loading pressure shift"),
+        (3e3, f64::NAN, 10.0, "loading window"),
+        (3e3, 2.0, 0.0, "loading hold"),
+    ] {
+        let err = defaults
+            .clone()
+            .with_loading(shift, window, hold)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(named), "{err}");
+    }
 }

@@ -266,6 +266,33 @@ fn weigh_static_and_ekf_are_scored_against_the_true_load() {
         why.contains("--calibration-start gives 2 start(s) for 1 --calibration-run(s)"),
         "{why}"
     );
+    // The `loading` flag's thresholds are the user's: data-set 2's arrivals are flagged
+    // (and counted in the summary) by default, none above a 80 kPa shift; a threshold
+    // that is not a positive number is refused, by name.
+    let arrivals = |more: &[&str]| {
+        let report = ok(&weigh_static_truck(more));
+        let line = report
+            .lines()
+            .find(|l| l.contains("with a load arriving"))
+            .unwrap_or_else(|| panic!("{report}"))
+            .to_owned();
+        let n: usize = line
+            .split(" settling, ")
+            .nth(1)
+            .and_then(|rest| rest.split(' ').next())
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"));
+        n
+    };
+    assert!(arrivals(&[]) > 100);
+    assert_eq!(arrivals(&["--loading-shift-kpa", "80"]), 0);
+    let refused = weigh_static_truck(&["--loading-hold-s", "0"]);
+    assert!(!refused.status.success());
+    let why = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        why.contains("--loading-hold-s") && why.contains("loading hold must be a positive"),
+        "{why}"
+    );
     // A log that never leaves its first standstill (data-set 2's first 90 s) says so.
     let text = std::fs::read_to_string(dir.path().join("ds2.csv")).unwrap();
     let still: String = text.lines().take(901).map(|l| format!("{l}\n")).collect();

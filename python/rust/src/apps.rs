@@ -80,6 +80,7 @@ fn parse_hysteresis_start(name: &str, what: &str) -> anyhow::Result<HysteresisSt
     })
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_weigh(
     truck: &TruckParameters,
     source: &RunSource,
@@ -88,6 +89,7 @@ fn run_weigh(
     window_s: f64,
     start: HysteresisStart,
     calibration: &[(RunSource, HysteresisStart)],
+    detector: &StandstillDetector,
 ) -> anyhow::Result<Weighed> {
     let ekf = match method {
         "static" => false,
@@ -122,7 +124,7 @@ fn run_weigh(
     };
     let mut series =
         estimate(&run, start).with_context(|| format!("weighing {}", source.label()))?;
-    let flags = quality_flags(&run, &StandstillDetector::default())
+    let flags = quality_flags(&run, detector)
         .with_context(|| format!("flagging the samples of {}", source.label()))?;
     let quality = flags.iter().map(|q| q.as_str()).collect();
     let mut fitted = None;
@@ -143,8 +145,8 @@ fn run_weigh(
         } else {
             CalibrationTerms::for_static(&weigher.law)
         };
-        let cal =
-            LinearCalibration::fit_weighed_runs(&runs, &rule, terms).context("calibrating")?;
+        let cal = LinearCalibration::fit_weighed_runs_flagged_by(&runs, &rule, terms, detector)
+            .context("calibrating")?;
         series = cal.apply_with_quality(
             &series,
             Some(&run.measured()?.sensor_height_m),
@@ -164,7 +166,7 @@ fn run_weigh(
 /// Returns `{"time_s", "wheel_load_kg", "wheel_load_std_kg", "quality", "calibration"}` at full
 /// precision (the command's CSV rounds to 3 decimals).
 #[pyfunction]
-#[pyo3(signature = (truck, run, method=None, model=None, window_s=None, calibration_run=None, start_hysteresis=None, calibration_start=None))]
+#[pyo3(signature = (truck, run, method=None, model=None, window_s=None, calibration_run=None, start_hysteresis=None, calibration_start=None, loading_shift_kpa=None, loading_window_s=None, loading_hold_s=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn weigh<'py>(
     py: Python<'py>,
@@ -176,7 +178,23 @@ pub fn weigh<'py>(
     calibration_run: Option<Vec<RunSpec<'py>>>,
     start_hysteresis: Option<String>,
     calibration_start: Option<Vec<String>>,
+    loading_shift_kpa: Option<f64>,
+    loading_window_s: Option<f64>,
+    loading_hold_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let defaults = StandstillDetector::default();
+    let detector = defaults
+        .clone()
+        .with_loading(
+            loading_shift_kpa.map_or(defaults.loading_shift_pa, |kpa| kpa * 1e3),
+            loading_window_s.unwrap_or(defaults.loading_window_s),
+            loading_hold_s.unwrap_or(defaults.loading_hold_s),
+        )
+        .map_err(|e| {
+            crate::error::to_py(anyhow::anyhow!(
+                "loading_shift_kpa, loading_window_s, loading_hold_s: {e}"
+            ))
+        })?;
     let params = truck.params.clone();
     drop(truck);
     let source = RunSource::from_spec(run)?;
@@ -223,6 +241,7 @@ pub fn weigh<'py>(
                 window_s,
                 start,
                 &calibration,
+                &detector,
             )
         })
         .or_py()?;

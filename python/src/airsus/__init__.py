@@ -875,6 +875,9 @@ def weigh(
     calibration_run: Union[None, RunLike, Sequence[RunLike]] = None,
     start_hysteresis: str = "unknown",
     calibration_start: Union[None, str, Sequence[str]] = None,
+    loading_shift_kpa: float = 3.0,
+    loading_window_s: float = 2.0,
+    loading_hold_s: float = 10.0,
 ) -> pd.DataFrame:
     """Estimate the wheel load over a run from its measured pressure and height (the logged
     load is not used), as ``airsus weigh`` does.
@@ -904,6 +907,11 @@ def weigh(
             or ``raised`` (a fill, a load taken off).
         calibration_start: how each calibration run starts (as ``start_hysteresis``), one
             per run in the same order; ``None``: every one ``unknown``.
+        loading_shift_kpa, loading_window_s, loading_hold_s: a sample is flagged
+            ``loading`` when the mean pressure over the window after it differs from the mean
+            over the window before it by more than the shift (valve closed, road still), and
+            for the hold after the last such sample; as ``--loading-shift-kpa`` etc. The
+            defaults suit 100-300 kg steps on a truck axle (about 30 kPa).
 
     Returns:
         A DataFrame ``time_s, wheel_load_kg, wheel_load_std_kg, quality`` at full precision
@@ -953,6 +961,9 @@ def weigh(
         calibration_run=calibration,
         start_hysteresis=start_hysteresis,
         calibration_start=None if starts is None else list(starts),
+        loading_shift_kpa=float(loading_shift_kpa),
+        loading_window_s=float(loading_window_s),
+        loading_hold_s=float(loading_hold_s),
     )
     frame = pd.DataFrame(
         {

@@ -152,6 +152,9 @@ def weigh(
     calibration_run: Union[None, RunLike, Sequence[RunLike]] = None,
     start_hysteresis: str = "unknown",
     calibration_start: Union[None, str, Sequence[str]] = None,
+    loading_shift_kpa: float = 3.0,
+    loading_window_s: float = 2.0,
+    loading_hold_s: float = 10.0,
 ) -> pd.DataFrame: ...
 def study(
     path: Optional[PathLike],

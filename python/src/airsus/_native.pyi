@@ -96,6 +96,10 @@ def weigh(
     window_s: Optional[float] = None,
     calibration_run: Optional[List[_RunSpec]] = None,
     start_hysteresis: Optional[str] = None,
+    calibration_start: Optional[List[str]] = None,
+    loading_shift_kpa: Optional[float] = None,
+    loading_window_s: Optional[float] = None,
+    loading_hold_s: Optional[float] = None,
 ) -> Dict[str, Any]: ...
 def study(
     study_file: Optional[str],

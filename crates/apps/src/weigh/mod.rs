@@ -941,10 +941,20 @@ impl LinearCalibration {
         rule: &StandstillRule,
         terms: CalibrationTerms,
     ) -> Result<Self, AppError> {
-        let detector = StandstillDetector::default();
+        Self::fit_weighed_runs_flagged_by(runs, rule, terms, &StandstillDetector::default())
+    }
+
+    /// [`Self::fit_weighed_runs`], the runs' samples flagged by `detector` (as the run
+    /// weighed with the calibration must be, for its classes to mean the same).
+    pub fn fit_weighed_runs_flagged_by(
+        runs: &[(&Run, &WeighSeries)],
+        rule: &StandstillRule,
+        terms: CalibrationTerms,
+        detector: &StandstillDetector,
+    ) -> Result<Self, AppError> {
         let flags = runs
             .iter()
-            .map(|(run, _)| quality_flags(run, &detector))
+            .map(|(run, _)| quality_flags(run, detector))
             .collect::<Result<Vec<_>, _>>()?;
         let calibration_runs = runs
             .iter()

@@ -76,6 +76,35 @@ impl Default for StandstillDetector {
     }
 }
 
+impl StandstillDetector {
+    /// The default detector with the `loading` flag's thresholds replaced: the pressure shift
+    /// between the windows, Pa, the windows' length, s, and how long the flag holds after the
+    /// last shift, s. The defaults are tuned on the virtual truck (a 300 kg step moves the
+    /// pressure by about 30 kPa, the gas cooling after a fill 1-2 kPa); a truck whose loads
+    /// arrive in smaller steps, or a noisier pressure sensor, wants others. Each must be a
+    /// positive number.
+    pub fn with_loading(self, shift_pa: f64, window_s: f64, hold_s: f64) -> Result<Self, AppError> {
+        for (name, value, unit) in [
+            ("loading pressure shift", shift_pa, "Pa"),
+            ("loading window", window_s, "s"),
+            ("loading hold", hold_s, "s"),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(invalid(
+                    "standstill detector",
+                    format!("the {name} must be a positive number of {unit}, got {value}"),
+                ));
+            }
+        }
+        Ok(Self {
+            loading_shift_pa: shift_pa,
+            loading_window_s: window_s,
+            loading_hold_s: hold_s,
+            ..self
+        })
+    }
+}
+
 /// One weighed standstill.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Standstill {

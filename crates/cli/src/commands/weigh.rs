@@ -72,6 +72,19 @@ pub struct WeighArgs {
     /// Averaging window of the static method, s.
     #[arg(long, default_value_t = 2.0)]
     pub window_s: f64,
+    /// A sample is flagged `loading` (a load arriving, read with the interval the calibration
+    /// runs' arrivals measured) when the mean pressure over --loading-window-s after it
+    /// differs from the mean over the window before it by more than this, with the valve
+    /// closed and the road still, kPa. The default suits 100-300 kg steps on a truck axle
+    /// (about 30 kPa); smaller loads or a noisier sensor want another.
+    #[arg(long, default_value_t = StandstillDetector::default().loading_shift_pa / 1e3)]
+    pub loading_shift_kpa: f64,
+    /// The windows the `loading` flag compares, s (see --loading-shift-kpa).
+    #[arg(long, default_value_t = StandstillDetector::default().loading_window_s)]
+    pub loading_window_s: f64,
+    /// How long the `loading` flag holds after the last shift, s.
+    #[arg(long, default_value_t = StandstillDetector::default().loading_hold_s)]
+    pub loading_hold_s: f64,
     /// A run whose logged load is trusted at standstill (e.g. weighbridge loads, a study's
     /// estimation runs): the interval then comes from its residuals (the part the estimate's
     /// own noise does not explain, sized to hold 95 % of each run's known loads). A gain, an
@@ -149,8 +162,15 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
         eprintln!("note: {note}");
     }
     let rule = StandstillRule::default();
+    let detector = StandstillDetector::default()
+        .with_loading(
+            args.loading_shift_kpa * 1e3,
+            args.loading_window_s,
+            args.loading_hold_s,
+        )
+        .context("--loading-shift-kpa, --loading-window-s, --loading-hold-s")?;
     // How far each sample can be trusted, from the run alone.
-    let quality = quality_flags(&run, &StandstillDetector::default())
+    let quality = quality_flags(&run, &detector)
         .with_context(|| format!("flagging the samples of {}", args.run.display()))?;
     let calibration_starts =
         calibration_starts(&args.calibration_start, args.calibration_run.len())?;
@@ -175,7 +195,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
                 airsus_truck::models::build_any_model(&args.model, &truck)?.as_ref(),
             )),
         };
-        let cal = LinearCalibration::fit_weighed_runs(&runs, &rule, terms)
+        let cal = LinearCalibration::fit_weighed_runs_flagged_by(&runs, &rule, terms, &detector)
             .with_context(|| format!("calibrating on {names}"))?;
         println!(
             "calibration on {names}: load = {:.5} x estimate {:+.1} kg {:+.1} kg x z (wall-friction state) {:+.2} kg/mm x (height - {:.1} mm) ({} standstill samples, residual rms {:.1} kg, 95 % within {:.1} kg; interval σ {:.1} kg beside the estimate's own × {:.3})",
@@ -246,9 +266,10 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             hi
         );
         println!(
-            "  samples: {} standstill, {} settling, {} with the valve open",
+            "  samples: {} standstill, {} settling, {} with a load arriving, {} with the valve open",
             count(WeighQuality::Standstill),
             count(WeighQuality::Settling),
+            count(WeighQuality::Loading),
             count(WeighQuality::Valve)
         );
         let standstill: Vec<usize> = (0..n)
