@@ -109,6 +109,9 @@ pub enum Field {
     TireDamping,
     /// `dscl`: the damper table's scale.
     DamperScale,
+    /// `dc0, dc1, ..`: per-point factors on the damper table's forces (at most
+    /// [`MAX_DAMPER_CORRECTIONS`]), present while the truck file names `damper.correction`.
+    DamperCorrection(usize),
     LeverCompliance,
     FillResistance,
     ExhaustResistance,
@@ -145,6 +148,7 @@ impl Field {
             Self::TireStiffness => ("tire", "stiffness_n_per_m", None),
             Self::TireDamping => ("tire", "damping_n_s_per_m", None),
             Self::DamperScale => ("damper", "scale", None),
+            Self::DamperCorrection(i) => ("damper", "correction", Some(i)),
             Self::LeverCompliance => ("geometry", "lever_compliance_m_per_n", None),
             Self::FillResistance => ("valve", "fill_resistance_pa_s_per_mol", None),
             Self::ExhaustResistance => ("valve", "exhaust_resistance_pa_s_per_mol", None),
@@ -189,6 +193,11 @@ impl Field {
             .expect("every field is declared in CATALOG (tested)")
     }
 }
+
+/// The most points of a damper table that carry their own correction factor (`dc0`..`dc11`):
+/// a data sheet's table has 6-10 (the virtual truck's 7), each of which is declared in
+/// [`CATALOG`].
+pub const MAX_DAMPER_CORRECTIONS: usize = 12;
 
 /// The most knots a spline effective area has (`s0`..`s15`): a force map's heights (thesis
 /// Fig 5.8 has 11, the virtual truck's lab 10), each of which is declared in [`CATALOG`].
@@ -266,6 +275,19 @@ const fn knot(i: usize, name: &'static str) -> Param {
         1.0,
     )
     .needing("the bellow force map at the knot's height, or loads that hold the bellow there")
+}
+
+/// One point's correction factor of the damper table.
+const fn damper_point(i: usize, name: &'static str) -> Param {
+    param(
+        Field::DamperCorrection(i),
+        name,
+        "-",
+        "damper table correction: this point's force times it, on top of dscl (the table's shape)",
+        0.2,
+        5.0,
+    )
+    .needing("road input that strokes the damper at this point's velocity and its neighbours'")
 }
 
 /// All SPEC §5 names plus the creep element's (`m2xh`). `ksd` appears twice with different
@@ -399,6 +421,18 @@ pub const CATALOG: &[Param] = &[
         10.0,
     )
     .needing("road input or fast motion (the damper strokes)"),
+    damper_point(0, "dc0"),
+    damper_point(1, "dc1"),
+    damper_point(2, "dc2"),
+    damper_point(3, "dc3"),
+    damper_point(4, "dc4"),
+    damper_point(5, "dc5"),
+    damper_point(6, "dc6"),
+    damper_point(7, "dc7"),
+    damper_point(8, "dc8"),
+    damper_point(9, "dc9"),
+    damper_point(10, "dc10"),
+    damper_point(11, "dc11"),
     param(
         Field::LeverCompliance,
         "kscl",
@@ -571,6 +605,11 @@ pub fn law_fields(fields: &[Field], truck: &TruckParameters) -> Vec<Field> {
     let mut done: Vec<LawFamily> = Vec::new();
     for &field in fields {
         match field.law_family() {
+            // The table's per-point corrections follow its scale, while the file names them.
+            None if field == Field::DamperScale => {
+                out.push(field);
+                out.extend((0..truck.damper.correction.len()).map(Field::DamperCorrection));
+            }
             None => out.push(field),
             Some(family) if !done.contains(&family) => {
                 done.push(family);
@@ -646,6 +685,7 @@ pub fn get(truck: &TruckParameters, field: Field) -> f64 {
             Field::TireStiffness => Some(truck.tire.stiffness_n_per_m),
             Field::TireDamping => Some(truck.tire.damping_n_s_per_m),
             Field::DamperScale => Some(truck.damper.scale),
+            Field::DamperCorrection(i) => truck.damper.correction.get(i).copied(),
             Field::LeverCompliance => Some(truck.geometry.lever_compliance_m_per_n),
             Field::SlowForceScale => truck.slow_dynamics.force_scale,
             Field::CreepStiffness => truck.slow_dynamics.creep_stiffness_n_per_m,
@@ -676,6 +716,16 @@ pub fn set(truck: &mut TruckParameters, field: Field, value: f64) -> bool {
             Field::TireStiffness => &mut truck.tire.stiffness_n_per_m,
             Field::TireDamping => &mut truck.tire.damping_n_s_per_m,
             Field::DamperScale => &mut truck.damper.scale,
+            Field::DamperCorrection(i) => {
+                // A table without corrections has them all at 1: naming one names them all.
+                let points = truck.damper.velocity_m_s.len();
+                if i >= points.min(MAX_DAMPER_CORRECTIONS) {
+                    return false;
+                }
+                truck.damper.correction.resize(points, 1.0);
+                truck.damper.correction[i] = value;
+                return true;
+            }
             Field::LeverCompliance => &mut truck.geometry.lever_compliance_m_per_n,
             Field::SlowForceScale => {
                 truck.slow_dynamics.force_scale = Some(value);

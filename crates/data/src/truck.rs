@@ -96,16 +96,29 @@ pub struct DamperTable {
     /// damps more or less (wear, temperature, tolerance) with about the same shape, so one
     /// factor is what road runs can estimate where the table's points are not.
     pub scale: f64,
+    /// `dc0, dc1, ..`: each point's force times this too (key `damper.correction`, one
+    /// factor per point; empty: none, every factor 1). Where the truck's damper differs from
+    /// its table in shape, not only in level (a worn valve stage, a data sheet of another
+    /// build), a road run that strokes the damper over several velocities determines the
+    /// points it reaches.
+    pub correction: Vec<f64>,
 }
 
 impl DamperTable {
-    /// A table of `velocity_m_s` and `force_n` at scale 1.
+    /// A table of `velocity_m_s` and `force_n` at scale 1, uncorrected.
     pub fn new(velocity_m_s: Vec<f64>, force_n: Vec<f64>) -> Self {
         Self {
             velocity_m_s,
             force_n,
             scale: 1.0,
+            correction: Vec::new(),
         }
+    }
+
+    /// The force of point `i` as the truck's damper gives it: the table's, times the scale
+    /// and the point's correction.
+    pub fn corrected_force_n(&self, i: usize) -> f64 {
+        self.force_n[i] * self.scale * self.correction.get(i).copied().unwrap_or(1.0)
     }
 }
 
@@ -443,7 +456,7 @@ const BASE_SCHEMA: &[TableSchema] = &[
     },
     TableSchema {
         name: "damper",
-        keys: &["velocity_m_s", "force_n"],
+        keys: &["velocity_m_s", "force_n", "correction"],
     },
     TableSchema {
         name: "bellow",
@@ -527,6 +540,7 @@ struct FileGeometry {
 struct FileDamper {
     velocity_m_s: Option<Vec<f64>>,
     force_n: Option<Vec<f64>>,
+    correction: Option<Vec<f64>>,
 }
 
 #[derive(Deserialize, Default)]
@@ -984,8 +998,29 @@ impl Ctx<'_> {
                 ),
             ));
         }
+        let correction = file.correction.unwrap_or_default();
+        if !correction.is_empty() {
+            let points = velocity.len();
+            if correction.len() != points || points > crate::params::MAX_DAMPER_CORRECTIONS {
+                return Err(self.invalid(
+                    "damper",
+                    "correction",
+                    format!("[{} values]", correction.len()),
+                    format!(
+                        "one factor per table point ({points}), for a table of at most {} points",
+                        crate::params::MAX_DAMPER_CORRECTIONS
+                    ),
+                ));
+            }
+            for (i, &value) in correction.iter().enumerate() {
+                self.check_param(Field::DamperCorrection(i), value)?;
+            }
+        }
         // The scale is a declared key (`DECLARED_KEYS`), read after the table.
-        Ok(DamperTable::new(velocity, force))
+        Ok(DamperTable {
+            correction,
+            ..DamperTable::new(velocity, force)
+        })
     }
 
     /// An area law that is not positive anywhere over the reference bellow's stroke
@@ -1287,6 +1322,13 @@ pub fn truck_to_toml(p: &TruckParameters) -> String {
                 ("force_n", format!("{:?}", p.damper.force_n), ""),
             ]
             .into_iter()
+            .chain((!p.damper.correction.is_empty()).then(|| {
+                (
+                    "correction",
+                    format!("{:?}", p.damper.correction),
+                    "dc0, dc1, ..: each point's force times this",
+                )
+            }))
             .chain(declared_entries(p, "damper"))
             .collect(),
         ),
@@ -1542,6 +1584,44 @@ exhaust_resistance_pa_s_per_mol = 1.5e6  # R_flow2 (est)
         ))
         .unwrap_err();
         assert!(err.to_string().contains("increase strictly"), "{err}");
+    }
+
+    /// Per-point corrections: one per point, each in its declared range, read and written
+    /// back; setting one on a table without them names them all (at 1).
+    #[test]
+    fn damper_corrections_are_one_per_point_and_round_trip() {
+        let velocities = "[-1.0, -0.5, -0.1, 0.0, 0.1, 0.5, 1.0]";
+        let with = |correction: &str| {
+            SPEC_EXAMPLE.replace(
+                &format!("velocity_m_s = {velocities}"),
+                &format!("velocity_m_s = {velocities}\ncorrection = {correction}"),
+            )
+        };
+        let loaded = parse(&with("[1.0, 1.0, 0.8, 1.0, 1.2, 1.0, 1.0]")).unwrap();
+        let damper = &loaded.parameters.damper;
+        assert_eq!(damper.correction[4], 1.2);
+        assert_eq!(damper.corrected_force_n(4), damper.force_n[4] * 1.2);
+        let again = parse(&truck_to_toml(&loaded.parameters)).unwrap();
+        assert_eq!(again.parameters.damper, *damper);
+        let err = parse(&with("[1.0, 1.0]")).unwrap_err().to_string();
+        assert!(
+            err.contains("damper.correction") && err.contains("one factor per table point (7)"),
+            "{err}"
+        );
+        let err = parse(&with("[1.0, 1.0, 0.8, 1.0, 9.0, 1.0, 1.0]"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("damper.correction[4]"), "{err}");
+
+        let mut truck = parse(SPEC_EXAMPLE).unwrap().parameters;
+        assert!(truck.damper.correction.is_empty());
+        assert!(get(&truck, Field::DamperCorrection(2)).is_nan());
+        assert!(set(&mut truck, Field::DamperCorrection(2), 0.7));
+        assert_eq!(
+            truck.damper.correction,
+            vec![1.0, 1.0, 0.7, 1.0, 1.0, 1.0, 1.0]
+        );
+        assert!(!set(&mut truck, Field::DamperCorrection(7), 0.7));
     }
 
     #[test]

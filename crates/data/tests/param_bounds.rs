@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use airsus_data::params::{CATALOG, Field, MAX_AREA_KNOTS, get, set};
+use airsus_data::params::{CATALOG, Field, MAX_AREA_KNOTS, MAX_DAMPER_CORRECTIONS, get, set};
 use airsus_data::truck::parse_truck;
 use airsus_data::{EffectiveAreaLaw, GasVolumeLaw, TruckParameters, ValveFlowLaw, truck_to_toml};
 
@@ -55,6 +55,16 @@ fn reference_with_a_spline() -> TruckParameters {
         .map(|&h| truck.bellow.effective_area.area_m2(h, 0.0))
         .collect();
     truck.bellow.effective_area = EffectiveAreaLaw::spline(heights, areas, Some(0.004)).unwrap();
+    // And a damper table of the most points that carry corrections, each corrected.
+    let n = MAX_DAMPER_CORRECTIONS;
+    truck.damper.velocity_m_s = (0..n).map(|i| -1.1 + 0.2 * i as f64).collect();
+    truck.damper.force_n = truck
+        .damper
+        .velocity_m_s
+        .iter()
+        .map(|v| 4000.0 * v)
+        .collect();
+    truck.damper.correction = (0..n).map(|i| 0.8 + 0.04 * i as f64).collect();
     truck
 }
 

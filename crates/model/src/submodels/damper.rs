@@ -25,7 +25,7 @@ impl Damper {
     pub fn new(table: &DamperTable) -> Self {
         let n = table.velocity_m_s.len().min(table.force_n.len());
         let velocity_m_s = table.velocity_m_s[..n].to_vec();
-        let force_n: Vec<f64> = table.force_n[..n].iter().map(|f| f * table.scale).collect();
+        let force_n: Vec<f64> = (0..n).map(|i| table.corrected_force_n(i)).collect();
         let slope_n_s_per_m = (0..n.saturating_sub(1))
             .map(|i| {
                 let dv = velocity_m_s[i + 1] - velocity_m_s[i];
