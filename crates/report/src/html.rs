@@ -581,9 +581,16 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
                     if e.identifiable {
                         "yes".to_owned()
                     } else {
+                        // A start of the global stage other than the nominal one may have
+                        // won: the parameter then stays where that start drew it.
+                        let kept = if e.estimate == e.nominal {
+                            "kept nominal"
+                        } else {
+                            "kept where the fit's start left it"
+                        };
                         match &e.not_identifiable_because {
-                            Some(why) => format!("<b>no</b> (kept nominal): {}", esc(why)),
-                            None => "<b>no</b> (kept nominal)".to_owned(),
+                            Some(why) => format!("<b>no</b> ({kept}): {}", esc(why)),
+                            None => format!("<b>no</b> ({kept})"),
                         }
                     }
                 );
@@ -852,6 +859,22 @@ mod tests {
             html.contains("<b>no</b> (kept nominal): no sensitivity: the outputs do not depend"),
             "non-identifiable parameters are marked, with the reason"
         );
+        // Left where a winning start of the global stage drew it, not at the nominal value:
+        // said so.
+        let mut drawn = results();
+        let estimate = drawn.protocols[0].models[0]
+            .estimates
+            .iter_mut()
+            .find(|e| !e.identifiable)
+            .unwrap();
+        estimate.estimate = 1.3 * estimate.nominal;
+        let files = write_report(dir.path(), &drawn, &charts()).unwrap();
+        let moved = std::fs::read_to_string(&files.html).unwrap();
+        assert!(
+            moved.contains("<b>no</b> (kept where the fit's start left it): no sensitivity"),
+            "a parameter the fit could not determine, away from its nominal value"
+        );
+        assert!(!moved.contains("(kept nominal)"));
         // Notes are escaped, not injected.
         assert!(html.contains("&lt;closed valve&gt;"));
         // Our numbers beside the thesis': Table 5.14 for m2 on data-set 2.

@@ -228,7 +228,8 @@ pub struct ParameterEstimate {
     pub nominal: f64,
     pub estimate: f64,
     pub std: Option<f64>,
-    /// False when the estimation runs cannot determine it; it is then kept at its nominal.
+    /// False when the estimation runs cannot determine it; it is then kept at its start
+    /// value: the nominal one, or the draw of the global stage's start that won.
     pub identifiable: bool,
     /// Why not, when not (`no sensitivity: ...`, `only a combination with a0 is
     /// determined`, `standard deviation 240 % of its scale (limit 100 %)`); `null` when
@@ -283,7 +284,9 @@ pub struct ModelResult {
     /// The optimiser's stop reason (`converged`, `max_iterations`, ...).
     pub stop_reason: Option<String>,
     pub simulations: usize,
-    /// Starts of the global stage (1: the plain local fit).
+    /// Local fits the global stage ran, the start's included (1: the plain local fit, or no
+    /// screened point explained the runs better than the start, see
+    /// [`Self::screened_better`]).
     #[serde(default = "one")]
     pub starts: usize,
     /// The loss (mean squared normalised residual) of every start's local optimum, best

@@ -112,9 +112,11 @@ pub const DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S: f64 = 0.0;
 
 /// The study's default for [`StudyOptions::starts`] and [`StudyOptions::screen`]: the global
 /// stage on, screened. 32 points around the start, and a local fit from at most 3 of them
-/// that explain the runs better than the start does. On the built-in study none does (the
-/// submodel fits start every model near its optimum) and the stage costs about a second;
-/// unscreened, its 3 extra local fits took the study from 57 to 127 s, and none won.
+/// that explain the runs better than the start does. On the built-in study (seed 1) none
+/// does for m1, m2, m2x, m2xh and `truck` (the submodel fits start them near their optimum),
+/// and the screen costs each 0.1-1.6 s; for Model 3 under the valve protocol 8 do, and one
+/// of them wins (loss 0.469 → 0.353). The study takes 64 s, against 57 s without the stage;
+/// unscreened, 3 extra local fits took it to 127 s, and none won (BENCHMARKS.md).
 pub const DEFAULT_STARTS: usize = 4;
 pub const DEFAULT_SCREEN: usize = 32;
 

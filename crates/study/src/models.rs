@@ -771,6 +771,7 @@ pub fn fit_and_validate(
             result.stop_reason = Some(est.stop.to_string());
             result.gradient_norm = est.gradient_norm;
             result.simulations = est.simulations;
+            let drawn_start_won = summary.best_start != 0;
             result.starts = summary.starts;
             result.local_optima_losses = summary.losses;
             result.failed_simulations = est.failed_simulations;
@@ -798,12 +799,17 @@ pub fn fit_and_validate(
                     .iter()
                     .map(|(p, c)| format!("{p} ({c:+.3})"))
                     .collect();
-                // The fit this one refined may have moved it (an earlier round, or a start of
-                // the global stage other than the file's, which drew it).
+                // A start of the global stage other than the study's drew it, or an earlier
+                // round of the fit (which this one refined) moved it.
                 let kept = match (est.parameter(&n.name), nominal.parameter(&n.name)) {
-                    (Some(p), Ok(file)) if p.estimate != file => format!(
-                        "kept at {:.4e}, where the global stage's winning start or an earlier round put it (the start values: {file:.4e})",
-                        p.estimate
+                    (Some(p), Ok(start)) if p.estimate != start => format!(
+                        "kept at {:.4e}, where {} left it (the study's start value: {start:.4e})",
+                        p.estimate,
+                        if drawn_start_won {
+                            "the global stage's winning start"
+                        } else {
+                            "an earlier round of the fit"
+                        }
                     ),
                     _ => "kept at its start value".to_owned(),
                 };

@@ -126,9 +126,10 @@ pub struct GreyboxArgs {
     /// Weight of the pressure error (after normalisation; 0 leaves it out).
     #[arg(long, default_value_t = 1.0)]
     pub pressure_weight: f64,
-    /// Number of starts of the global stage: the nominal point plus a Latin hypercube over
-    /// nominal ± `--start-spread` inside the bounds, each fitted locally, the best kept
-    /// (1: the plain local fit).
+    /// Local fits of the global stage at most: the nominal point's, and fits from a Latin
+    /// hypercube over nominal ± `--start-spread` inside the bounds (its first points, or with
+    /// `--screen` the best screened points that beat the nominal one); the best kept (1: the
+    /// plain local fit).
     #[arg(long, default_value_t = 1)]
     pub starts: usize,
     /// Points of the Latin hypercube screened by their loss (one simulation of each run
@@ -141,7 +142,7 @@ pub struct GreyboxArgs {
     #[arg(long, default_value_t = 0.5)]
     pub start_spread: f64,
     /// Relative standard deviation above which a parameter counts as not determined by the
-    /// runs (kept at its nominal value).
+    /// runs (kept at its start value).
     #[arg(long, default_value_t = 0.5)]
     pub max_relative_std: f64,
     /// Estimate parameters found not identifiable anyway (they are only reported).
@@ -292,6 +293,12 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     let mut terminal = TerminalProgress::new();
     let mut quiet = NoProgress;
     let observer: &mut dyn Observer = if args.json { &mut quiet } else { &mut terminal };
+    if args.screen > 0 && args.starts == 1 {
+        eprintln!(
+            "note: --screen {} has no effect with --starts 1 (no local fit beside the nominal one to start from a screened point)",
+            args.screen
+        );
+    }
     let start = estimation_start(problem.initial, args.initial_state.map(Into::into))
         .map_err(|e| anyhow::anyhow!("--initial pressure with --initial-state prefix: {e}"))?;
     let (joint, global) = estimate_with_starts(

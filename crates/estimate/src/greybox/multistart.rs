@@ -190,16 +190,19 @@ pub fn estimate_multistart(
         }
         Some(model)
     };
-    let (starts, screened_failed, screened_better) = if ms.screen == 0 {
+    // The nominal point's loss by the screen's measure; where even that fails (it fitted,
+    // but a run no longer simulates alone), no screen: the nominal fit is the result.
+    let screen_reference = (ms.screen > 0)
+        .then(|| loss_and_steps_at(problem, true).ok())
+        .flatten();
+    let (starts, screened, screened_failed, screened_better) = if ms.screen == 0 {
         let design = design(problem, ms, ms.count - 1);
-        (design.into_iter().skip(1).collect::<Vec<_>>(), 0, 0)
-    } else {
+        (design.into_iter().skip(1).collect::<Vec<_>>(), 0, 0, 0)
+    } else if let Some((reference, steps)) = screen_reference {
         observer.stage(&format!(
             "screening {} design points for the global stage",
             ms.screen
         ));
-        // The nominal point's loss by the same measure, with the runs' starts as given.
-        let (reference, steps) = loss_and_steps_at(problem, true)?;
         // A point whose runs take many times the nominal point's steps is not promising, and
         // a run that does not simulate at all would otherwise crawl to the solver's budget of
         // a million steps first: on the built-in study, uncapped, 14 of 32 points failed that
@@ -239,7 +242,9 @@ pub fn estimate_multistart(
             .take(ms.count - 1)
             .map(|(_, start)| start)
             .collect();
-        (chosen, failed, n_better)
+        (chosen, ms.screen, failed, n_better)
+    } else {
+        (Vec::new(), 0, 0, 0)
     };
     let others: Vec<Option<GreyboxEstimate>> = starts
         .into_par_iter()
@@ -302,7 +307,7 @@ pub fn estimate_multistart(
             failed,
             losses,
             best_start,
-            screened: ms.screen,
+            screened,
             screened_failed,
             screened_better,
         },

@@ -80,8 +80,9 @@ pub enum ParameterStatus {
     /// Estimated, but it ended on a bound: the bound, not the data, fixed it (no standard
     /// deviation).
     AtBound,
-    /// The runs cannot determine it: kept at its nominal value (see the identifiability
-    /// report).
+    /// The runs cannot determine it: kept at its start value, the nominal one or, when a
+    /// start of the global stage other than the nominal one won, that start's draw (see the
+    /// identifiability report).
     FixedNotIdentifiable,
     /// Not identifiable, but estimated anyway ([`super::IdentifiabilityPolicy::ReportOnly`]):
     /// the value is arbitrary along the undetermined direction.
