@@ -599,7 +599,9 @@ pub const CATALOG: &[Param] = &[
 /// that family, in place of the first field of the family (the rest of the family dropped).
 /// With the thesis' laws this is `fields` unchanged when `fields` lists each family whole and
 /// in the law's order (as `LEVER_MODEL_FIELDS` does); a family listed in part becomes the
-/// whole law.
+/// whole law. The damper's scale is followed by the table's per-point corrections while
+/// `truck` names them (`damper.correction`): not a law that others replace, but parameters
+/// that exist by the file as a law's do.
 pub fn law_fields(fields: &[Field], truck: &TruckParameters) -> Vec<Field> {
     let mut out = Vec::with_capacity(fields.len() + 2);
     let mut done: Vec<LawFamily> = Vec::new();

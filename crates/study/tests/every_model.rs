@@ -4,12 +4,11 @@
 //! data are not the fitted model's own, so an estimate can only trade runs against each
 //! other, not overfit one structure's noise.
 
-use airsus_apps::weigh::{
-    EkfTuning, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty, evaluate_series,
-    weigh_ekf,
-};
-use airsus_data::read_run;
+mod common;
+
+use airsus_apps::weigh::{EkfTuning, weigh_ekf};
 use airsus_study::{Protocol, StudyOptions, load_study, run_study};
+use common::{estimated_weigher, generated_run, scored};
 
 /// `(run, output, start %, estimate %)` of each estimation run and output the estimate
 /// explains worse than the start values did, by more than `margin` NRMSE points.
@@ -95,28 +94,13 @@ fn every_thesis_model_gains_on_every_estimation_run_or_says_what_it_traded() {
         // Issue #14: the load filter on each model's estimated file (nothing of the truth)
         // neither fails nor runs away on the held-out runs. An issue measured Model 1's
         // file diverging on another truck's loading run and the others spiking to 200 %.
-        let file = dir
-            .path()
-            .join("out")
-            .join(model.truck_file.as_ref().unwrap());
-        let estimated = airsus_data::read_truck(&file).unwrap().parameters;
-        let weigher = StaticWeigher::new(
-            StaticLaw::from_truck(&estimated),
-            WeighingUncertainty::default(),
-        );
+        let (estimated, weigher) = estimated_weigher(&dir.path().join("out"), model);
         for run in ["ds2", "ds4", "lev2"] {
-            let logged = read_run(&data.join(format!("{run}.csv"))).unwrap();
-            let truth = read_run(&data.join(format!("truth/{run}.csv"))).unwrap();
+            let (logged, truth) = generated_run(&data, run);
             let filter = airsus_truck::models::build_any_model(&model.model, &estimated).unwrap();
             let series = weigh_ekf(&logged, filter, &weigher, &EkfTuning::default())
                 .unwrap_or_else(|e| panic!("{} on {run}: {e}", model.model));
-            let score = evaluate_series(
-                &logged,
-                &truth.inputs.wheel_load_kg,
-                &series,
-                &StandstillRule::default(),
-            )
-            .unwrap();
+            let score = scored(&logged, &truth, &series);
             println!(
                 "{} EKF on {run}: every sample max {:.2} %, standstills max {:.2} %",
                 model.model,

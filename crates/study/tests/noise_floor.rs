@@ -6,13 +6,12 @@
 //! load as steps the wheel takes over 3-8 s, one load change not logged at all; the runs are
 //! loading, valve, levelling (the truck's deadband ECU at work) and road runs.
 
-use airsus_apps::weigh::{
-    EkfTuning, HysteresisStart, StandstillRule, StaticLaw, StaticWeigher, WeighingUncertainty,
-    evaluate_series, weigh_ekf, weigh_static_from,
-};
-use airsus_data::read_run;
+mod common;
+
+use airsus_apps::weigh::{EkfTuning, HysteresisStart, weigh_ekf, weigh_static_from};
 use airsus_study::{LoadRamp, Protocol, StudyOptions, load_study, run_study};
 use airsus_truck::models::build_any_model;
+use common::{estimated_weigher, generated_run, scored};
 
 #[test]
 fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_run() {
@@ -168,35 +167,20 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
     // 2), 0.13 % (data-set 4) and 0.08 % (levelling 2), 0.15 % and 0.10 % while the valve
     // works. (Before the filter moved the wall friction through a play: 0.59 %, 0.6 % and
     // 0.13 %.)
-    let file = dir
-        .path()
-        .join("out")
-        .join(truck.truck_file.as_ref().unwrap());
-    let estimated = airsus_data::read_truck(&file).unwrap().parameters;
-    let weigher = StaticWeigher::new(
-        StaticLaw::from_truck(&estimated),
-        WeighingUncertainty::default(),
-    );
+    let (estimated, weigher) = estimated_weigher(&dir.path().join("out"), truck);
     for (run, start, standstill_max, valve_max) in [
         ("ds2", HysteresisStart::Lowered, 0.25, 0.0),
         ("ds4", HysteresisStart::Raised, 0.25, 0.3),
         ("lev2", HysteresisStart::Unknown, 0.2, 0.3),
     ] {
-        let logged = read_run(&data.join(format!("{run}.csv"))).unwrap();
-        let truth = read_run(&data.join(format!("truth/{run}.csv"))).unwrap();
+        let (logged, truth) = generated_run(&data, run);
         let model = build_any_model("truck", &estimated).unwrap();
         let tuning = EkfTuning {
             start_hysteresis: start,
             ..EkfTuning::default()
         };
         let series = weigh_ekf(&logged, model, &weigher, &tuning).unwrap();
-        let score = evaluate_series(
-            &logged,
-            &truth.inputs.wheel_load_kg,
-            &series,
-            &StandstillRule::default(),
-        )
-        .unwrap();
+        let score = scored(&logged, &truth, &series);
         assert!(
             score.standstill.samples > 1000,
             "{run}: {:?}",
@@ -220,13 +204,7 @@ fn the_truck_structure_reaches_the_noise_ceiling_of_its_logged_inputs_on_every_r
         // the heights: measured 0.07 / 0.11 / 0.10 % at standstills (this is the study's own
         // file, as estimated today; the weighing tests use the variants' fixtures).
         let static_series = weigh_static_from(&logged, &weigher, 20, start).unwrap();
-        let static_score = evaluate_series(
-            &logged,
-            &truth.inputs.wheel_load_kg,
-            &static_series,
-            &StandstillRule::default(),
-        )
-        .unwrap();
+        let static_score = scored(&logged, &truth, &static_series);
         println!("{run}, static: {:?}", static_score.standstill);
         assert!(
             static_score.standstill.max_abs_error_percent < 0.15,
