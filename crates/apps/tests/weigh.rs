@@ -798,13 +798,18 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
     assert!((0.92..=0.98).contains(&run_mean), "{run_mean}");
     // While a load arrives: the samples flagged `loading` (from the run alone) get the
     // interval the calibration runs' arrivals measured. Before that flag they got the
-    // settling interval, sized at a steady load, and it held 39-68 % of them.
-    // Measured 0.896 pooled: data-set 2's arrivals 0.999-1.0, the levelling run's 0.74-0.78
-    // (there the controller opens the valve while the load arrives, and those samples get
-    // the valve's interval).
+    // settling interval, sized at a steady load, and it held 39-68 % of them; before the
+    // flag carried on while the levelling controller opens the valve, those samples got the
+    // valve's interval and the levelling run held 74-78 %.
+    // Measured 1.000 pooled and on the average run: more than 95 %, because the calibration
+    // runs log the load set down as a step when it starts to arrive (what a log knows),
+    // so the class is sized against the settled load, 280-300 kg from the estimate at the
+    // arrival's start, while the truck's load moves there over 4-5 s and the filter trails
+    // it by 2-3 %.
     let (arriving, arriving_run_mean) = held_out_coverage(&runs, |a| &a.load_change);
     println!("load arriving: pooled {arriving:.3}, average run {arriving_run_mean:.3}");
-    assert!(arriving > 0.85, "{arriving}");
+    assert!(arriving > 0.95, "{arriving}");
+    assert!(arriving_run_mean > 0.95, "{arriving_run_mean}");
 }
 
 /// Issue #14: static weighing with each variant's study estimate, on the runs the EKF weighs
@@ -859,10 +864,12 @@ fn static_weighing_with_the_study_estimate_reads_its_wall() {
     let (coverage, run_mean) = held_out_coverage(&runs, |a| &a.standstill);
     println!("static, standstill coverage: pooled {coverage:.3}, average run {run_mean:.3}");
     assert!(coverage >= 0.95, "{coverage}");
-    // Measured 0.948 (data-set 2 1.0, levelling 2 0.87-0.90).
+    // Measured 1.000 (0.948 before the `loading` flag carried on while the levelling
+    // controller works the valve: levelling 2 0.87-0.90); sized against the settled load,
+    // as the filter's above.
     let (arriving, _) = held_out_coverage(&runs, |a| &a.load_change);
     println!("static, load arriving: pooled {arriving:.3}");
-    assert!(arriving > 0.9, "{arriving}");
+    assert!(arriving > 0.95, "{arriving}");
     // The wall is what reads to a tenth of a percent: the same file without it, calibrated
     // with every term a static law lacks, misses 0.5 % on data-set 2.
     let plain =
@@ -1188,24 +1195,31 @@ fn a_load_arriving_is_flagged_from_the_run_alone() {
     };
     let defaults = StandstillDetector::default();
     let count = |run: &Run| flagged_by(run, &defaults);
-    let ds1 = run_experiment(&vt, &data_set_1(m2, 9), -friction, 9).unwrap();
-    // The samples within 10 s of a change of the true load, the valve closed.
+    // The samples of a generated run within 10 s of a change of its true load, and how
+    // many of them are flagged `loading`; those with the valve open among each.
     let rule = StandstillRule::default();
-    let truth = &ds1.truth.inputs.wheel_load_kg;
-    let flagged = flags(&ds1.logged);
-    let (mut arriving, mut caught) = (0, 0);
-    let mut last_change = f64::NEG_INFINITY;
-    let mut level = truth[0];
-    for (k, &m) in truth.iter().enumerate() {
-        if (m - level).abs() > rule.steady_tolerance_kg {
-            last_change = ds1.logged.time_s[k];
-            level = m;
+    let arrivals = |run: &airsus_truck::experiments::GeneratedRun| {
+        let truth = &run.truth.inputs.wheel_load_kg;
+        let flagged = flags(&run.logged);
+        let (mut arriving, mut caught) = ((0, 0), (0, 0));
+        let mut last_change = f64::NEG_INFINITY;
+        let mut level = truth[0];
+        for (k, &m) in truth.iter().enumerate() {
+            if (m - level).abs() > rule.steady_tolerance_kg {
+                last_change = run.logged.time_s[k];
+                level = m;
+            }
+            if run.logged.time_s[k] - last_change < rule.load_settle_s {
+                let open = usize::from(run.logged.inputs.valve[k] != ValveState::Closed);
+                let flagged = usize::from(flagged[k] == WeighQuality::Loading);
+                arriving = (arriving.0 + 1, arriving.1 + open);
+                caught = (caught.0 + flagged, caught.1 + flagged * open);
+            }
         }
-        if ds1.logged.time_s[k] - last_change < rule.load_settle_s {
-            arriving += 1;
-            caught += usize::from(flagged[k] == WeighQuality::Loading);
-        }
-    }
+        (arriving, caught)
+    };
+    let ds1 = run_experiment(&vt, &data_set_1(m2, 9), -friction, 9).unwrap();
+    let ((arriving, _), (caught, _)) = arrivals(&ds1);
     let all = count(&ds1.logged);
     println!("data-set 1: {caught} of {arriving} arriving samples flagged, {all} flagged in all");
     assert!(
@@ -1222,6 +1236,29 @@ fn a_load_arriving_is_flagged_from_the_run_alone() {
     println!("data-set 3 (no load change): {valve_run} flagged; road 2: {road_run}");
     assert!(valve_run < ds3.logged.len() / 50, "{valve_run}");
     assert_eq!(road_run, 0);
+    // While a levelling controller works the valve, a load arriving is still what the
+    // estimate misses: those samples are flagged `loading` too, and get the interval the
+    // calibration's arrivals measured, not the valve's (sized at a steady load, it held 40
+    // of 238 such samples of a variant's held-out levelling run).
+    let levelling = airsus_truck::experiments::levelling_run(
+        &vt,
+        airsus_truck::scenario::levelling_2(m2, 9),
+        9,
+    )
+    .unwrap();
+    let ((arriving, arriving_open), (caught, caught_open)) = arrivals(&levelling);
+    println!(
+        "levelling 2: {caught} of {arriving} arriving samples flagged; with the valve open {caught_open} of {arriving_open}"
+    );
+    assert!(arriving_open > 100, "{arriving_open}");
+    assert!(
+        caught as f64 > 0.95 * arriving as f64,
+        "{caught} of {arriving}"
+    );
+    assert!(
+        caught_open as f64 > 0.95 * arriving_open as f64,
+        "{caught_open} of {arriving_open}"
+    );
 
     // The thresholds are the caller's (`weigh --loading-shift-kpa` etc.): a shift above what
     // a 250-350 kg step moves the pressure by (about 30 kPa) flags no arrival, a longer hold

@@ -910,7 +910,8 @@ def weigh(
         loading_shift_kpa, loading_window_s, loading_hold_s: a sample is flagged
             ``loading`` when the mean pressure over the window after it differs from the mean
             over the window before it by more than the shift (valve closed, road still), and
-            for the hold after the last such sample; as ``--loading-shift-kpa`` etc. The
+            for the hold after the last such sample, carried on while a valve opened within
+            it works (a levelling controller); as ``--loading-shift-kpa`` etc. The
             defaults suit 100-300 kg steps on a truck axle (about 30 kPa).
 
     Returns:
@@ -918,7 +919,8 @@ def weigh(
         (the command's CSV rounds to 3 decimals). ``quality`` says how far a sample can be
         trusted, from the run alone: ``standstill`` (read the scale here), ``settling``,
         ``valve`` or ``loading`` (a load arriving or leaving, the pressure's level shifting
-        with the valve closed, and 10 s after). ``df.attrs["notes"]`` lists what the
+        with the valve closed, and 10 s after, or after the valve a levelling controller
+        opened meanwhile closes). ``df.attrs["notes"]`` lists what the
         estimator says about the run (the EKF on ``truck`` with an unknown start: until when
         the friction held its interval up). ``df.attrs["calibration"]`` holds the fitted
         ``gain, offset_kg, hysteresis_kg, height_kg_per_mm, reference_height_mm, samples,

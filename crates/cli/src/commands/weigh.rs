@@ -75,14 +75,15 @@ pub struct WeighArgs {
     /// A sample is flagged `loading` (a load arriving, read with the interval the calibration
     /// runs' arrivals measured) when the mean pressure over --loading-window-s after it
     /// differs from the mean over the window before it by more than this, with the valve
-    /// closed and the road still, kPa. The default suits 100-300 kg steps on a truck axle
+    /// closed (the window after ends where it opens) and the road still, kPa. The default suits 100-300 kg steps on a truck axle
     /// (about 30 kPa); smaller loads or a noisier sensor want another.
     #[arg(long, default_value_t = StandstillDetector::default().loading_shift_pa / 1e3)]
     pub loading_shift_kpa: f64,
     /// The windows the `loading` flag compares, s (see --loading-shift-kpa).
     #[arg(long, default_value_t = StandstillDetector::default().loading_window_s)]
     pub loading_window_s: f64,
-    /// How long the `loading` flag holds after the last shift, s.
+    /// How long the `loading` flag holds after the last shift, s; a valve opened within it
+    /// (a levelling controller answering the load) carries it on to the valve's closing.
     #[arg(long, default_value_t = StandstillDetector::default().loading_hold_s)]
     pub loading_hold_s: f64,
     /// A run whose logged load is trusted at standstill (e.g. weighbridge loads, a study's
