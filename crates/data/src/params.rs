@@ -391,7 +391,11 @@ pub const CATALOG: &[Param] = &[
         0.0,
         1e6,
     )
-    .needing("fast motion: load steps or road input"),
+    .needing("fast motion: load steps or road input")
+    // A lever's rubber bushings damp by a few hundred to a few thousand N s/m, a tenth of
+    // the damper's slope or less; the thesis starts from 0.1, which as a scale would make
+    // the finite-difference step move nothing.
+    .typically(1000.0),
     param(
         Field::TireStiffness,
         "kw",
