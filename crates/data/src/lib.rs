@@ -39,6 +39,6 @@ pub use source::{ChannelRef, ColumnMap, Resample, ResampleMethod, RunSource};
 pub use study::{Channel, Role, Study, StudyDischarge, StudyRun, read_study, write_study};
 pub use truck::{
     BellowParameters, DamperTable, DefaultedKey, EffectValues, Environment, Geometry, LoadedTruck,
-    MassParameters, REFERENCE_AREA_POLY_M2, SlowDynamics, TireParameters, TruckParameters,
-    read_truck, truck_to_toml, write_truck,
+    MassParameters, REFERENCE_AREA_POLY_M2, SUPPLY_LINE_VOLUME_M3, SlowDynamics, TireParameters,
+    TruckParameters, read_truck, truck_to_toml, write_truck,
 };

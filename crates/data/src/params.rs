@@ -592,7 +592,7 @@ pub const CATALOG: &[Param] = &[
         Field::LineResistance,
         "rline",
         "Pa s/mol",
-        "supply line resistance between tank and valve (truck)",
+        "supply line resistance between tank and valve (every model, when the file names it)",
         1e3,
         1e9,
     )
@@ -605,7 +605,8 @@ pub const CATALOG: &[Param] = &[
 /// in the law's order (as `LEVER_MODEL_FIELDS` does); a family listed in part becomes the
 /// whole law. The damper's scale is followed by the table's per-point corrections while
 /// `truck` names them (`damper.correction`): not a law that others replace, but parameters
-/// that exist by the file as a law's do.
+/// that exist by the file as a law's do. So is the supply line's resistance (`rline`) after
+/// the valve's law, while `truck` names it (`effects.line_resistance_pa_s_per_mol`).
 pub fn law_fields(fields: &[Field], truck: &TruckParameters) -> Vec<Field> {
     let mut out = Vec::with_capacity(fields.len() + 2);
     let mut done: Vec<LawFamily> = Vec::new();
@@ -624,6 +625,14 @@ pub fn law_fields(fields: &[Field], truck: &TruckParameters) -> Vec<Field> {
                     LawFamily::GasVolume => truck.bellow.gas_volume.fields(),
                     LawFamily::ValveFlow => truck.valve.fields(),
                 });
+                // A supply line the file names is part of the valve's law in every model
+                // (`airsus_model`'s corner); the `truck` structure lists it itself.
+                if family == LawFamily::ValveFlow
+                    && truck.effects.line_resistance_pa_s_per_mol.is_some()
+                    && !fields.contains(&Field::LineResistance)
+                {
+                    out.push(Field::LineResistance);
+                }
             }
             Some(_) => {}
         }

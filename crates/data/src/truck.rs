@@ -134,9 +134,16 @@ pub struct BellowParameters {
     pub hinge_friction_n_s_per_m: f64,
 }
 
+/// The supply line's volume between the tank and the valve, m³ (a litre: a few metres of
+/// 16-20 mm pipe and the valve block). With `rline` it sets how fast the line drains while the
+/// valve fills (`V rline / RT`, 0.1-0.2 s); a file names only the resistance, which is what a
+/// fit can tell from the bellow's pressure.
+pub const SUPPLY_LINE_VOLUME_M3: f64 = 1.0e-3;
+
 /// The `truck` structure's wall, gas and supply-line parameters: the optional section
 /// `[effects]` (ours, like `[slow_dynamics]`), every key optional. `None`: not given; the
-/// structure then uses its built-in value. Thesis models ignore the section.
+/// structure then uses its built-in value. Thesis models read only the supply line from it:
+/// given, it sits between the logged tank and every model's valve.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct EffectValues {
     /// `kc`: creep stiffness of the bellow wall (Maxwell element), N/m.
@@ -149,7 +156,8 @@ pub struct EffectValues {
     pub friction_stiffness_n_per_m: Option<f64>,
     /// `tth`: thermal time constant of the bellow gas, s.
     pub thermal_time_constant_s: Option<f64>,
-    /// `rline`: supply line resistance between tank and valve, Pa s/mol.
+    /// `rline`: supply line resistance between tank and valve, Pa s/mol. The line's volume
+    /// is [`SUPPLY_LINE_VOLUME_M3`].
     pub line_resistance_pa_s_per_mol: Option<f64>,
 }
 

@@ -45,8 +45,34 @@ pub(crate) struct Corner {
     pub area: EffectiveAreaLaw,
     pub volume: GasVolumeLaw,
     pub valve: ValveFlowLaw,
+    /// The supply line between the logged tank and the valve, when the file names one.
+    pub supply_line: Option<SupplyLine>,
     pub damper: Damper,
 }
+
+/// A supply line between the logged tank and the valve (SPEC §1: the tank's pressure is not
+/// the valve's while air flows): a volume at ambient temperature that fills from the tank
+/// through a resistance and drains into the bellow through the valve's fill channel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct SupplyLine {
+    /// `rline`, Pa s/mol (linear: the line's flow is laminar).
+    pub resistance_pa_s_per_mol: f64,
+    pub volume_m3: f64,
+}
+
+/// The air flows of a corner's valve circuit, mol/s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct AirFlows {
+    /// Into the bellow (out of it while exhausting).
+    pub bellow_mol_s: f64,
+    /// Into the supply line (0 without one).
+    pub line_mol_s: f64,
+}
+
+/// The state of a supply line's air, appended last to a model's states when the file names
+/// a line.
+pub(crate) const SUPPLY_LINE_STATE: crate::model::StateInfo =
+    crate::model::StateInfo::new("line_n_mol", "mol", crate::model::StateRole::SupplyAir);
 
 /// The static equilibrium of a corner under one input sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,6 +106,12 @@ impl Corner {
             area: truck.bellow.effective_area.clone(),
             volume: truck.bellow.gas_volume.clone(),
             valve: truck.valve,
+            supply_line: truck.effects.line_resistance_pa_s_per_mol.map(
+                |resistance_pa_s_per_mol| SupplyLine {
+                    resistance_pa_s_per_mol,
+                    volume_m3: airsus_data::SUPPLY_LINE_VOLUME_M3,
+                },
+            ),
             damper: Damper::new(&truck.damper),
         }
     }
@@ -134,6 +166,66 @@ impl Corner {
             self.ambient_pa,
             self.temperature_k,
         )
+    }
+
+    /// The valve circuit's flows (eq 3.19 or the truck file's valve law) with the bellow at
+    /// `bellow_abs_pa` and, with a supply line, `line_mol` in it: the fill channel then draws
+    /// from the line, which refills from the logged tank through `rline`. Without a line,
+    /// [`Self::air_flow_mol_s`]. The supply air is at ambient temperature.
+    pub fn air_flows(
+        &self,
+        bellow_abs_pa: f64,
+        line_mol: Option<f64>,
+        u: &InputSample,
+    ) -> AirFlows {
+        let tank_abs_pa = u.supply_gauge_pa + self.ambient_pa;
+        let (Some(line), Some(line_mol)) = (self.supply_line, line_mol) else {
+            return AirFlows {
+                bellow_mol_s: self.air_flow_mol_s(bellow_abs_pa, u),
+                line_mol_s: 0.0,
+            };
+        };
+        let line_abs_pa = line_mol * self.rt_j_mol / line.volume_m3;
+        let bellow_mol_s = self.valve.flow_mol_s(
+            u.valve,
+            bellow_abs_pa,
+            line_abs_pa,
+            self.ambient_pa,
+            self.temperature_k,
+        );
+        let drawn_mol_s = if u.valve == airsus_data::ValveState::Fill {
+            bellow_mol_s
+        } else {
+            0.0
+        };
+        AirFlows {
+            bellow_mol_s,
+            line_mol_s: (tank_abs_pa - line_abs_pa) / line.resistance_pa_s_per_mol - drawn_mol_s,
+        }
+    }
+
+    /// The supply line's air in state `x`, mol: its last entry ([`SUPPLY_LINE_STATE`]);
+    /// `None` without a line.
+    pub fn line_mol(&self, x: &[f64]) -> Option<f64> {
+        self.supply_line.and(x.last().copied())
+    }
+
+    /// `states` with the supply line's state appended when the corner has a line.
+    pub fn with_line_state(
+        &self,
+        mut states: Vec<crate::model::StateInfo>,
+    ) -> Vec<crate::model::StateInfo> {
+        if self.supply_line.is_some() {
+            states.push(SUPPLY_LINE_STATE);
+        }
+        states
+    }
+
+    /// The supply line's air at rest under `u` (at the logged tank's pressure), mol; `None`
+    /// without a line.
+    pub fn line_amount_at_rest_mol(&self, u: &InputSample) -> Option<f64> {
+        self.supply_line
+            .map(|line| (u.supply_gauge_pa + self.ambient_pa) * line.volume_m3 / self.rt_j_mol)
     }
 
     /// The sensor reading for a bellow height (SPEC §1).

@@ -27,7 +27,8 @@
 //! it only on `m1`; as an internal force between the two bodies it acts on both (on `m1` alone
 //! it would brake the whole truck's vertical motion).
 //!
-//! State `[x1_m, x2_m, v1_m_s, v2_m_s, n_mol]`.
+//! State `[x1_m, x2_m, v1_m_s, v2_m_s, n_mol]`, and `line_n_mol` when the file names a supply
+//! line (`rline`).
 
 use airsus_data::TruckParameters;
 
@@ -71,12 +72,15 @@ const FIELDS: &[Field] = &[
 pub struct Model1 {
     corner: Corner,
     params: TruckParams,
+    states: Vec<StateInfo>,
 }
 
 impl Model1 {
     pub fn new(truck: &TruckParameters) -> Self {
+        let corner = Corner::new(truck);
         Self {
-            corner: Corner::new(truck),
+            states: corner.with_line_state(STATES.to_vec()),
+            corner,
             params: TruckParams::new(NAME, FIELDS, truck.clone()),
         }
     }
@@ -103,7 +107,7 @@ impl SuspensionModel for Model1 {
     }
 
     fn states(&self) -> &[StateInfo] {
-        STATES
+        &self.states
     }
 
     fn parameters(&self) -> &dyn NamedParameters {
@@ -135,7 +139,15 @@ impl SuspensionModel for Model1 {
         dx[1] = x[3];
         dx[2] = internal / m1 - g;
         dx[3] = (f_tire - internal) / m2 - g;
-        dx[4] = c.air_flow_mol_s(p_abs, u);
+        let flows = c.air_flows(p_abs, c.line_mol(x), u);
+        dx[4] = flows.bellow_mol_s;
+        if c.supply_line.is_some() {
+            dx[5] = flows.line_mol_s;
+        }
+    }
+
+    fn uses_supply_while_valve_shut(&self) -> bool {
+        self.corner.supply_line.is_some()
     }
 
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample {
@@ -152,6 +164,8 @@ impl SuspensionModel for Model1 {
         let eq = c.equilibrium(NAME, u, ic)?;
         let x2 = u.road_height_m - eq.tire_compression_m;
         let h_axle = c.h0_m + (eq.bellow_height_m - c.h0_m) / c.lever_gain;
-        Ok(vec![x2 + h_axle, x2, 0.0, 0.0, eq.amount_mol])
+        let mut x = vec![x2 + h_axle, x2, 0.0, 0.0, eq.amount_mol];
+        x.extend(c.line_amount_at_rest_mol(u));
+        Ok(x)
     }
 }

@@ -144,12 +144,13 @@ pub struct Model2 {
 impl Model2 {
     /// Model 2 without slow force (`m2`).
     pub fn new(truck: &TruckParameters) -> Self {
+        let corner = Corner::new(truck);
         Self {
             name: "m2",
-            corner: Corner::new(truck),
+            states: corner.with_line_state(BASE_STATES.to_vec()),
+            corner,
             params: TruckParams::new("m2", FIELDS, truck.clone()),
             slow: SlowForce::None,
-            states: BASE_STATES.to_vec(),
         }
     }
 
@@ -190,15 +191,16 @@ impl Model2 {
         let mut states = BASE_STATES.to_vec();
         states.extend_from_slice(&OE_STATES[..block.n_states()]);
         states.push(StateInfo::new("load_ref_kg", "kg", StateRole::Reference));
+        let corner = Corner::new(&truck);
         Ok(Self {
             name: "m2x",
-            corner: Corner::new(&truck),
+            states: corner.with_line_state(states),
+            corner,
             params: TruckParams::new("m2x", &fields, truck),
             slow: SlowForce::LoadOe {
                 block,
                 ksd_n_per_m: ksd,
             },
-            states,
         })
     }
 
@@ -219,15 +221,16 @@ impl Model2 {
         fields.extend([Field::CreepStiffness, Field::CreepTimeConstant]);
         let mut states = BASE_STATES.to_vec();
         states.push(StateInfo::new("f_creep_n", "N", StateRole::Force));
+        let corner = Corner::new(&truck);
         Self {
             name: "m2xh",
-            corner: Corner::new(&truck),
+            states: corner.with_line_state(states),
+            corner,
             params: TruckParams::new("m2xh", &fields, truck),
             slow: SlowForce::Creep {
                 ksd_n_per_m: ksd,
                 tau_s: tau,
             },
-            states,
         }
     }
 
@@ -348,7 +351,8 @@ impl SuspensionModel for Model2 {
         dx[1] = alpha_dot;
         dx[2] = x_dd;
         dx[3] = alpha_dd;
-        dx[4] = c.air_flow_mol_s(p_abs, u);
+        let flows = c.air_flows(p_abs, c.line_mol(x), u);
+        dx[4] = flows.bellow_mol_s;
         match &self.slow {
             SlowForce::None => {}
             SlowForce::LoadOe { block, .. } => {
@@ -363,6 +367,15 @@ impl SuspensionModel for Model2 {
                 dx[5] = -ksd_n_per_m * h_b_dot - x[5] / tau_s;
             }
         }
+        if c.supply_line.is_some()
+            && let Some(line) = dx.last_mut()
+        {
+            *line = flows.line_mol_s;
+        }
+    }
+
+    fn uses_supply_while_valve_shut(&self) -> bool {
+        self.corner.supply_line.is_some()
     }
 
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample {
@@ -404,6 +417,7 @@ impl SuspensionModel for Model2 {
             }
             SlowForce::Creep { .. } => x.push(0.0),
         }
+        x.extend(c.line_amount_at_rest_mol(u));
         Ok(x)
     }
 }

@@ -103,11 +103,12 @@ impl Model3 {
             StateInfo::new("pressure_ref_pa", "Pa", StateRole::Reference),
             StateInfo::new("bellow_height_ref_m", "m", StateRole::Reference),
         ]);
+        let corner = Corner::new(truck);
         Ok(Self {
-            corner: Corner::new(truck),
+            states: corner.with_line_state(states),
+            corner,
             params: TruckParams::new(NAME, FIELDS, truck.clone()),
             block,
-            states,
         })
     }
 
@@ -165,7 +166,8 @@ impl SuspensionModel for Model3 {
         let k = self.block.n_states();
         let (load_ref, pressure_ref, _) = self.refs(x);
         let (_, p_abs) = self.bellow_height_and_pressure(x, u);
-        dx[0] = self.corner.air_flow_mol_s(p_abs, u);
+        let flows = self.corner.air_flows(p_abs, self.corner.line_mol(x), u);
+        dx[0] = flows.bellow_mol_s;
         let inputs = [
             u.wheel_load_kg - load_ref,
             (p_abs - self.corner.ambient_pa - pressure_ref) * KPA_PER_PA,
@@ -173,6 +175,15 @@ impl SuspensionModel for Model3 {
         self.block
             .derivative(&x[1..1 + k], &inputs, &mut dx[1..1 + k]);
         dx[1 + k..].fill(0.0);
+        if self.corner.supply_line.is_some()
+            && let Some(line) = dx.last_mut()
+        {
+            *line = flows.line_mol_s;
+        }
+    }
+
+    fn uses_supply_while_valve_shut(&self) -> bool {
+        self.corner.supply_line.is_some()
     }
 
     fn output(&self, x: &[f64], u: &InputSample) -> OutputSample {
@@ -192,6 +203,7 @@ impl SuspensionModel for Model3 {
         let mut x = vec![eq.amount_mol];
         x.extend(std::iter::repeat_n(0.0, self.block.n_states()));
         x.extend([u.wheel_load_kg, eq.bellow_gauge_pa, eq.bellow_height_m]);
+        x.extend(self.corner.line_amount_at_rest_mol(u));
         Ok(x)
     }
 }

@@ -544,3 +544,94 @@ fn wheel_in_the_air_stays_well_defined() {
         );
     }
 }
+
+/// A supply line the file names (`[effects] line_resistance_pa_s_per_mol`) sits between the
+/// logged tank and every model's valve (issue #12 item 5): a state of its own, at the tank's
+/// pressure at rest, refilling through `rline`, drawn on by the fill channel; in a steady
+/// fill the linear valve and the line are two resistances in series, written out here.
+#[test]
+fn a_supply_line_the_file_names_sits_between_the_tank_and_every_models_valve() {
+    let plain = reference();
+    let (r_fill, r_line) = (2.5e6, 4e5);
+    assert_eq!(get(&plain, Field::FillResistance), r_fill);
+    let mut lined = plain.clone();
+    lined.effects.line_resistance_pa_s_per_mol = Some(r_line);
+    let volume_m3 = airsus_data::SUPPLY_LINE_VOLUME_M3;
+    let load = reference_load(&plain);
+    let ic = InitialCondition::SensorHeight { height_m: 0.240 };
+    let ambient = plain.environment.ambient_pressure_pa;
+    for name in MODELS {
+        let without = build_model(name, &plain).unwrap();
+        let model = build_model(name, &lined).unwrap();
+        let names = |m: &dyn airsus_model::SuspensionModel| -> Vec<String> {
+            m.parameters()
+                .infos()
+                .iter()
+                .map(|p| p.name.to_owned())
+                .collect()
+        };
+        assert!(!names(&*without).contains(&"rline".to_owned()), "{name}");
+        assert!(names(&*model).contains(&"rline".to_owned()), "{name}");
+        assert_eq!(model.n_states(), without.n_states() + 1, "{name}");
+        assert_eq!(model.states().last().unwrap().name, "line_n_mol", "{name}");
+        assert!(model.uses_supply_while_valve_shut() && !without.uses_supply_while_valve_shut());
+
+        let closed = input(load);
+        let tank_abs = closed.supply_gauge_pa + ambient;
+        let x = model.initial_state(&closed, &ic).unwrap();
+        let n = x.len();
+        // At rest the line holds the tank's pressure, and nothing moves.
+        let line_pa = |line_mol: f64| line_mol * rt(&plain) / volume_m3;
+        assert!((line_pa(x[n - 1]) - tank_abs).abs() < 1e-6, "{name}");
+        let mut dx = vec![1.0; n];
+        model.rhs(0.0, &x, &closed, &mut dx);
+        assert!(max_abs(&dx) < 1e-9, "{name}: {dx:?}");
+
+        // The valve opens: at first the line is at the tank's pressure, so the bellow fills
+        // as it would from the tank itself, and the line loses what the bellow gains.
+        let fill = InputSample {
+            valve: ValveState::Fill,
+            ..closed
+        };
+        let bellow = |m: &dyn airsus_model::SuspensionModel, x: &[f64]| {
+            let n_bellow = m.states().iter().position(|s| s.name == "n_mol").unwrap();
+            let mut dx = vec![0.0; x.len()];
+            m.rhs(0.0, x, &fill, &mut dx);
+            (dx[n_bellow], dx[x.len() - 1])
+        };
+        let x_without = without.initial_state(&closed, &ic).unwrap();
+        let (from_tank, _) = bellow(&*without, &x_without);
+        let (into_bellow, into_line) = bellow(&*model, &x);
+        assert!(from_tank > 0.0, "{name}");
+        assert!((into_bellow - from_tank).abs() < 1e-12, "{name}");
+        assert!((into_line + into_bellow).abs() < 1e-12, "{name}");
+
+        // A steady fill: the line's pressure where its inflow through rline equals what the
+        // valve draws, p_line = (R_fill p_tank + R_line p_bellow) / (R_fill + R_line); the
+        // bellow then fills at (p_tank - p_bellow) / (R_fill + R_line).
+        let bellow_abs = model.output(&x, &closed).bellow_gauge_pa + ambient;
+        let steady_pa = (r_fill * tank_abs + r_line * bellow_abs) / (r_fill + r_line);
+        let mut steady = x.clone();
+        steady[n - 1] = steady_pa * volume_m3 / rt(&plain);
+        let (into_bellow, into_line) = bellow(&*model, &steady);
+        let series = (tank_abs - bellow_abs) / (r_fill + r_line);
+        assert!((into_bellow / series - 1.0).abs() < 1e-9, "{name}");
+        assert!(into_line.abs() < 1e-9 * series, "{name}");
+
+        // The line refills from the tank with the valve shut, and rline is the model's to set.
+        let mut model = model;
+        let (_, refill) = {
+            let mut dx = vec![0.0; n];
+            model.rhs(0.0, &steady, &closed, &mut dx);
+            (dx[0], dx[n - 1])
+        };
+        assert!(
+            (refill - (tank_abs - steady_pa) / r_line).abs() < 1e-9 * refill,
+            "{name}"
+        );
+        model.set_parameter("rline", 2.0 * r_line).unwrap();
+        let mut dx = vec![0.0; n];
+        model.rhs(0.0, &steady, &closed, &mut dx);
+        assert!((dx[n - 1] / refill - 0.5).abs() < 1e-9, "{name}");
+    }
+}

@@ -102,7 +102,7 @@ impl Default for EffectParameters {
             exhaust_conductance_m3_s_pa: 1.2e-8,
             critical_pressure_ratio: 0.4,
             line_resistance_pa_s_per_mol: 4e5,
-            line_volume_m3: 1.0e-3,
+            line_volume_m3: airsus_data::SUPPLY_LINE_VOLUME_M3,
             tank_volume_m3: 0.030,
             compressor_flow_mol_s: 0.06,
             governor_cutout_gauge_pa: 860e3,
