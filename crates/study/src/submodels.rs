@@ -95,6 +95,8 @@ pub struct SubmodelStart {
     /// integral in place of the file's cross-section law ([`choose_lab_volume`]). `None`:
     /// the file's law (and its fitted shape) serves.
     pub lab_volume: Option<GasVolumeLaw>,
+    /// The run Model 3's OE in [`Self::truck`] was identified on (`None`: the file's).
+    pub model3_oe_run: Option<String>,
 }
 
 impl SubmodelStart {
@@ -694,14 +696,17 @@ pub fn fit_submodels(
         },
     }
 
-    // Model 3's OE height model (5.2.5), re-identified on the first estimation run.
+    // Model 3's OE height model (5.2.5), re-identified on an estimation run.
     const M3: &str =
         "Model 3's OE: load and pressure -> bellow height, nb=[2 2] nf=[2 2] nk=[1 1] (5.2.5)";
-    match estimation_runs.iter().find_map(|n| input.run(n)) {
+    let mut model3_oe_from = None;
+    match model3_oe_run(input, estimation_runs) {
         None => fits.push(failed("model3_oe", M3, "no estimation run".to_owned())),
         Some(est) => match identify_model3(&est.run, &mut truck) {
             Err(e) => fits.push(failed("model3_oe", M3, e)),
-            Ok((fit_percent, parameters, note)) => fits.push(SubmodelFit {
+            Ok((fit_percent, parameters, note)) => fits.push({
+                model3_oe_from = Some(est.name.clone());
+                SubmodelFit {
                 name: "model3_oe".to_owned(),
                 description: M3.to_owned(),
                 parameters,
@@ -712,7 +717,7 @@ pub fn fit_submodels(
                     note,
                 ],
                 error: None,
-            }),
+            }}),
         },
     }
 
@@ -722,9 +727,70 @@ pub fn fit_submodels(
             lab_valve,
             lab_area,
             lab_volume,
+            model3_oe_run: model3_oe_from,
         },
         SubmodelResults { fits },
     )
+}
+
+/// The estimation run Model 3's OE height model is identified on: of the runs among `names`
+/// whose load and pressure both vary, the one where their deviations are least correlated;
+/// else the first of them.
+///
+/// Why: the OE has a load and a pressure input, and a loading run moves the pressure with
+/// the load (data-set 1: correlation near 1), so its pressure channel is the load's again
+/// and says nothing of the height a valve moves. Identified there, Model 3 read the valve
+/// runs' heights hundreds of percent off. A levelling run's controller moves the air while
+/// the load steps: both channels apart.
+pub(crate) fn model3_oe_run<'a>(
+    input: &'a StudyInput,
+    names: &[String],
+) -> Option<&'a crate::input::StudyRunData> {
+    let runs: Vec<&crate::input::StudyRunData> =
+        names.iter().filter_map(|n| input.run(n)).collect();
+    let correlation = |run: &airsus_data::Run| -> Option<f64> {
+        let pressure = &run.outputs.as_ref()?.bellow_gauge_pa;
+        let load = &run.inputs.wheel_load_kg;
+        let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
+        let (ml, mp) = (mean(load), mean(pressure));
+        let (mut slp, mut sll, mut spp) = (0.0, 0.0, 0.0);
+        for (l, p) in load.iter().zip(pressure) {
+            let (dl, dp) = (l - ml, p - mp);
+            slp += dl * dp;
+            sll += dl * dl;
+            spp += dp * dp;
+        }
+        // A constant load (or pressure) excites one channel only.
+        let r = slp / (sll * spp).sqrt();
+        (sll > 0.0 && spp > 0.0 && r.is_finite()).then_some(r.abs())
+    };
+    runs.iter()
+        .filter_map(|r| correlation(&r.run).map(|c| (c, *r)))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, r)| r)
+        .or_else(|| runs.first().copied())
+}
+
+/// Model 3's OE re-identified on `protocol`'s estimation runs ([`model3_oe_run`]) into
+/// `truck`, when that picks another run than `start_run`: `Some(note)` saying on which,
+/// `Err` when it failed (the start's OE is kept).
+pub(crate) fn model3_oe_for_protocol(
+    input: &StudyInput,
+    estimation: &[String],
+    start_run: Option<&str>,
+    truck: &mut TruckParameters,
+) -> Result<Option<String>, String> {
+    let Some(run) = model3_oe_run(input, estimation) else {
+        return Ok(None);
+    };
+    if start_run == Some(run.name.as_str()) {
+        return Ok(None);
+    }
+    let (fit_percent, _, note) = identify_model3(&run.run, truck)?;
+    Ok(Some(format!(
+        "the OE height model re-identified on {} (its load and pressure the least correlated of the estimation runs), fit {fit_percent:.1} %; {note}",
+        run.name
+    )))
 }
 
 /// OE from (Δload kg, Δpressure kPa) to Δbellow height mm, written into `truck.model3`.
