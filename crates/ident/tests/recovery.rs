@@ -5,6 +5,7 @@ mod common;
 
 use airsus_ident::linear::{
     ArmaxOrders, ArxOrders, BjOrders, IdData, OeOrders, PemOptions, StopReason, armax, arx, bj, oe,
+    oe_merged,
 };
 use common::*;
 
@@ -122,6 +123,100 @@ fn two_input_oe_like_thesis_model_3() {
     for (s, p) in sim.iter().zip(&pred) {
         assert!((s - p).abs() < 1e-9);
     }
+}
+
+/// Several experiments in one estimate (≙ MATLAB `oe(merge(z1, z2), orders)`), as a
+/// bellow's loading run and valve run: in the first the two inputs move together (the
+/// pressure follows the load), so their paths cannot be told apart; in the second the first
+/// input is constant. Neither determines the model alone; merged, each experiment's filters
+/// started at its own first sample, they recover the truth. End to end they do not: the
+/// filters carry the first experiment's end into the second's start.
+#[test]
+fn merged_experiments_determine_what_neither_does_alone() {
+    let mut r = rng(11);
+    let (b1, f1) = ([0.10, 0.08], [1.0, -1.6, 0.7]);
+    let (b2, f2) = ([0.5, -0.3], [1.0, -0.5, 0.3]);
+    let system = |u1: &[f64], u2: &[f64], e: &[f64]| {
+        add(
+            &add(&lfilter(&b1, 1, &f1, u1), &lfilter(&b2, 1, &f2, u2)),
+            e,
+        )
+    };
+    // Experiment 1: the second input is the first plus a little of its own (`own`).
+    let mut loading_run = |own: f64| {
+        let u1 = binary(&mut r, N, 0.05);
+        let u2: Vec<f64> = u1
+            .iter()
+            .zip(white(&mut r, N, own))
+            .map(|(a, b)| 0.8 * a + b)
+            .collect();
+        let e = white(&mut r, N, 0.05);
+        let y = system(&u1, &u2, &e);
+        IdData::new(y, vec![u1, u2], 0.01).unwrap()
+    };
+    let loading = loading_run(0.001);
+    let distinct = loading_run(0.1);
+    // Experiment 2: the first input held.
+    let u1 = vec![0.0; N];
+    let u2 = white(&mut r, N, 1.0);
+    let e = white(&mut r, N, 0.05);
+    let y = system(&u1, &u2, &e);
+    let valve = IdData::new(y, vec![u1, u2], 0.01).unwrap();
+    let orders = OeOrders {
+        nb: vec![2, 2],
+        nf: vec![2, 2],
+        nk: vec![1, 1],
+    };
+    let truth = [0.10, 0.08, 0.5, -0.3, -1.6, 0.7, -0.5, 0.3];
+    let options = PemOptions::default();
+
+    // One experiment merged is that experiment's estimate.
+    let alone = oe(&distinct, &orders, &options).unwrap();
+    let one = oe_merged(std::slice::from_ref(&distinct), &orders, &options).unwrap();
+    for (a, b) in alone.parameters.iter().zip(&one.parameters) {
+        assert!(
+            (a.value - b.value).abs() < 1e-9 * a.value.abs().max(1.0),
+            "{a:?} {b:?}"
+        );
+    }
+    // Alone, the valve run cannot see the first input at all.
+    assert!(oe(&valve, &orders, &options).is_err());
+
+    let merged = oe_merged(&[loading.clone(), valve.clone()], &orders, &options).unwrap();
+    println!("{merged}");
+    assert_within_sigmas(&merged, &truth, 3.0);
+    assert_eq!(merged.n_samples, 2 * N);
+    // The loading run alone is far off (or refused) where the merged estimate is not.
+    let worst = |est: &airsus_ident::linear::Estimate| {
+        est.parameters
+            .iter()
+            .zip(&truth)
+            .map(|(p, t)| (p.value - t).abs())
+            .fold(0.0, f64::max)
+    };
+    if let Ok(alone) = oe(&loading, &orders, &options) {
+        println!("the loading run alone:\n{alone}");
+        assert!(worst(&alone) > 10.0 * worst(&merged), "{alone}\n{merged}");
+    }
+    // End to end, the boundary's transient is an error of the data.
+    let joined = IdData::new(
+        [loading.y(), valve.y()].concat(),
+        (0..2)
+            .map(|i| [loading.u()[i].as_slice(), valve.u()[i].as_slice()].concat())
+            .collect(),
+        0.01,
+    )
+    .unwrap();
+    let end_to_end = oe(&joined, &orders, &options).unwrap();
+    assert!(end_to_end.loss > merged.loss, "{end_to_end}");
+
+    // Experiments must agree in inputs and sample time; an input constant in every one is
+    // named.
+    let other_ts = IdData::new(valve.y().to_vec(), valve.u().to_vec(), 0.02).unwrap();
+    assert!(oe_merged(&[loading.clone(), other_ts], &orders, &options).is_err());
+    let held = IdData::new(valve.y().to_vec(), vec![vec![0.0; N], vec![0.0; N]], 0.01).unwrap();
+    assert!(oe_merged(&[held.clone(), held], &orders, &options).is_err());
+    assert!(oe_merged(&[], &orders, &options).is_err());
 }
 
 #[test]

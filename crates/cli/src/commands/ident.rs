@@ -14,7 +14,7 @@ use airsus_data::table::read_columns;
 use airsus_data::time_axis::{check_time_axis, check_uniform};
 use airsus_ident::linear::{
     ArmaxOrders, ArxOrders, BjOrders, Estimate, IdData, IdentError, OeOrders, Offsets, PemOptions,
-    armax, arx, bj, fit_percent, oe,
+    armax, arx, bj, fit_percent, oe, oe_merged,
 };
 use anyhow::{Context, anyhow, bail};
 use serde::Serialize;
@@ -88,6 +88,13 @@ pub struct IdentArgs {
     pub json: bool,
     /// Run file: CSV with a header row, or an MDF4, Parquet or CAN log (its channels by name).
     pub run: PathBuf,
+    /// Another run of the same system, estimated together with RUN (≙ MATLAB `merge`): one
+    /// model, each run's filters started at its own first sample, where runs laid end to end
+    /// would invent a step at each joint. For what no single run determines (a loading run
+    /// moves the pressure with the load; a valve run the pressure alone). OE only;
+    /// repeatable; the same columns and sample time as RUN.
+    #[arg(long = "merge", value_name = "RUN")]
+    pub merge: Vec<PathBuf>,
     /// Resampling and CAN decoding of a log's channels (`--columns` only names a Parquet
     /// file's time column).
     #[command(flatten)]
@@ -105,7 +112,18 @@ struct IdentReport<'a> {
     ts_s: f64,
     /// Means removed before estimation (`--detrend`), else null.
     offsets: Option<Offsets>,
+    /// The runs estimated together with `run` (`--merge`), each with its samples and, with
+    /// `--detrend`, its own means.
+    merged: Vec<MergedRun<'a>>,
     estimate: &'a Estimate,
+}
+
+/// One `--merge` run in the JSON report.
+#[derive(Debug, Serialize)]
+struct MergedRun<'a> {
+    run: &'a Path,
+    samples: usize,
+    offsets: Option<Offsets>,
 }
 
 /// Orders expanded to one value per input.
@@ -164,8 +182,8 @@ fn check_ts_flag(flag: Option<f64>, ts_s: f64, path: &Path) -> anyhow::Result<()
     Ok(())
 }
 
-/// Reads the requested columns and the sample time.
-fn read_data(args: &IdentArgs) -> anyhow::Result<(IdData, usize)> {
+/// Reads the requested columns of `path` and the sample time.
+fn read_data(args: &IdentArgs, path: &Path) -> anyhow::Result<(IdData, usize)> {
     if args.inputs.iter().any(|n| n.trim().is_empty()) {
         bail!("--inputs contains an empty column name");
     }
@@ -179,7 +197,6 @@ fn read_data(args: &IdentArgs) -> anyhow::Result<(IdData, usize)> {
     }
     let mut names: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
     names.push(&args.output);
-    let path = args.run.as_path();
     let source = args.source.source()?;
     if airsus_logs::detect_format(path)? != airsus_logs::LogFormat::Csv {
         let (aligned, notes) = airsus_logs::read_signals(path, &names, &source)?;
@@ -236,14 +253,36 @@ fn read_data(args: &IdentArgs) -> anyhow::Result<(IdData, usize)> {
 /// Runs `airsus ident`.
 pub fn run(args: &IdentArgs) -> anyhow::Result<()> {
     reject_unused(args)?;
-    let (raw, rows) = read_data(args)?;
-    let m = raw.n_inputs();
-    let (data, offsets) = if args.detrend {
-        let (d, o) = raw.detrend();
-        (d, Some(o))
-    } else {
-        (raw, None)
+    if !args.merge.is_empty() && args.structure != StructureArg::Oe {
+        bail!(
+            "--merge estimates OE models only so far; {} models take one run",
+            args.structure.label()
+        );
+    }
+    // Each run detrended by its own means, as MATLAB's `detrend` does a merged data set.
+    let prepare = |raw: IdData| {
+        if args.detrend {
+            let (d, o) = raw.detrend();
+            (d, Some(o))
+        } else {
+            (raw, None)
+        }
     };
+    let (raw, rows) = read_data(args, &args.run)?;
+    let m = raw.n_inputs();
+    let (data, offsets) = prepare(raw);
+    let mut merged_data = Vec::with_capacity(args.merge.len());
+    let mut merged = Vec::with_capacity(args.merge.len());
+    for path in &args.merge {
+        let (raw, samples) = read_data(args, path)?;
+        let (d, offsets) = prepare(raw);
+        merged_data.push(d);
+        merged.push(MergedRun {
+            run: path,
+            samples,
+            offsets,
+        });
+    }
     let nb = per_input("nb", &args.nb, m)?;
     let nk = per_input("nk", &args.nk, m)?;
     let options = PemOptions::default();
@@ -273,15 +312,20 @@ pub fn run(args: &IdentArgs) -> anyhow::Result<()> {
             },
             &options,
         ),
-        StructureArg::Oe => oe(
-            &data,
-            &OeOrders {
+        StructureArg::Oe => {
+            let orders = OeOrders {
                 nb,
                 nf: per_input("nf", &args.nf, m)?,
                 nk,
-            },
-            &options,
-        ),
+            };
+            if merged_data.is_empty() {
+                oe(&data, &orders, &options)
+            } else {
+                let experiments: Vec<IdData> =
+                    std::iter::once(data.clone()).chain(merged_data).collect();
+                oe_merged(&experiments, &orders, &options)
+            }
+        }
         StructureArg::Bj => bj(
             &data,
             &BjOrders {
@@ -297,9 +341,14 @@ pub fn run(args: &IdentArgs) -> anyhow::Result<()> {
     .map_err(|e| match e {
         // Name the column rather than its position.
         IdentError::ConstantInput { input, value } => anyhow!(
-            "input column `{}` is constant ({value}) in {}: a constant input carries no information about the dynamics",
+            "input column `{}` is constant ({value}) in {}{}: a constant input carries no information about the dynamics",
             args.inputs.get(input).map_or("?", String::as_str),
-            args.run.display()
+            args.run.display(),
+            if args.merge.is_empty() {
+                ""
+            } else {
+                " and in every merged run"
+            }
         ),
         other => anyhow::Error::new(other).context(context()),
     })?;
@@ -314,6 +363,7 @@ pub fn run(args: &IdentArgs) -> anyhow::Result<()> {
             samples: rows,
             ts_s: data.ts_s(),
             offsets,
+            merged,
             estimate: &estimate,
         };
         let mut text = serde_json::to_string_pretty(&report)?;
@@ -328,6 +378,14 @@ pub fn run(args: &IdentArgs) -> anyhow::Result<()> {
         args.inputs.join(", "),
         args.run.display()
     )?;
+    for run in &merged {
+        writeln!(
+            out,
+            "merged with {} ({} samples): one model, each run's filters from its own first sample",
+            run.run.display(),
+            run.samples
+        )?;
+    }
     if m > 1 {
         let map: Vec<String> = args
             .inputs

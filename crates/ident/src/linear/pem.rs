@@ -46,7 +46,7 @@ use nalgebra::{DMatrix, DVector, Dyn, Owned, QR};
 use serde::Serialize;
 
 use super::arx::arx_least_squares;
-use super::data::IdData;
+use super::data::{IdData, check_input_varies};
 use super::error::IdentError;
 use super::estimate::{Estimate, Method, RawEstimate, StopReason, fit_percent};
 use super::lstsq::{LagColumn, lagged_least_squares};
@@ -127,6 +127,197 @@ pub fn oe(data: &IdData, orders: &OeOrders, options: &PemOptions) -> Result<Esti
     options.check()?;
     let initial = initial_oe(data, &layout)?;
     minimise(data, &layout, initial, options)
+}
+
+/// Estimates an OE model from several experiments at once (≙ MATLAB
+/// `oe(merge(z1, z2, …), orders)`): one parameter vector, each experiment's filters started
+/// from zero at its own first sample, every experiment's prediction errors in one loss.
+///
+/// Why not the experiments end to end: the filters would carry one experiment's end into the
+/// next one's start, an input step that never happened. And why several at all: each
+/// experiment may excite only some of what the model needs. A loading run moves a bellow's
+/// pressure with its load, so the two inputs' effects cannot be told apart there; a run at
+/// one load with the valve moving the air has the load constant; together they determine
+/// both.
+///
+/// The search starts from the OE initial estimate (of the experiments end to end, or of one
+/// of them) whose loss over all of them is least. Every
+/// experiment must have the same inputs and sample time (to 1 ppm); each input must vary in
+/// at least one of them.
+pub fn oe_merged(
+    experiments: &[IdData],
+    orders: &OeOrders,
+    options: &PemOptions,
+) -> Result<Estimate, IdentError> {
+    let Some(first) = experiments.first() else {
+        return Err(IdentError::Empty);
+    };
+    let layout = Layout::oe(orders);
+    options.check()?;
+    for (k, e) in experiments.iter().enumerate() {
+        // Sample times read off logs' time columns differ in their last digits.
+        if e.n_inputs() != first.n_inputs() || (e.ts_s() / first.ts_s() - 1.0).abs() > 1e-6 {
+            return Err(IdentError::InvalidOption(format!(
+                "experiment {} has {} inputs at {} s; experiment 1 has {} at {} s",
+                k + 1,
+                e.n_inputs(),
+                e.ts_s(),
+                first.n_inputs(),
+                first.ts_s()
+            )));
+        }
+    }
+    // The orders against the experiments together; each input must vary within one.
+    let together = IdData::new(
+        experiments
+            .iter()
+            .flat_map(|e| e.y().iter().copied())
+            .collect(),
+        (0..first.n_inputs())
+            .map(|i| {
+                experiments
+                    .iter()
+                    .flat_map(|e| e.u()[i].iter().copied())
+                    .collect()
+            })
+            .collect(),
+        first.ts_s(),
+    )?;
+    layout.validate(&together)?;
+    for input in 0..first.n_inputs() {
+        let checks: Vec<Result<(), IdentError>> = experiments
+            .iter()
+            .map(|e| check_input_varies(input, &e.u()[input]))
+            .collect();
+        if !checks.iter().any(Result::is_ok)
+            && let Some(Err(constant)) = checks.into_iter().next()
+        {
+            return Err(constant);
+        }
+    }
+    let merged_rss = |start: &PolyModel| -> Option<f64> {
+        let problem = MergedPem::new(experiments, &layout, start);
+        problem.stable().then(|| problem.rss())
+    };
+    let mut best: Option<(f64, PolyModel)> = None;
+    let mut last_error = None;
+    // The experiments end to end give an initial estimate where none alone does; the
+    // joints' false steps only blur a start the search then leaves.
+    for e in std::iter::once(&together).chain(experiments) {
+        match initial_oe(e, &layout) {
+            Ok(start) => {
+                if let Some(rss) = merged_rss(&start)
+                    && best.as_ref().is_none_or(|(b, _)| rss < *b)
+                {
+                    best = Some((rss, start));
+                }
+            }
+            Err(err) => last_error = Some(err),
+        }
+    }
+    let Some((_, start)) = best else {
+        return Err(last_error.unwrap_or(IdentError::OptimizerFailed(
+            "no experiment gave a stable initial estimate".to_owned(),
+        )));
+    };
+    let problem = MergedPem::new(experiments, &layout, &start);
+    let solver = search(options);
+    let (problem, report) = solver.minimize(problem);
+    let stop = stop_reason(&report.termination)?;
+    if !problem.stable() {
+        return Err(IdentError::OptimizerFailed(
+            "the search ended at an unstable model".to_owned(),
+        ));
+    }
+    let jac = problem
+        .jacobian()
+        .ok_or_else(|| IdentError::OptimizerFailed("no Jacobian at the optimum".to_owned()))?;
+    let y: Vec<f64> = together.y().to_vec();
+    let yhat: Vec<f64> = problem
+        .parts
+        .iter()
+        .flat_map(|p| p.y.iter().zip(&p.eps).map(|(y, e)| y - e))
+        .collect();
+    let fit = fit_percent(&y, &yhat).unwrap_or(f64::NEG_INFINITY);
+    let part = &problem.parts[0];
+    Ok(Estimate::assemble(RawEstimate {
+        model: part.model.clone(),
+        names: layout.names(),
+        theta: part.theta.iter().copied().collect(),
+        inverse_gram: inverse_gram_from_jacobian(jac),
+        rss: problem.rss(),
+        n_samples: y.len(),
+        fit_percent: fit,
+        // The OE predictor is the simulation.
+        simulation_fit_percent: Some(fit),
+        method: Method::PredictionErrorLm,
+        stop,
+        evaluations: report.number_of_evaluations,
+    }))
+}
+
+/// The prediction-error problem of several experiments sharing one parameter vector
+/// ([`oe_merged`]): each experiment's own [`PemProblem`], residuals and Jacobian rows stacked.
+struct MergedPem<'a> {
+    parts: Vec<PemProblem<'a>>,
+}
+
+impl<'a> MergedPem<'a> {
+    fn new(experiments: &'a [IdData], layout: &'a Layout, start: &PolyModel) -> Self {
+        Self {
+            parts: experiments
+                .iter()
+                .map(|e| PemProblem::new(e, layout, start))
+                .collect(),
+        }
+    }
+
+    fn stable(&self) -> bool {
+        self.parts.iter().all(|p| p.stable)
+    }
+
+    fn rss(&self) -> f64 {
+        self.parts.iter().map(PemProblem::rss).sum()
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for MergedPem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        for p in &mut self.parts {
+            p.set_params(x);
+        }
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.parts[0].params()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        let parts: Option<Vec<DVector<f64>>> = self.parts.iter().map(|p| p.residuals()).collect();
+        let parts = parts?;
+        Some(DVector::from_iterator(
+            parts.iter().map(|r| r.len()).sum(),
+            parts.iter().flat_map(|r| r.iter().copied()),
+        ))
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let parts: Option<Vec<DMatrix<f64>>> = self.parts.iter().map(|p| p.jacobian()).collect();
+        let parts = parts?;
+        let rows = parts.iter().map(|j| j.nrows()).sum();
+        let cols = parts.first().map_or(0, |j| j.ncols());
+        let mut jac = DMatrix::<f64>::zeros(rows, cols);
+        let mut at = 0;
+        for j in &parts {
+            jac.view_mut((at, 0), (j.nrows(), cols)).copy_from(j);
+            at += j.nrows();
+        }
+        Some(jac)
+    }
 }
 
 /// Estimates a Box–Jenkins model `y(t) = Σᵢ Bᵢ/Fᵢ uᵢ(t − nkᵢ) + C(q)/D(q) e(t)` (thesis eq
@@ -579,23 +770,9 @@ fn minimise(
             "the initial estimate is not stable after reflection".to_owned(),
         ));
     }
-    let solver = LevenbergMarquardt::new()
-        .with_ftol(options.tolerance)
-        .with_xtol(options.tolerance)
-        .with_gtol(options.tolerance)
-        .with_patience(options.max_evaluations_per_parameter);
+    let solver = search(options);
     let (problem, report) = solver.minimize(problem);
-    let stop = match report.termination {
-        TerminationReason::Converged { .. } | TerminationReason::Orthogonal => {
-            StopReason::Converged
-        }
-        TerminationReason::ResidualsZero => StopReason::ZeroResiduals,
-        TerminationReason::NoImprovementPossible(_) => StopReason::NoFurtherImprovement,
-        TerminationReason::LostPatience => StopReason::IterationLimit,
-        other => {
-            return Err(IdentError::OptimizerFailed(format!("{other:?}")));
-        }
-    };
+    let stop = stop_reason(&report.termination)?;
     if !problem.stable {
         // Unreachable by construction (unstable trials are never accepted); kept as a guard
         // so an unstable model can never be returned.
@@ -635,6 +812,28 @@ fn minimise(
         stop,
         evaluations: report.number_of_evaluations,
     }))
+}
+
+/// The Levenberg–Marquardt search `options` ask for.
+fn search(options: &PemOptions) -> LevenbergMarquardt<f64> {
+    LevenbergMarquardt::new()
+        .with_ftol(options.tolerance)
+        .with_xtol(options.tolerance)
+        .with_gtol(options.tolerance)
+        .with_patience(options.max_evaluations_per_parameter)
+}
+
+/// What the search's termination says, or the error it is.
+fn stop_reason(termination: &TerminationReason) -> Result<StopReason, IdentError> {
+    Ok(match termination {
+        TerminationReason::Converged { .. } | TerminationReason::Orthogonal => {
+            StopReason::Converged
+        }
+        TerminationReason::ResidualsZero => StopReason::ZeroResiduals,
+        TerminationReason::NoImprovementPossible(_) => StopReason::NoFurtherImprovement,
+        TerminationReason::LostPatience => StopReason::IterationLimit,
+        other => return Err(IdentError::OptimizerFailed(format!("{other:?}"))),
+    })
 }
 
 /// `(JᵀJ)⁻¹ = R⁻¹R⁻ᵀ` from the QR factor of the Jacobian; if `R` is singular (a parameter
