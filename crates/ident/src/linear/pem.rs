@@ -141,9 +141,8 @@ pub fn oe(data: &IdData, orders: &OeOrders, options: &PemOptions) -> Result<Esti
 /// both.
 ///
 /// The search starts from the OE initial estimate (of the experiments end to end, or of one
-/// of them) whose loss over all of them is least. Every
-/// experiment must have the same inputs and sample time (to 1 ppm); each input must vary in
-/// at least one of them.
+/// of them) whose loss over all of them is least. Every experiment must have the same inputs
+/// and sample time (to 1 ppm); each input must vary in at least one of them.
 pub fn oe_merged(
     experiments: &[IdData],
     orders: &OeOrders,
