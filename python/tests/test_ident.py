@@ -43,6 +43,37 @@ def test_detrended_model_works_on_the_original_scale() -> None:
     assert abs(np.mean(sim) - 250.0) < 5.0
 
 
+def two_path_run(n: int, gain: float, held: bool, seed: int) -> dict:
+    """y = 0.5/(1 - 0.8 q^-1) u1(t-1) + 0.3/(1 - 0.8 q^-1) u2(t-1) + noise, with
+    u2 = gain * u1 (+ its own signal when u1 is held), as ``cli_ident``'s merge test."""
+    rng = np.random.default_rng(seed)
+    u1 = np.zeros(n) if held else np.repeat(rng.choice([-1.0, 1.0], n // 20), 20)
+    u2 = gain * u1 + (rng.uniform(-1.0, 1.0, n) if held else 0.0)
+    y = np.zeros(n)
+    x1 = x2 = 0.0
+    for t in range(1, n):
+        x1 = 0.8 * x1 + 0.5 * u1[t - 1]
+        x2 = 0.8 * x2 + 0.3 * u2[t - 1]
+        y[t] = x1 + x2
+    y += rng.uniform(-0.05, 0.05, n)
+    return {"u1": u1, "u2": u2, "y": y}
+
+
+def test_merged_runs_determine_what_neither_does_alone() -> None:
+    loading = two_path_run(3000, 0.8, held=False, seed=1)
+    valve = two_path_run(3000, 0.0, held=True, seed=2)
+    orders = dict(nb=1, nf=1, nk=1, ts_s=0.1)
+    model = airsus.ident(loading, "oe", ["u1", "u2"], "y", merge=valve, **orders)
+    truth = {"b1(u1)": 0.5, "b1(u2)": 0.3, "f1(u1)": -0.8, "f1(u2)": -0.8}
+    for name, value in truth.items():
+        assert model.parameters[name] == pytest.approx(value, abs=0.02), name
+    assert model.report["merged"][0]["samples"] == 3000
+    with pytest.raises(airsus.AirsusError, match="rank deficient"):
+        airsus.ident(loading, "oe", ["u1", "u2"], "y", **orders)
+    with pytest.raises(airsus.AirsusError, match="merge estimates OE models only"):
+        airsus.ident(loading, "arx", ["u1", "u2"], "y", na=1, nb=1, nk=1, ts_s=0.1, merge=[valve])
+
+
 def test_orders_the_structure_lacks_are_rejected() -> None:
     with pytest.raises(airsus.AirsusError, match="na does not apply to OE models"):
         airsus.ident(arx_data(), "oe", "u", "y", na=1, nb=1, nf=1, nk=1, ts_s=0.1)

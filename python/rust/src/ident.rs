@@ -13,7 +13,7 @@ use serde::Serialize;
 use airsus_data::time_axis::check_time_axis;
 use airsus_ident::linear::{
     ArmaxOrders, ArxOrders, BjOrders, Estimate, IdData, IdentError, OeOrders, Offsets, PemOptions,
-    PolyModel, armax, arx, bj, fit_percent, oe,
+    PolyModel, armax, arx, bj, fit_percent, oe_with,
 };
 
 use crate::error::OrPy;
@@ -70,7 +70,17 @@ struct IdentReport<'a> {
     samples: usize,
     ts_s: f64,
     offsets: Option<Offsets>,
+    /// The runs estimated together with `run` (`merge`), as the command's `--merge`.
+    merged: Vec<MergedRun>,
     estimate: &'a Estimate,
+}
+
+/// One merged run in the report.
+#[derive(Debug, Serialize)]
+struct MergedRun {
+    run: String,
+    samples: usize,
+    offsets: Option<Offsets>,
 }
 
 fn per_input(name: &str, values: &[usize], n_inputs: usize) -> anyhow::Result<Vec<usize>> {
@@ -176,8 +186,10 @@ struct Identified {
     model: PolyModel,
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_ident(
     source: &RunSource,
+    merge: &[RunSource],
     structure: Structure,
     inputs: &[String],
     output: &str,
@@ -186,14 +198,36 @@ fn run_ident(
     detrend: bool,
 ) -> anyhow::Result<Identified> {
     reject_unused(structure, orders)?;
+    if !merge.is_empty() && structure != Structure::Oe {
+        bail!(
+            "merge estimates OE models only so far; {} models take one run",
+            structure.label()
+        );
+    }
+    // Each run detrended by its own means, as MATLAB's `detrend` does a merged data set.
+    let prepare = |raw: IdData| {
+        if detrend {
+            let (d, o) = raw.detrend();
+            (d, Some(o))
+        } else {
+            (raw, None)
+        }
+    };
     let (raw, rows) = read_data(source, inputs, output, ts_s)?;
     let m = raw.n_inputs();
-    let (data, offsets) = if detrend {
-        let (d, o) = raw.detrend();
-        (d, Some(o))
-    } else {
-        (raw, None)
-    };
+    let (data, offsets) = prepare(raw);
+    let mut merged_data = Vec::with_capacity(merge.len());
+    let mut merged = Vec::with_capacity(merge.len());
+    for other in merge {
+        let (raw, samples) = read_data(other, inputs, output, ts_s)?;
+        let (d, offsets) = prepare(raw);
+        merged_data.push(d);
+        merged.push(MergedRun {
+            run: other.label(),
+            samples,
+            offsets,
+        });
+    }
     let nb = per_input("nb", &orders.nb, m)?;
     let nk = per_input("nk", &orders.nk, m)?;
     let options = PemOptions::default();
@@ -217,15 +251,14 @@ fn run_ident(
             },
             &options,
         ),
-        Structure::Oe => oe(
-            &data,
-            &OeOrders {
+        Structure::Oe => {
+            let orders = OeOrders {
                 nb,
                 nf: per_input("nf", &orders.nf, m)?,
                 nk,
-            },
-            &options,
-        ),
+            };
+            oe_with(&data, merged_data, &orders, &options)
+        }
         Structure::Bj => bj(
             &data,
             &BjOrders {
@@ -241,9 +274,14 @@ fn run_ident(
     .map_err(|e| match e {
         // Name the column rather than its position.
         IdentError::ConstantInput { input, value } => anyhow!(
-            "input column `{}` is constant ({value}) in {}: a constant input carries no information about the dynamics",
+            "input column `{}` is constant ({value}) in {}{}: a constant input carries no information about the dynamics",
             inputs.get(input).map_or("?", String::as_str),
-            source.label()
+            source.label(),
+            if merge.is_empty() {
+                ""
+            } else {
+                " and in every merged run"
+            }
         ),
         other => anyhow::Error::new(other).context(context()),
     })?;
@@ -257,6 +295,7 @@ fn run_ident(
         samples: rows,
         ts_s: data.ts_s(),
         offsets: offsets.clone(),
+        merged,
         estimate: &estimate,
     };
     let json = serde_json::to_string(&report)?;
@@ -270,6 +309,13 @@ fn run_ident(
         inputs.join(", "),
         label
     )?;
+    for run in &report.merged {
+        writeln!(
+            text,
+            "merged with {} ({} samples): one model, each run's filters from its own first sample",
+            run.run, run.samples
+        )?;
+    }
     if m > 1 {
         let map: Vec<String> = inputs
             .iter()
@@ -367,7 +413,7 @@ impl NativeLinearModel {
 /// Returns `{"report": JSON text of `--json`, "text": the command's printout,
 /// "simulation_fit": percent or None, "model": NativeLinearModel}`.
 #[pyfunction]
-#[pyo3(signature = (data, structure, inputs, output, na=None, nb=None, nc=None, nd=None, nf=None, nk=None, ts_s=None, detrend=false))]
+#[pyo3(signature = (data, structure, inputs, output, na=None, nb=None, nc=None, nd=None, nf=None, nk=None, ts_s=None, detrend=false, merge=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn ident<'py>(
     py: Python<'py>,
@@ -383,8 +429,14 @@ pub fn ident<'py>(
     nk: Option<Vec<usize>>,
     ts_s: Option<f64>,
     detrend: bool,
+    merge: Option<Vec<RunSpec<'py>>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let source = RunSource::from_spec(data)?;
+    let merge = merge
+        .unwrap_or_default()
+        .into_iter()
+        .map(RunSource::from_spec)
+        .collect::<PyResult<Vec<_>>>()?;
     let structure = Structure::parse(&structure).or_py()?;
     let orders = Orders {
         na,
@@ -395,7 +447,11 @@ pub fn ident<'py>(
         nk: nk.unwrap_or_default(),
     };
     let identified = py
-        .detach(|| run_ident(&source, structure, &inputs, &output, &orders, ts_s, detrend))
+        .detach(|| {
+            run_ident(
+                &source, &merge, structure, &inputs, &output, &orders, ts_s, detrend,
+            )
+        })
         .or_py()?;
     let out = PyDict::new(py);
     out.set_item("report", identified.json)?;

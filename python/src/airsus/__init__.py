@@ -825,6 +825,7 @@ def ident(
     nk: Union[None, int, Sequence[int]] = None,
     ts_s: Optional[float] = None,
     detrend: bool = False,
+    merge: Union[None, RunLike, Sequence[RunLike]] = None,
 ) -> LinearModel:
     """Estimate a linear black-box model (ARX, ARMAX, OE, BJ) of one output from one or more
     input columns, as ``airsus ident`` does (MATLAB ``arx``/``armax``/``oe``/``bj``).
@@ -841,8 +842,21 @@ def ident(
         nb, nf, nk: one value for every input, or one per input. Orders the structure does
             not have are rejected rather than ignored.
         ts_s: sample time, s, when the data have no ``time_s`` column.
-        detrend: remove the means of output and inputs first (MATLAB ``detrend(z, 0)``).
+        detrend: remove the means of output and inputs first (MATLAB ``detrend(z, 0)``);
+            each run's own means when runs are merged.
+        merge: other runs of the same system (same columns and sample time) estimated
+            together with ``data`` (MATLAB ``merge``; ``--merge``): one model, each run's
+            filters started at its own first sample, for what no run determines alone. OE
+            only. The model's ``offsets`` are ``data``'s.
     """
+    if merge is None:
+        merged = None
+    elif isinstance(merge, (list, tuple)):
+        if not merge:
+            raise ValueError("merge is an empty list: give a run, or None")
+        merged = [_data_spec(m) for m in merge]
+    else:
+        merged = [_data_spec(merge)]
     native = _native.ident(
         _data_spec(data),
         structure,
@@ -856,6 +870,7 @@ def ident(
         nk=_orders(nk),
         ts_s=None if ts_s is None else float(ts_s),
         detrend=bool(detrend),
+        merge=merged,
     )
     return LinearModel(native)
 

@@ -141,6 +141,7 @@ def ident(
     nk: Union[None, int, Sequence[int]] = None,
     ts_s: Optional[float] = None,
     detrend: bool = False,
+    merge: Union[None, RunLike, Sequence[RunLike]] = None,
 ) -> LinearModel: ...
 def weigh(
     truck: TruckLike,

@@ -86,6 +86,7 @@ def ident(
     nk: Optional[Sequence[int]] = None,
     ts_s: Optional[float] = None,
     detrend: bool = False,
+    merge: Optional[Sequence[_RunSpec]] = None,
 ) -> Dict[str, Any]: ...
 def models() -> List[Dict[str, Any]]: ...
 def weigh(

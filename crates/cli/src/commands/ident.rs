@@ -14,7 +14,7 @@ use airsus_data::table::read_columns;
 use airsus_data::time_axis::{check_time_axis, check_uniform};
 use airsus_ident::linear::{
     ArmaxOrders, ArxOrders, BjOrders, Estimate, IdData, IdentError, OeOrders, Offsets, PemOptions,
-    armax, arx, bj, fit_percent, oe, oe_merged,
+    armax, arx, bj, fit_percent, oe_with,
 };
 use anyhow::{Context, anyhow, bail};
 use serde::Serialize;
@@ -318,13 +318,7 @@ pub fn run(args: &IdentArgs) -> anyhow::Result<()> {
                 nf: per_input("nf", &args.nf, m)?,
                 nk,
             };
-            if merged_data.is_empty() {
-                oe(&data, &orders, &options)
-            } else {
-                let experiments: Vec<IdData> =
-                    std::iter::once(data.clone()).chain(merged_data).collect();
-                oe_merged(&experiments, &orders, &options)
-            }
+            oe_with(&data, merged_data, &orders, &options)
         }
         StructureArg::Bj => bj(
             &data,

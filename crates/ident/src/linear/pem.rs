@@ -255,6 +255,21 @@ pub fn oe_merged(
     }))
 }
 
+/// [`oe`] of `first` alone, or with `more` experiments [`oe_merged`] of them all: what
+/// `airsus ident --merge` and Python's `ident(merge=…)` run.
+pub fn oe_with(
+    first: &IdData,
+    more: Vec<IdData>,
+    orders: &OeOrders,
+    options: &PemOptions,
+) -> Result<Estimate, IdentError> {
+    if more.is_empty() {
+        return oe(first, orders, options);
+    }
+    let experiments: Vec<IdData> = std::iter::once(first.clone()).chain(more).collect();
+    oe_merged(&experiments, orders, options)
+}
+
 /// The prediction-error problem of several experiments sharing one parameter vector
 /// ([`oe_merged`]): each experiment's own [`PemProblem`], residuals and Jacobian rows stacked.
 struct MergedPem<'a> {
