@@ -220,8 +220,9 @@ pub fn quality_flags(
 /// The samples of a load arriving or leaving, read from the run alone
 /// ([`StandstillDetector::loading_shift_pa`]): the pressure's mean level over the window
 /// after a sample against the window before, the valve closed and the road (where logged)
-/// still over both, and the hold after, carried on while a valve opened within it works. The means are taken over the finite readings; a window without any
-/// says nothing. The log is read whole, so the shift is seen as the load starts to arrive.
+/// still over both, and the hold after, carried on while a valve opened within it works.
+/// The means are taken over the finite readings; a window without any says nothing. The log
+/// is read whole, so the shift is seen as the load starts to arrive.
 fn loading_mask(run: &Run, gauge_pa: &[f64], detector: &StandstillDetector) -> Vec<bool> {
     let n = gauge_pa.len();
     let mut out = vec![false; n];

@@ -53,8 +53,9 @@ pub struct StandstillDetector {
     /// more than `loading_shift_pa`, with the valve closed and the road still (the window
     /// after ends where the valve opens, half a window at least); the flag holds for
     /// `loading_hold_s` after the last such sample, and a valve opened within that hold (a
-    /// levelling controller answering the load) carries it on to the valve's closing. A 300 kg step moves the pressure by
-    /// about 30 kPa within seconds; the gas cooling after a fill by 1-2 kPa over 4 s.
+    /// levelling controller answering the load) carries it on to the valve's closing. A
+    /// 300 kg step moves the pressure by about 30 kPa within seconds; the gas cooling after
+    /// a fill by 1-2 kPa over 4 s.
     pub loading_shift_pa: f64,
     pub loading_window_s: f64,
     pub loading_hold_s: f64,

@@ -75,8 +75,9 @@ pub struct WeighArgs {
     /// A sample is flagged `loading` (a load arriving, read with the interval the calibration
     /// runs' arrivals measured) when the mean pressure over --loading-window-s after it
     /// differs from the mean over the window before it by more than this, with the valve
-    /// closed (the window after ends where it opens) and the road still, kPa. The default suits 100-300 kg steps on a truck axle
-    /// (about 30 kPa); smaller loads or a noisier sensor want another.
+    /// closed (the window after ends where it opens) and the road still, kPa. The default
+    /// suits 100-300 kg steps on a truck axle (about 30 kPa); smaller loads or a noisier
+    /// sensor want another.
     #[arg(long, default_value_t = StandstillDetector::default().loading_shift_pa / 1e3)]
     pub loading_shift_kpa: f64,
     /// The windows the `loading` flag compares, s (see --loading-shift-kpa).
