@@ -204,6 +204,16 @@ impl Corner {
         }
     }
 
+    /// Writes the line's rate of `flows` into its entry of `dx`, the last
+    /// ([`SUPPLY_LINE_STATE`]); nothing without a line.
+    pub fn set_line_rate(&self, dx: &mut [f64], flows: AirFlows) {
+        if self.supply_line.is_some()
+            && let Some(line) = dx.last_mut()
+        {
+            *line = flows.line_mol_s;
+        }
+    }
+
     /// The supply line's air in state `x`, mol: its last entry ([`SUPPLY_LINE_STATE`]);
     /// `None` without a line.
     pub fn line_mol(&self, x: &[f64]) -> Option<f64> {

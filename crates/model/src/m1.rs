@@ -141,9 +141,7 @@ impl SuspensionModel for Model1 {
         dx[3] = (f_tire - internal) / m2 - g;
         let flows = c.air_flows(p_abs, c.line_mol(x), u);
         dx[4] = flows.bellow_mol_s;
-        if c.supply_line.is_some() {
-            dx[5] = flows.line_mol_s;
-        }
+        c.set_line_rate(dx, flows);
     }
 
     fn uses_supply_while_valve_shut(&self) -> bool {

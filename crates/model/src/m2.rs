@@ -367,11 +367,7 @@ impl SuspensionModel for Model2 {
                 dx[5] = -ksd_n_per_m * h_b_dot - x[5] / tau_s;
             }
         }
-        if c.supply_line.is_some()
-            && let Some(line) = dx.last_mut()
-        {
-            *line = flows.line_mol_s;
-        }
+        c.set_line_rate(dx, flows);
     }
 
     fn uses_supply_while_valve_shut(&self) -> bool {

@@ -175,11 +175,7 @@ impl SuspensionModel for Model3 {
         self.block
             .derivative(&x[1..1 + k], &inputs, &mut dx[1..1 + k]);
         dx[1 + k..].fill(0.0);
-        if self.corner.supply_line.is_some()
-            && let Some(line) = dx.last_mut()
-        {
-            *line = flows.line_mol_s;
-        }
+        self.corner.set_line_rate(dx, flows);
     }
 
     fn uses_supply_while_valve_shut(&self) -> bool {
