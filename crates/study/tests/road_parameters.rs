@@ -84,6 +84,29 @@ fn fit_as_the_study_starts(
     joint.estimate
 }
 
+/// `run` with its road held level: a truck standing where it drove.
+fn on_a_level_road(run: &Run) -> Run {
+    let mut level = run.clone();
+    level.inputs.road_height_m.fill(0.0);
+    level
+}
+
+/// `name` of `model` fitted alone to `run` held on a level road, from `start`: the screen must
+/// report it undetermined and name road input as what would determine it.
+fn assert_undetermined_standing(
+    model: &dyn SuspensionModel,
+    name: &str,
+    run: &Run,
+    start: InitialState,
+) {
+    let level = on_a_level_road(run);
+    let mut standing = GreyboxProblem::new(model, &[&level], &[name]);
+    standing.start_states = vec![Some(start)];
+    let fit = estimate(&standing, &GreyboxOptions::default(), &mut NoProgress).unwrap();
+    assert!(fit.is_not_identifiable(name), "{fit}");
+    assert!(fit.to_string().contains("road input"), "{fit}");
+}
+
 /// `name` of `model` fitted alone to `run` from `start`: the fit, which must have determined it.
 fn fit_one(
     model: &dyn SuspensionModel,
@@ -135,8 +158,7 @@ fn a_road_run_determines_the_damper_scale_of_a_truck_whose_damper_differs_from_i
     let model = build_any_model("truck", &file).unwrap();
     let (free, excitation) = default_free(&*model, &[&road1.logged]).unwrap();
     assert!(excitation.road && free.contains(&"dscl"), "{free:?}");
-    let mut level = road1.logged.clone();
-    level.inputs.road_height_m.fill(0.0);
+    let level = on_a_level_road(&road1.logged);
     let standing = default_free(&*model, &[&level]).unwrap();
     assert_eq!(standing.1, Excitation::default());
     assert!(!standing.0.contains(&"dscl"));
@@ -192,13 +214,7 @@ fn a_road_run_determines_the_tire_damping_of_a_truck_whose_tires_damp() {
     let start2 = true_start(&file, &road2.logged, friction);
 
     // On a level road the tire's damper does nothing: the screen says so and what would.
-    let mut level = road1.logged.clone();
-    level.inputs.road_height_m.fill(0.0);
-    let mut standing = GreyboxProblem::new(&*model, &[&level], &["cw"]);
-    standing.start_states = vec![Some(start1.clone())];
-    let fit = estimate(&standing, &GreyboxOptions::default(), &mut NoProgress).unwrap();
-    assert!(fit.is_not_identifiable("cw"), "{fit}");
-    assert!(fit.to_string().contains("road input"), "{fit}");
+    assert_undetermined_standing(&*model, "cw", &road1.logged, start1.clone());
 
     let fit = fit_one(&*model, "cw", &road1.logged, start1);
     println!("{fit}");
@@ -447,13 +463,8 @@ fn a_road_run_determines_the_hinge_friction_and_the_unsprung_mass() {
 
     // Standing on a level road at a steady load the lever does not move: the screen says
     // the hinge friction is undetermined, and what would determine it.
-    let mut level = road1.logged.clone();
-    level.inputs.road_height_m.fill(0.0);
-    let mut standing = GreyboxProblem::new(&*model, &[&level], &["kf"]);
-    standing.start_states = vec![Some(true_start(&file, &level, -friction))];
-    let fit = estimate(&standing, &GreyboxOptions::default(), &mut NoProgress).unwrap();
-    assert!(fit.is_not_identifiable("kf"), "{fit}");
-    assert!(fit.to_string().contains("road input"), "{fit}");
+    let start = true_start(&file, &on_a_level_road(&road1.logged), -friction);
+    assert_undetermined_standing(&*model, "kf", &road1.logged, start);
 
     let free = ["kf", "m2", "dscl"];
     let problem = GreyboxProblem::new(&*model, &[&road1.logged], &free);
