@@ -100,6 +100,11 @@ def test_weigh_calibration_on_two_runs(reference: Path, tmp_path: Path, cli) -> 
     # own noise part).
     pooled = cal["residual_q95_kg"] / 1.96
     assert 0.5 * pooled < cal["standstill_std_kg"] < 2.0 * pooled
+    # Settling half a minute after the valve or a load last moved misses less than in the
+    # seconds right after (data-set 3's valve steps): its own part, between the two.
+    assert cal["late_settling_after_s"] == 30.0
+    late = cal["late_settling_std_kg"]
+    assert cal["standstill_std_kg"] - 1e-6 <= late < 0.5 * cal["settling_std_kg"]
     # The static law's own part (the sensors' noise over its window) is far below its errors:
     # not scaled down.
     assert cal["own_std_scale"] == 1.0

@@ -509,7 +509,8 @@ fn ekf_on_a_richer_truck_calibrated_held_out() {
         let calibrated = score(
             &ds2.logged,
             truth,
-            &cal.apply(&raw, Some(&heights(&ds2.logged))).unwrap(),
+            &cal.apply_with_quality(&raw, Some(&heights(&ds2.logged)), Some(&flags(&ds2.logged)))
+                .unwrap(),
         );
         println!(
             "variant {variant}: EKF nominal: mean {:+.3} %, max {:.3} %, coverage {:.3}; calibrated: mean {:+.3} %, max {:.3} %, coverage {:.3}, mean σ {:.1} kg",
@@ -664,8 +665,11 @@ fn weigh_variants_held_out(
         let cal =
             LinearCalibration::fit_weighed_runs(&pairs, &StandstillRule::default(), terms).unwrap();
         println!(
-            "variant {k}: interval: the estimate's own σ × {:.3}, beside it {:.2} kg at standstill",
-            cal.own_std_scale, cal.standstill_std_kg
+            "variant {k}: interval: the estimate's own σ × {:.3}, beside it {:.2} kg at standstill; settling × {:.3}, {:.2} kg",
+            cal.own_std_scale,
+            cal.standstill_std_kg,
+            cal.settling_own_scale.unwrap_or(f64::NAN),
+            cal.settling_std_kg.unwrap_or(f64::NAN),
         );
         let held_out = [
             (
@@ -756,8 +760,9 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
     {
         // Nothing corrected: the model carries the scale.
         assert_eq!((cal.gain, cal.offset_kg), (1.0, 0.0));
-        // The filter's covariance is wider than its errors at standstill: scaled down.
-        assert!(cal.own_std_scale < 0.9, "{cal:?}");
+        // The filter's covariance is wider than its errors at standstill: scaled down
+        // (measured 0.54-0.90).
+        assert!(cal.own_std_scale < 1.0, "{cal:?}");
         assert!(a.standstill.samples > 1000, "{who}: {a:?}");
         // Measured: at most 0.136 % (variant 0's data-set 4); 0.303 % on variant 2's
         // before its study reached data-set 4's ceiling (the valve held at the lab's).
@@ -771,7 +776,7 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
         // An interval of a few kilograms (0.3 % of the load at most), not the 36-38 kg
         // the assumed parameter errors give.
         assert!(a.standstill.mean_std_kg < 12.0, "{who}: {a:?}");
-        // Each run's standstills mostly inside it. Measured 0.927-0.999. Data-set 4's long
+        // Each run's standstills mostly inside it. Measured 0.911-0.997. Data-set 4's long
         // valve steps lift the bellow 10-30 mm above the calibration's heights, where the
         // study's law reads up to 4 kg off (variant 0): before the interval widened beyond
         // the calibrated heights, that run held 0.841.
@@ -782,14 +787,15 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
     println!(
         "coverage of the 95 % interval while the valve works {valve_coverage:.3}, at standstill after it {after_coverage:.3}"
     );
-    // Measured 0.929 and 0.974. Without the interval's widening beyond the calibrated
+    // Measured 0.927 and 0.965. Without the interval's widening beyond the calibrated
     // heights, 0.914 and 0.933: data-set 4's valve steps and their settling are where the
     // bellow leaves the calibration's heights.
     assert!((0.92..=0.98).contains(&valve_coverage), "{valve_coverage}");
     assert!((0.92..=0.98).contains(&after_coverage), "{after_coverage}");
     let (coverage, run_mean) = held_out_coverage(&runs, |a| &a.standstill);
-    // Measured: 0.976 pooled, 0.975 on the average run (0.963 and 0.953 without the widening
-    // beyond the calibrated heights). With the filter's own covariance unscaled, 0.994: the
+    // Measured: 0.966 pooled and on the average run; 0.976 and 0.975 while the standstill
+    // interval was sized on every known standstill of the calibration runs, not only those
+    // their flags call standstill. With the filter's own covariance unscaled, 0.994: the
     // interval said less than it could.
     println!(
         "standstill coverage of the 95 % interval: pooled {coverage:.3}, average run {run_mean:.3}"
@@ -855,16 +861,23 @@ fn static_weighing_with_the_study_estimate_reads_its_wall() {
         // A standstill interval of 1.3-3.6 kg (0.1 % of the load), not the 36-38 kg the
         // assumed parameter errors give.
         assert!(a.standstill.mean_std_kg < 5.0, "{who}: {a:?} {cal:?}");
-        assert!(a.standstill.within_95_interval > 0.95, "{who}: {a:?}");
+        // Measured 0.915-1.000 per run.
+        assert!(a.standstill.within_95_interval > 0.9, "{who}: {a:?}");
     }
-    // The interval holds, but more than it says: measured 0.999 pooled, 0.998-1.0 per run.
-    // Its part beside the estimate's own is sized to hold every calibration run, and the
-    // levelling run, whose standstills follow valve action, sets it at about twice what
-    // data-sets 1 and 3 need (variant 0: 1.49 kg against 0.61 and 0.95).
+    // The interval says what it holds: measured 0.963 pooled, 0.973 on the average run.
+    // It held 0.999 and 0.998-1.0 per run while (1) the standstill interval was sized on
+    // every known standstill of the calibration runs: the levelling run's, which its flags
+    // call settling (the pressure drifts for minutes after the controller's fills), set it
+    // at twice what the loading runs need; and (2) one settling interval served the first
+    // seconds after a valve step, when the gas is still warm (data-set 3 misses by up to
+    // 13 kg), and the minutes after (1-2 kg), where every standstill of data-set 4 and of
+    // the levelling run is flagged settling. (1) alone: 0.967 pooled, 0.984 on the average
+    // run.
     let (coverage, run_mean) = held_out_coverage(&runs, |a| &a.standstill);
     println!("static, standstill coverage: pooled {coverage:.3}, average run {run_mean:.3}");
-    assert!(coverage >= 0.95, "{coverage}");
-    // Measured 1.000 (0.948 before the `loading` flag carried on while the levelling
+    assert!((0.92..=0.98).contains(&coverage), "{coverage}");
+    assert!((0.92..=0.98).contains(&run_mean), "{run_mean}");
+    // Measured 0.999 (0.948 before the `loading` flag carried on while the levelling
     // controller works the valve: levelling 2 0.87-0.90); sized against the settled load,
     // as the filter's above.
     let (arriving, _) = held_out_coverage(&runs, |a| &a.load_change);

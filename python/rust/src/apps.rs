@@ -271,6 +271,9 @@ pub fn weigh<'py>(
             cal.set_item("own_std_scale", c.own_std_scale)?;
             cal.set_item("settling_own_scale", c.settling_own_scale)?;
             cal.set_item("valve_own_scale", c.valve_own_scale)?;
+            cal.set_item("late_settling_std_kg", c.late_settling_std_kg)?;
+            cal.set_item("late_settling_own_scale", c.late_settling_own_scale)?;
+            cal.set_item("late_settling_after_s", c.late_settling_after_s)?;
             cal.set_item("loading_q95_kg", c.loading_q95_kg)?;
             cal.set_item("loading_std_kg", c.loading_std_kg)?;
             cal.set_item("loading_own_scale", c.loading_own_scale)?;

@@ -359,7 +359,9 @@ pub struct LinearCalibration {
     /// The part of a calibrated reading's standard deviation the estimator's own noise part
     /// does not hold, kg: the smallest `σ_c` for which `1.96 √((g σ_meas)² + σ_c²)` held 95 %
     /// of each calibration run's known standstill loads, the largest over the runs (runs of
-    /// fewer than 50 such samples taken together), with `σ_meas` the estimate's own noise
+    /// fewer than 50 such samples taken together). With nothing fitted and the runs' flags
+    /// given, only the known standstills the flags call standstill too count (50 at least):
+    /// the others get the settling interval when weighed. With `σ_meas` the estimate's own noise
     /// part (e.g. the EKF's covariance, which is wide while the wall friction's state is
     /// unknown). Without a noise part, on one run, it is that run's `q95 / 1.96`.
     pub standstill_std_kg: f64,
@@ -378,6 +380,23 @@ pub struct LinearCalibration {
     pub valve_std_kg: Option<f64>,
     pub settling_own_scale: Option<f64>,
     pub valve_own_scale: Option<f64>,
+    /// The same as [`Self::settling_std_kg`] and [`Self::settling_own_scale`] for the
+    /// samples flagged `settling` at least [`Self::late_settling_after_s`] after the run's
+    /// flags last said `valve` or `loading` (or after the run's start): the valve and the
+    /// load long at rest, the pressure still drifting. The settling parts are then sized on
+    /// the earlier samples only. `None` when the calibration runs had fewer than 50 samples of
+    /// either kind (every settling sample then gets one interval, sized on all of them).
+    ///
+    /// Why two: in the first seconds after a valve step the gas is still warm or cool and
+    /// the static estimate misses by up to 13 kg (data-set 3 of the virtual-truck variants),
+    /// half a minute later by 1-2 kg. One interval sized on both held 100 % of the held-out
+    /// standstills the flags called settling (every standstill of data-set 4 and of a
+    /// levelling run, whose pressure drifts for minutes after the valve).
+    pub late_settling_std_kg: Option<f64>,
+    pub late_settling_own_scale: Option<f64>,
+    /// When a settling sample counts as late, s after the flags last said `valve` or
+    /// `loading`: the standstill rule's settling time ([`StandstillRule::settle_s`]).
+    pub late_settling_after_s: f64,
     /// The same for the samples flagged `loading` ([`WeighQuality::Loading`]), every one,
     /// the known load steady or not: what the estimate misses while a load arrives. `None`
     /// with fewer than 50 such samples; such a sample then gets the settling interval.
@@ -539,6 +558,23 @@ fn smallest_holding(hi: f64, holds: impl Fn(f64) -> bool) -> f64 {
         }
     }
     hi
+}
+
+/// How long before each sample the flags last said `valve` or `loading`, s (since the
+/// run's start when they never did): how long the valve and the load have been at rest, as
+/// the run alone tells it.
+fn flagged_rest_s(time_s: &[f64], quality: &[WeighQuality]) -> Vec<f64> {
+    let mut moved_s = time_s.first().copied().unwrap_or(0.0);
+    time_s
+        .iter()
+        .zip(quality)
+        .map(|(&t, &q)| {
+            if matches!(q, WeighQuality::Valve | WeighQuality::Loading) {
+                moved_s = t;
+            }
+            t - moved_s
+        })
+        .collect()
 }
 
 /// The lowest and highest of finite heights, mm; `None` without any.
@@ -765,6 +801,9 @@ impl LinearCalibration {
             valve_std_kg: None,
             settling_own_scale: None,
             valve_own_scale: None,
+            late_settling_std_kg: None,
+            late_settling_own_scale: None,
+            late_settling_after_s: StandstillRule::default().settle_s,
             loading_q95_kg: None,
             loading_std_kg: None,
             loading_own_scale: None,
@@ -824,8 +863,9 @@ impl LinearCalibration {
         let with_heights = !runs.is_empty() && runs.iter().all(|r| r.height_m.is_some());
         let (mut estimate, mut known, mut z, mut height_mm, mut own_std) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        // Which run each standstill sample came from.
-        let mut run_of = Vec::new();
+        // Which run each standstill sample came from, and whether the run's own flags call
+        // it a standstill too.
+        let (mut run_of, mut flagged_still) = (Vec::new(), Vec::new());
         // Each run's wall-friction state, for the fit and the intervals away from standstill.
         let mut run_zs = Vec::with_capacity(runs.len());
         for (i, run) in runs.iter().enumerate() {
@@ -858,7 +898,9 @@ impl LinearCalibration {
                 ));
             }
             let run_z = heights.map(|h| run_friction_state(run.time_s, h));
+            let quality = run.quality.filter(|q| q.len() == n);
             for &k in &idx {
+                flagged_still.push(quality.is_none_or(|q| q[k] == WeighQuality::Standstill));
                 estimate.push(run.estimate_kg[k]);
                 known.push(run.known_kg[k]);
                 own_std.push(run.measurement_std_kg.map_or(0.0, |m| m[k]));
@@ -937,7 +979,23 @@ impl LinearCalibration {
         let m = residuals.len() as f64;
         cal.residual_rms_kg = (residuals.iter().map(|r| r * r).sum::<f64>() / m).sqrt();
         let g = cal.gain.abs();
+        // The standstill interval is applied to the samples a run's flags call standstill, so
+        // with nothing fitted it is sized on those: a calibration run's known standstill that
+        // its flags call settling (the pressure still drifting after the valve worked) gets
+        // the settling interval when weighed, and sizes that one ([`Self::moving_air`]).
+        // Sized on every known standstill, the levelling run's, whose fills leave each
+        // standstill its own offset of 2-4 kg, set the part at twice what the loading runs
+        // need, and the held-out standstills were held on 99.9 % (the virtual-truck
+        // variants' study files, static law with its wall).
+        // With terms fitted, the residuals are in-sample: fitted to a loading run's few load
+        // levels, its flagged standstills read 3-5 kg closer than a held-out run's, and
+        // sized on them alone the interval held 74-88 % of held-out standstills (a nominal
+        // Model 2 file on variants 1 and 3); every known standstill, those after the valve
+        // steps among them, sizes it then.
+        let sized_on_flagged =
+            !fit_scale && flagged_still.iter().filter(|&&f| f).count() >= MIN_CLASS_SAMPLES;
         let samples: Vec<(usize, f64, f64)> = (0..residuals.len())
+            .filter(|&k| flagged_still[k] || !sized_on_flagged)
             .map(|k| (run_of[k], residuals[k], g * own_std[k]))
             .collect();
         (cal.own_std_scale, cal.standstill_std_kg) =
@@ -995,6 +1053,7 @@ impl LinearCalibration {
     ) {
         // (run, residual, the estimate's own standard deviation) per class.
         let (mut settling, mut valve, mut loading) = (Vec::new(), Vec::new(), Vec::new());
+        let mut late_settling = Vec::new();
         let mut moving_heights_mm = Vec::new();
         let g = self.gain.abs();
         for (i, (run, z)) in runs.iter().zip(run_zs).enumerate() {
@@ -1002,6 +1061,7 @@ impl LinearCalibration {
                 continue;
             };
             let load_changed_s = evaluate::last_load_change_s(run.time_s, run.known_kg, rule);
+            let rested_s = flagged_rest_s(run.time_s, quality);
             for k in 0..run.time_s.len() {
                 // A load in transit sizes only the loading class, which is for it.
                 let steady = run.time_s[k] - load_changed_s[k] >= rule.load_settle_s;
@@ -1022,6 +1082,9 @@ impl LinearCalibration {
                 }
                 let own = g * run.measurement_std_kg.map_or(0.0, |m| m[k]);
                 match quality[k] {
+                    WeighQuality::Settling if rested_s[k] >= rule.settle_s => {
+                        late_settling.push((i, r, own))
+                    }
                     WeighQuality::Settling => settling.push((i, r, own)),
                     WeighQuality::Valve => valve.push((i, r, own)),
                     WeighQuality::Loading => loading.push((i, r, own)),
@@ -1041,6 +1104,14 @@ impl LinearCalibration {
             let mut r: Vec<f64> = v.iter().map(|s| s.1).collect();
             (q95(&mut r), interval)
         };
+        self.late_settling_after_s = rule.settle_s;
+        let split = settling.len() >= MIN_CLASS_SAMPLES && late_settling.len() >= MIN_CLASS_SAMPLES;
+        if split {
+            let (_, late) = fit(late_settling);
+            (self.late_settling_own_scale, self.late_settling_std_kg) = late.unzip();
+        } else {
+            settling.append(&mut late_settling);
+        }
         let (q95_settling, settling) = fit(settling);
         let (q95_valve, valve) = fit(valve);
         (self.settling_q95_kg, self.valve_q95_kg) = (q95_settling, q95_valve);
@@ -1140,10 +1211,15 @@ impl LinearCalibration {
                 "the quality flags and the load samples differ in number",
             ));
         }
+        let rested_s = quality.map_or_else(Vec::new, |q| flagged_rest_s(&series.time_s, q));
         // (own scale, σ_c) of sample k's class, each part at least the standstill's.
         let interval_of = |k: usize| {
             let settling = self.settling_own_scale.zip(self.settling_std_kg);
+            let late = self.late_settling_own_scale.zip(self.late_settling_std_kg);
             match quality.map(|q| q[k]) {
+                Some(WeighQuality::Settling) if rested_s[k] >= self.late_settling_after_s => {
+                    late.or(settling)
+                }
                 Some(WeighQuality::Settling) => settling,
                 Some(WeighQuality::Valve) => {
                     self.valve_own_scale.zip(self.valve_std_kg).or(settling)
@@ -1332,6 +1408,80 @@ mod tests {
         // different calibration.
         assert!(cal.apply(&s, None).is_err());
         assert!(cal.apply(&s, Some(&[0.25, 0.25])).is_err());
+    }
+
+    /// A run whose loads step every 100 s, its flags as a levelling run's read: `loading`
+    /// for 5 s, `settling` until 60 s after the step, `standstill` after. The estimate
+    /// misses by ±10 kg in the first 30 s of settling, ±4 kg later, ±1 kg at standstill.
+    fn flagged_steps() -> (Synthetic, Vec<WeighQuality>) {
+        let mut run = synthetic(step_load, |_| 0.23);
+        let mut flags = Vec::new();
+        for k in 0..run.time_s.len() {
+            let since_step_s = run.time_s[k] % 100.0;
+            let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+            let (flag, miss_kg) = match since_step_s {
+                t if t < 5.0 => (WeighQuality::Loading, 0.0),
+                t if t < 35.0 => (WeighQuality::Settling, 10.0),
+                t if t < 60.0 => (WeighQuality::Settling, 4.0),
+                _ => (WeighQuality::Standstill, 1.0),
+            };
+            run.estimate_kg[k] = run.known_kg[k] + sign * miss_kg;
+            flags.push(flag);
+        }
+        (run, flags)
+    }
+
+    #[test]
+    fn each_interval_is_sized_on_the_samples_its_flag_will_be_given() {
+        let (run, flags) = flagged_steps();
+        let rule = StandstillRule::default();
+        let sized = |quality| {
+            let run = CalibrationRun {
+                quality,
+                ..as_run(&run)
+            };
+            LinearCalibration::fit_runs_with(&[run], &rule, false).unwrap()
+        };
+        let cal = sized(Some(&flags[..]));
+        // Known standstills (30 s after the step) that the flags call settling size the
+        // settling intervals, not the standstill one: 1 kg at most there.
+        assert!((cal.standstill_std_kg - 1.0 / Z95).abs() < 1e-6, "{cal:?}");
+        // The first 30 s of settling and the rest, each its own.
+        let settling = cal.settling_std_kg.unwrap();
+        let late = cal.late_settling_std_kg.unwrap();
+        assert!((settling - 10.0 / Z95).abs() < 1e-6, "{cal:?}");
+        assert!((late - 4.0 / Z95).abs() < 1e-6, "{cal:?}");
+        assert_eq!(cal.late_settling_after_s, rule.settle_s);
+        // Without flags every known standstill sizes the standstill interval: from 30 s
+        // after the step, the last 5 s of the early settling among them (7 % of them).
+        let unflagged = sized(None);
+        assert!(
+            (unflagged.standstill_std_kg - 10.0 / Z95).abs() < 1e-6,
+            "{unflagged:?}"
+        );
+        assert_eq!(unflagged.late_settling_std_kg, None);
+        // Applied: a settling sample 10 s after the flags last said `loading` gets the
+        // early interval, one 50 s after the late one, a standstill its own.
+        let s = WeighSeries {
+            time_s: vec![0.0, 10.0, 50.0, 70.0],
+            wheel_load_kg: vec![3000.0; 4],
+            std_kg: vec![1.0; 4],
+            measurement_std_kg: vec![0.0; 4],
+            notes: Vec::new(),
+        };
+        let quality = [
+            WeighQuality::Loading,
+            WeighQuality::Settling,
+            WeighQuality::Settling,
+            WeighQuality::Standstill,
+        ];
+        let read = cal.apply_with_quality(&s, None, Some(&quality)).unwrap();
+        assert!((read.std_kg[1] - settling).abs() < 1e-9, "{read:?}");
+        assert!((read.std_kg[2] - late).abs() < 1e-9, "{read:?}");
+        assert!(
+            (read.std_kg[3] - cal.standstill_std_kg).abs() < 1e-9,
+            "{read:?}"
+        );
     }
 
     #[test]

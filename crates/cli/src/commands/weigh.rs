@@ -219,6 +219,12 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
                 cal.valve_std_kg.unwrap_or(f64::NAN)
             );
         }
+        if let Some(std) = cal.late_settling_std_kg {
+            println!(
+                "  settling {:.0} s or more after the valve or a load last moved, σ {std:.1} kg",
+                cal.late_settling_after_s
+            );
+        }
         if let (Some(q95), Some(std)) = (cal.loading_q95_kg, cal.loading_std_kg) {
             println!("  while a load arrives, 95 % within {q95:.1} kg (σ {std:.1} kg)");
         }
