@@ -12,18 +12,13 @@ use std::path::{Path, PathBuf};
 use airsus_data::Location;
 use airsus_data::table::read_columns;
 use airsus_data::time_axis::{check_time_axis, check_uniform};
-use airsus_ident::linear::{
-    ArmaxOrders, ArxOrders, BjOrders, Estimate, IdData, IdentError, OeOrders, Offsets, PemOptions,
-    armax, arx, bj, fit_percent, oe_with,
-};
-use anyhow::{Context, anyhow, bail};
-use serde::Serialize;
+use airsus_ident::linear::{IdData, LabelledData, PemOptions, Request, RequestedOrders, Structure};
+use anyhow::{Context, bail};
 
 use super::RunSourceArgs;
 
 /// Model structure.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum StructureArg {
     /// A y = B u + e (least squares; needs --na --nb --nk).
     Arx,
@@ -35,13 +30,13 @@ pub enum StructureArg {
     Bj,
 }
 
-impl StructureArg {
-    fn label(self) -> &'static str {
-        match self {
-            StructureArg::Arx => "ARX",
-            StructureArg::Armax => "ARMAX",
-            StructureArg::Oe => "OE",
-            StructureArg::Bj => "BJ",
+impl From<StructureArg> for Structure {
+    fn from(s: StructureArg) -> Self {
+        match s {
+            StructureArg::Arx => Structure::Arx,
+            StructureArg::Armax => Structure::Armax,
+            StructureArg::Oe => Structure::Oe,
+            StructureArg::Bj => Structure::Bj,
         }
     }
 }
@@ -101,74 +96,6 @@ pub struct IdentArgs {
     pub source: RunSourceArgs,
 }
 
-/// What `--json` prints.
-#[derive(Debug, Serialize)]
-struct IdentReport<'a> {
-    run: &'a Path,
-    structure: StructureArg,
-    output: &'a str,
-    inputs: &'a [String],
-    samples: usize,
-    ts_s: f64,
-    /// Means removed before estimation (`--detrend`), else null.
-    offsets: Option<Offsets>,
-    /// The runs estimated together with `run` (`--merge`), each with its samples and, with
-    /// `--detrend`, its own means.
-    merged: Vec<MergedRun<'a>>,
-    estimate: &'a Estimate,
-}
-
-/// One `--merge` run in the JSON report.
-#[derive(Debug, Serialize)]
-struct MergedRun<'a> {
-    run: &'a Path,
-    samples: usize,
-    offsets: Option<Offsets>,
-}
-
-/// Orders expanded to one value per input.
-fn per_input(flag: &str, values: &[usize], n_inputs: usize) -> anyhow::Result<Vec<usize>> {
-    match values.len() {
-        0 => bail!("--{flag} is required for this structure"),
-        1 => Ok(vec![values[0]; n_inputs]),
-        n if n == n_inputs => Ok(values.to_vec()),
-        n => bail!(
-            "--{flag} has {n} values but there are {n_inputs} inputs; give one value for all inputs or one per input"
-        ),
-    }
-}
-
-fn required(flag: &str, value: Option<usize>) -> anyhow::Result<usize> {
-    value.with_context(|| format!("--{flag} is required for this structure"))
-}
-
-/// Rejects orders the structure does not have, so a typo is not silently ignored.
-fn reject_unused(args: &IdentArgs) -> anyhow::Result<()> {
-    let s = args.structure;
-    let uses = |flag: &str| match flag {
-        "na" => matches!(s, StructureArg::Arx | StructureArg::Armax),
-        "nc" => matches!(s, StructureArg::Armax | StructureArg::Bj),
-        "nd" => matches!(s, StructureArg::Bj),
-        "nf" => matches!(s, StructureArg::Oe | StructureArg::Bj),
-        _ => true,
-    };
-    let given = [
-        ("na", args.na.is_some()),
-        ("nc", args.nc.is_some()),
-        ("nd", args.nd.is_some()),
-        ("nf", !args.nf.is_empty()),
-    ];
-    for (flag, present) in given {
-        if present && !uses(flag) {
-            bail!(
-                "--{flag} does not apply to {} models (ARX: na nb nk; ARMAX: na nb nc nk; OE: nb nf nk; BJ: nb nc nd nf nk)",
-                s.label()
-            );
-        }
-    }
-    Ok(())
-}
-
 /// `--ts-s`, when given, must agree with the file's own sample time.
 fn check_ts_flag(flag: Option<f64>, ts_s: f64, path: &Path) -> anyhow::Result<()> {
     if let Some(flag) = flag
@@ -183,18 +110,7 @@ fn check_ts_flag(flag: Option<f64>, ts_s: f64, path: &Path) -> anyhow::Result<()
 }
 
 /// Reads the requested columns of `path` and the sample time.
-fn read_data(args: &IdentArgs, path: &Path) -> anyhow::Result<(IdData, usize)> {
-    if args.inputs.iter().any(|n| n.trim().is_empty()) {
-        bail!("--inputs contains an empty column name");
-    }
-    for (i, name) in args.inputs.iter().enumerate() {
-        if args.inputs[..i].contains(name) {
-            bail!("input column `{name}` is listed twice");
-        }
-        if *name == args.output {
-            bail!("column `{name}` is both an input and the output");
-        }
-    }
+fn read_data(args: &IdentArgs, path: &Path) -> anyhow::Result<LabelledData> {
     let mut names: Vec<&str> = args.inputs.iter().map(String::as_str).collect();
     names.push(&args.output);
     let source = args.source.source()?;
@@ -216,7 +132,7 @@ fn read_data(args: &IdentArgs, path: &Path) -> anyhow::Result<(IdData, usize)> {
         let rows = y.len();
         let data = IdData::new(y, columns, ts_s)
             .with_context(|| format!("invalid identification data in {}", path.display()))?;
-        return Ok((data, rows));
+        return Ok(labelled(path, data, rows));
     }
     if !source.is_plain() {
         bail!(
@@ -247,178 +163,51 @@ fn read_data(args: &IdentArgs, path: &Path) -> anyhow::Result<(IdData, usize)> {
     let rows = y.len();
     let data = IdData::new(y, u, ts_s)
         .with_context(|| format!("invalid identification data in {}", path.display()))?;
-    Ok((data, rows))
+    Ok(labelled(path, data, rows))
+}
+
+fn labelled(path: &Path, data: IdData, rows: usize) -> LabelledData {
+    LabelledData {
+        label: path.display().to_string(),
+        data,
+        rows,
+    }
 }
 
 /// Runs `airsus ident`.
 pub fn run(args: &IdentArgs) -> anyhow::Result<()> {
-    reject_unused(args)?;
-    if !args.merge.is_empty() && args.structure != StructureArg::Oe {
-        bail!(
-            "--merge estimates OE models only so far; {} models take one run",
-            args.structure.label()
-        );
-    }
-    // Each run detrended by its own means, as MATLAB's `detrend` does a merged data set.
-    let prepare = |raw: IdData| {
-        if args.detrend {
-            let (d, o) = raw.detrend();
-            (d, Some(o))
-        } else {
-            (raw, None)
-        }
+    let orders = RequestedOrders {
+        na: args.na,
+        nb: args.nb.clone(),
+        nc: args.nc,
+        nd: args.nd,
+        nf: args.nf.clone(),
+        nk: args.nk.clone(),
     };
-    let (raw, rows) = read_data(args, &args.run)?;
-    let m = raw.n_inputs();
-    let (data, offsets) = prepare(raw);
-    let mut merged_data = Vec::with_capacity(args.merge.len());
-    let mut merged = Vec::with_capacity(args.merge.len());
-    for path in &args.merge {
-        let (raw, samples) = read_data(args, path)?;
-        let (d, offsets) = prepare(raw);
-        merged_data.push(d);
-        merged.push(MergedRun {
-            run: path,
-            samples,
-            offsets,
-        });
-    }
-    let nb = per_input("nb", &args.nb, m)?;
-    let nk = per_input("nk", &args.nk, m)?;
-    let options = PemOptions::default();
-    let context = || {
-        format!(
-            "{} estimation on {}",
-            args.structure.label(),
-            args.run.display()
-        )
+    let request = Request {
+        structure: args.structure.into(),
+        orders: &orders,
+        inputs: &args.inputs,
+        output: &args.output,
+        detrend: args.detrend,
+        flag_prefix: "--",
     };
-    let estimate = match args.structure {
-        StructureArg::Arx => arx(
-            &data,
-            &ArxOrders {
-                na: required("na", args.na)?,
-                nb,
-                nk,
-            },
-        ),
-        StructureArg::Armax => armax(
-            &data,
-            &ArmaxOrders {
-                na: required("na", args.na)?,
-                nb,
-                nc: required("nc", args.nc)?,
-                nk,
-            },
-            &options,
-        ),
-        StructureArg::Oe => {
-            let orders = OeOrders {
-                nb,
-                nf: per_input("nf", &args.nf, m)?,
-                nk,
-            };
-            oe_with(&data, merged_data, &orders, &options)
-        }
-        StructureArg::Bj => bj(
-            &data,
-            &BjOrders {
-                nb,
-                nc: required("nc", args.nc)?,
-                nd: required("nd", args.nd)?,
-                nf: per_input("nf", &args.nf, m)?,
-                nk,
-            },
-            &options,
-        ),
-    }
-    .map_err(|e| match e {
-        // Name the column rather than its position.
-        IdentError::ConstantInput { input, value } => anyhow!(
-            "input column `{}` is constant ({value}) in {}{}: a constant input carries no information about the dynamics",
-            args.inputs.get(input).map_or("?", String::as_str),
-            args.run.display(),
-            if args.merge.is_empty() {
-                ""
-            } else {
-                " and in every merged run"
-            }
-        ),
-        other => anyhow::Error::new(other).context(context()),
-    })?;
-
-    use std::fmt::Write as _;
+    // What needs no data first: a wrong flag is named before a file is read.
+    request.check(!args.merge.is_empty())?;
+    request.check_columns()?;
+    let run = read_data(args, &args.run)?;
+    let merged = args
+        .merge
+        .iter()
+        .map(|path| read_data(args, path))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let identified = request.estimate(run, merged, &PemOptions::default())?;
     if args.json {
-        let report = IdentReport {
-            run: &args.run,
-            structure: args.structure,
-            output: &args.output,
-            inputs: &args.inputs,
-            samples: rows,
-            ts_s: data.ts_s(),
-            offsets,
-            merged,
-            estimate: &estimate,
-        };
-        let mut text = serde_json::to_string_pretty(&report)?;
+        let mut text = serde_json::to_string_pretty(&identified.report)?;
         text.push('\n');
         return emit(&text);
     }
-    let mut out = String::new();
-    writeln!(
-        out,
-        "{} ← {} ({}, {rows} samples)",
-        args.output,
-        args.inputs.join(", "),
-        args.run.display()
-    )?;
-    for run in &merged {
-        writeln!(
-            out,
-            "merged with {} ({} samples): one model, each run's filters from its own first sample",
-            run.run.display(),
-            run.samples
-        )?;
-    }
-    if m > 1 {
-        let map: Vec<String> = args
-            .inputs
-            .iter()
-            .enumerate()
-            .map(|(i, n)| format!("u{} = {n}", i + 1))
-            .collect();
-        writeln!(out, "Inputs: {}", map.join(", "))?;
-    }
-    if let Some(o) = &offsets {
-        let means: Vec<String> = args
-            .inputs
-            .iter()
-            .zip(&o.u)
-            .map(|(n, v)| format!("{n} {v}"))
-            .collect();
-        writeln!(
-            out,
-            "Detrended: removed means {} {}, {}",
-            args.output,
-            o.y,
-            means.join(", ")
-        )?;
-    }
-    writeln!(out)?;
-    write!(out, "{estimate}")?;
-    if estimate.simulation_fit_percent.is_none() {
-        // ARX reports the one-step prediction fit; show the simulation fit as well, as it is
-        // what the models of the thesis are judged by.
-        let sim = estimate.model.simulate(data.u())?;
-        match fit_percent(data.y(), &sim) {
-            Some(f) => writeln!(out, "Simulation fit to estimation data: {f:.2}%")?,
-            None => writeln!(
-                out,
-                "Simulation fit to estimation data: diverges (unstable A)"
-            )?,
-        }
-    }
-    emit(&out)
+    emit(&identified.text)
 }
 
 /// Writes to stdout; a reader that closed the pipe early (`airsus ident … | head`) is not an

@@ -40,6 +40,7 @@ mod model;
 mod orders;
 pub mod pem;
 mod poly;
+pub mod request;
 mod selstruc;
 pub mod ss;
 
@@ -53,5 +54,6 @@ pub use pem::{PemOptions, armax, bj, oe, oe_merged, oe_with, pem};
 pub use poly::{
     MAX_ROOT_RADIUS, is_stable, poly_from_roots, poly_mul, reflect_into_unit_circle, roots,
 };
+pub use request::{IdentReport, Identified, LabelledData, Request, RequestError, RequestedOrders};
 pub use selstruc::{ArxGrid, OrderCandidate, SelectionCriterion, arx_struc, select_structure};
 pub use ss::{ContinuousSubsystem, StateSpace, TimeDomain};
