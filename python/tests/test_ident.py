@@ -70,8 +70,11 @@ def test_merged_runs_determine_what_neither_does_alone() -> None:
     assert model.report["merged"][0]["samples"] == 3000
     with pytest.raises(airsus.AirsusError, match="rank deficient"):
         airsus.ident(loading, "oe", ["u1", "u2"], "y", **orders)
-    with pytest.raises(airsus.AirsusError, match="merge estimates OE models only"):
-        airsus.ident(loading, "arx", ["u1", "u2"], "y", na=1, nb=1, nk=1, ts_s=0.1, merge=[valve])
+    # ARX merges too (both paths share the pole 0.8: A = 1 - 0.8 q^-1).
+    arx = airsus.ident(loading, "arx", ["u1", "u2"], "y", na=1, nb=1, nk=1, ts_s=0.1, merge=[valve])
+    for name, value in {"a1": -0.8, "b1(u1)": 0.5, "b1(u2)": 0.3}.items():
+        assert arx.parameters[name] == pytest.approx(value, abs=0.02), name
+    assert arx.report["merged"][0]["samples"] == 3000
 
 
 def test_orders_the_structure_lacks_are_rejected() -> None:

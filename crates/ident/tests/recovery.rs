@@ -4,8 +4,8 @@
 mod common;
 
 use airsus_ident::linear::{
-    ArmaxOrders, ArxOrders, BjOrders, IdData, OeOrders, PemOptions, StopReason, armax, arx, bj, oe,
-    oe_merged,
+    ArmaxOrders, ArxOrders, BjOrders, IdData, OeOrders, PemOptions, StopReason, armax,
+    armax_merged, arx, arx_merged, bj, bj_merged, oe, oe_merged,
 };
 use common::*;
 
@@ -217,6 +217,164 @@ fn merged_experiments_determine_what_neither_does_alone() {
     let held = IdData::new(valve.y().to_vec(), vec![vec![0.0; N], vec![0.0; N]], 0.01).unwrap();
     assert!(oe_merged(&[held.clone(), held], &orders, &options).is_err());
     assert!(oe_merged(&[], &orders, &options).is_err());
+}
+
+/// A bellow's two runs for a two-input system `system(u1, u2, e)`: a loading run, where the
+/// second input follows the first (`0.8 u1` plus 0.1 % of its own), and a valve run with the
+/// first input held. Neither determines both paths; merged they do.
+fn loading_and_valve_runs(
+    seed: u64,
+    noise_std: f64,
+    system: impl Fn(&[f64], &[f64], &[f64]) -> Vec<f64>,
+) -> (IdData, IdData) {
+    let mut r = rng(seed);
+    let u1 = binary(&mut r, N, 0.05);
+    let u2: Vec<f64> = u1
+        .iter()
+        .zip(white(&mut r, N, 0.001))
+        .map(|(a, b)| 0.8 * a + b)
+        .collect();
+    let e = white(&mut r, N, noise_std);
+    let loading = IdData::new(system(&u1, &u2, &e), vec![u1, u2], 0.01).unwrap();
+    let u1 = vec![0.0; N];
+    let u2 = white(&mut r, N, 1.0);
+    let e = white(&mut r, N, noise_std);
+    let valve = IdData::new(system(&u1, &u2, &e), vec![u1, u2], 0.01).unwrap();
+    (loading, valve)
+}
+
+/// A run whose second input has its own excitation (0.3 of white noise added), so that it
+/// determines the model alone.
+fn with_own_excitation(run: &IdData) -> IdData {
+    let mut r = rng(99);
+    let u2: Vec<f64> = run.u()[1]
+        .iter()
+        .zip(white(&mut r, run.len(), 0.3))
+        .map(|(a, b)| a + b)
+        .collect();
+    IdData::new(run.y().to_vec(), vec![run.u()[0].clone(), u2], run.ts_s()).unwrap()
+}
+
+/// The largest distance of an estimate's parameters from the truth.
+fn worst_error(est: &airsus_ident::linear::Estimate, truth: &[f64]) -> f64 {
+    est.parameters
+        .iter()
+        .zip(truth)
+        .map(|(p, t)| (p.value - t).abs())
+        .fold(0.0, f64::max)
+}
+
+/// [`merged_experiments_determine_what_neither_does_alone`] for ARX, ARMAX and BJ
+/// (≙ MATLAB `arx(merge(z1, z2), …)` etc.): merged, every parameter within three standard
+/// deviations of the truth; the valve run alone refused (its first input is constant); the
+/// loading run alone refused or ten times further off.
+#[test]
+fn merged_arx_armax_and_bj_determine_what_neither_run_does_alone() {
+    let options = PemOptions::default();
+    let a = [1.0, -1.5, 0.7];
+    let (b1, b2) = ([0.10, 0.08], [0.5, -0.3]);
+
+    // ARX: A y = B1 u1 + B2 u2 + e.
+    let (loading, valve) = loading_and_valve_runs(21, 0.05, |u1, u2, e| {
+        add(
+            &add(&lfilter(&b1, 1, &a, u1), &lfilter(&b2, 1, &a, u2)),
+            &lfilter(&[1.0], 0, &a, e),
+        )
+    });
+    let orders = ArxOrders {
+        na: 2,
+        nb: vec![2, 2],
+        nk: vec![1, 1],
+    };
+    let truth = [-1.5, 0.7, 0.10, 0.08, 0.5, -0.3];
+    let merged = arx_merged(&[loading.clone(), valve.clone()], &orders).unwrap();
+    println!("{merged}");
+    assert_within_sigmas(&merged, &truth, 3.0);
+    // Each run's rows from its own t0 = 2: none across the joint.
+    assert_eq!(merged.n_samples, 2 * (N - 2));
+    assert!(arx(&valve, &orders).is_err());
+    if let Ok(alone) = arx(&loading, &orders) {
+        assert!(
+            worst_error(&alone, &truth) > 10.0 * worst_error(&merged, &truth),
+            "{alone}"
+        );
+    }
+    // One run merged is that run's estimate.
+    let one = arx_merged(
+        std::slice::from_ref(&with_own_excitation(&loading)),
+        &orders,
+    )
+    .unwrap();
+    let alone = arx(&with_own_excitation(&loading), &orders).unwrap();
+    for (a, b) in alone.parameters.iter().zip(&one.parameters) {
+        assert!(
+            (a.value - b.value).abs() < 1e-9 * a.value.abs().max(1.0),
+            "{a:?} {b:?}"
+        );
+    }
+    // An input held in every run is named, not solved to noise.
+    let held = IdData::new(valve.y().to_vec(), vec![vec![0.0; N], vec![1.0; N]], 0.01).unwrap();
+    assert!(arx_merged(&[held.clone(), held], &orders).is_err());
+
+    // ARMAX: A y = B1 u1 + B2 u2 + C e.
+    let c = [1.0, -0.5];
+    let (loading, valve) = loading_and_valve_runs(22, 0.05, |u1, u2, e| {
+        add(
+            &add(&lfilter(&b1, 1, &a, u1), &lfilter(&b2, 1, &a, u2)),
+            &lfilter(&c, 0, &a, e),
+        )
+    });
+    let orders = ArmaxOrders {
+        na: 2,
+        nb: vec![2, 2],
+        nc: 1,
+        nk: vec![1, 1],
+    };
+    let truth = [-1.5, 0.7, 0.10, 0.08, 0.5, -0.3, -0.5];
+    let merged = armax_merged(&[loading.clone(), valve.clone()], &orders, &options).unwrap();
+    println!("{merged}");
+    assert_within_sigmas(&merged, &truth, 3.0);
+    assert_eq!(merged.n_samples, 2 * N);
+    assert!(
+        merged.simulation_fit_percent.is_some_and(|f| f > 50.0),
+        "{merged}"
+    );
+    assert!(armax(&valve, &orders, &options).is_err());
+    if let Ok(alone) = armax(&loading, &orders, &options) {
+        assert!(
+            worst_error(&alone, &truth) > 10.0 * worst_error(&merged, &truth),
+            "{alone}"
+        );
+    }
+
+    // BJ: y = B1/F1 u1 + B2/F2 u2 + C/D e.
+    let (f1, f2) = ([1.0, -1.6, 0.7], [1.0, -0.5, 0.3]);
+    let (cn, dn) = ([1.0, 0.5], [1.0, -0.9]);
+    let (loading, valve) = loading_and_valve_runs(23, 0.05, |u1, u2, e| {
+        add(
+            &add(&lfilter(&b1, 1, &f1, u1), &lfilter(&b2, 1, &f2, u2)),
+            &lfilter(&cn, 0, &dn, e),
+        )
+    });
+    let orders = BjOrders {
+        nb: vec![2, 2],
+        nc: 1,
+        nd: 1,
+        nf: vec![2, 2],
+        nk: vec![1, 1],
+    };
+    // getpvec order: b(u1), b(u2), c, d, f(u1), f(u2).
+    let truth = [0.10, 0.08, 0.5, -0.3, 0.5, -0.9, -1.6, 0.7, -0.5, 0.3];
+    let merged = bj_merged(&[loading.clone(), valve.clone()], &orders, &options).unwrap();
+    println!("{merged}");
+    assert_within_sigmas(&merged, &truth, 3.0);
+    assert!(bj(&valve, &orders, &options).is_err());
+    if let Ok(alone) = bj(&loading, &orders, &options) {
+        assert!(
+            worst_error(&alone, &truth) > 10.0 * worst_error(&merged, &truth),
+            "{alone}"
+        );
+    }
 }
 
 #[test]

@@ -83,7 +83,7 @@ fn run_ident(
         detrend,
         flag_prefix: "",
     };
-    request.check(!merge.is_empty())?;
+    request.check()?;
     request.check_columns()?;
     let run = read_data(source, inputs, output, ts_s)?;
     let merged = merge

@@ -846,8 +846,8 @@ def ident(
             each run's own means when runs are merged.
         merge: other runs of the same system (same columns and sample time) estimated
             together with ``data`` (MATLAB ``merge``; ``--merge``): one model, each run's
-            filters started at its own first sample, for what no run determines alone. OE
-            only. The model's ``offsets`` are ``data``'s.
+            filters started at its own first sample, for what no run determines alone (every
+            structure). The model's ``offsets`` are ``data``'s.
     """
     if merge is None:
         merged = None

@@ -86,7 +86,7 @@ pub struct IdentArgs {
     /// Another run of the same system, estimated together with RUN (≙ MATLAB `merge`): one
     /// model, each run's filters started at its own first sample, where runs laid end to end
     /// would invent a step at each joint. For what no single run determines (a loading run
-    /// moves the pressure with the load; a valve run the pressure alone). OE only;
+    /// moves the pressure with the load; a valve run the pressure alone). Every structure;
     /// repeatable; the same columns and sample time as RUN.
     #[arg(long = "merge", value_name = "RUN")]
     pub merge: Vec<PathBuf>,
@@ -193,7 +193,7 @@ pub fn run(args: &IdentArgs) -> anyhow::Result<()> {
         flag_prefix: "--",
     };
     // What needs no data first: a wrong flag is named before a file is read.
-    request.check(!args.merge.is_empty())?;
+    request.check()?;
     request.check_columns()?;
     let run = read_data(args, &args.run)?;
     let merged = args

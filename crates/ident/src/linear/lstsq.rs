@@ -62,9 +62,37 @@ pub(crate) fn lagged_least_squares(
     t0: usize,
     names: &dyn Fn(usize) -> String,
 ) -> Result<LsFit, IdentError> {
-    let n = target.len();
-    let d = columns.len();
-    let rows = n.saturating_sub(t0);
+    lagged_least_squares_parts(
+        &[RegressionPart {
+            columns: columns.to_vec(),
+            target,
+            t0,
+        }],
+        names,
+    )
+}
+
+/// The rows of one experiment in a regression over several ([`lagged_least_squares_parts`]).
+#[derive(Debug, Clone)]
+pub(crate) struct RegressionPart<'a> {
+    pub columns: Vec<LagColumn<'a>>,
+    pub target: &'a [f64],
+    pub t0: usize,
+}
+
+/// [`lagged_least_squares`] over the rows of several experiments at once, each with its own
+/// signals and first row: one `θ` for them all, no row reaching across from one experiment
+/// into another (≙ MATLAB `arx(merge(z1, z2), …)`). Every part has the same number of
+/// columns, in the same meaning.
+pub(crate) fn lagged_least_squares_parts(
+    parts: &[RegressionPart<'_>],
+    names: &dyn Fn(usize) -> String,
+) -> Result<LsFit, IdentError> {
+    let d = parts.first().map_or(0, |p| p.columns.len());
+    let rows: usize = parts
+        .iter()
+        .map(|p| p.target.len().saturating_sub(p.t0))
+        .sum();
     if rows < d + 1 {
         return Err(IdentError::TooFewSamples {
             available: rows,
@@ -72,35 +100,43 @@ pub(crate) fn lagged_least_squares(
             required: d + 1,
         });
     }
-    debug_assert!(columns.iter().all(|c| c.lag <= t0 && c.signal.len() == n));
+    debug_assert!(parts.iter().all(|p| {
+        p.columns.len() == d
+            && p.columns
+                .iter()
+                .all(|c| c.lag <= p.t0 && c.signal.len() == p.target.len())
+    }));
     let p = d + 1;
     let mut r = DMatrix::<f64>::zeros(0, p);
     let mut buf: Vec<f64> = Vec::with_capacity((BLOCK_ROWS + p) * p);
-    let mut block_start = t0;
-    while block_start < n {
-        let block_end = (block_start + BLOCK_ROWS).min(n);
-        let r_rows = r.nrows();
-        let m = r_rows + (block_end - block_start);
-        buf.clear();
-        for (j, column) in columns.iter().map(Some).chain([None]).enumerate() {
-            buf.extend(r.column(j).iter().copied());
-            match column {
-                Some(c) => {
-                    let src = &c.signal[block_start - c.lag..block_end - c.lag];
-                    if c.negate {
-                        buf.extend(src.iter().map(|v| -v));
-                    } else {
-                        buf.extend_from_slice(src);
+    for part in parts {
+        let (columns, target, n) = (&part.columns, part.target, part.target.len());
+        let mut block_start = part.t0;
+        while block_start < n {
+            let block_end = (block_start + BLOCK_ROWS).min(n);
+            let r_rows = r.nrows();
+            let m = r_rows + (block_end - block_start);
+            buf.clear();
+            for (j, column) in columns.iter().map(Some).chain([None]).enumerate() {
+                buf.extend(r.column(j).iter().copied());
+                match column {
+                    Some(c) => {
+                        let src = &c.signal[block_start - c.lag..block_end - c.lag];
+                        if c.negate {
+                            buf.extend(src.iter().map(|v| -v));
+                        } else {
+                            buf.extend_from_slice(src);
+                        }
                     }
+                    // The last column of [Φ | Y] is the target.
+                    None => buf.extend_from_slice(&target[block_start..block_end]),
                 }
-                // The last column of [Φ | Y] is the target.
-                None => buf.extend_from_slice(&target[block_start..block_end]),
             }
+            let stacked = DMatrix::from_vec(m, p, std::mem::take(&mut buf));
+            r = QR::new(stacked).r();
+            buf = Vec::with_capacity((BLOCK_ROWS + p) * p);
+            block_start = block_end;
         }
-        let stacked = DMatrix::from_vec(m, p, std::mem::take(&mut buf));
-        r = QR::new(stacked).r();
-        buf = Vec::with_capacity((BLOCK_ROWS + p) * p);
-        block_start = block_end;
     }
     // Rank: |R_jj| / ‖φ_j‖ is the sine of the angle between column j and the span of the
     // columns before it. Q is orthogonal, so ‖φ_j‖ = ‖R e_j‖ and needs no extra pass.

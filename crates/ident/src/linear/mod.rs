@@ -44,13 +44,13 @@ pub mod request;
 mod selstruc;
 pub mod ss;
 
-pub use arx::arx;
+pub use arx::{arx, arx_merged};
 pub use data::{IdData, Offsets};
 pub use error::IdentError;
 pub use estimate::{Estimate, Method, Parameter, StopReason, aic, bic, fit_percent, fpe, naic};
 pub use model::{PolyModel, Structure};
 pub use orders::{ArmaxOrders, ArxOrders, BjOrders, OeOrders};
-pub use pem::{PemOptions, armax, bj, oe, oe_merged, oe_with, pem};
+pub use pem::{PemOptions, armax, armax_merged, bj, bj_merged, oe, oe_merged, pem};
 pub use poly::{
     MAX_ROOT_RADIUS, is_stable, poly_from_roots, poly_mul, reflect_into_unit_circle, roots,
 };

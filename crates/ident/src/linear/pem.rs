@@ -148,13 +148,42 @@ pub fn oe_merged(
     orders: &OeOrders,
     options: &PemOptions,
 ) -> Result<Estimate, IdentError> {
+    minimise_merged(experiments, &Layout::oe(orders), initial_oe, options)
+}
+
+/// [`armax`] of several experiments at once (≙ MATLAB `armax(merge(z1, z2, …), orders)`),
+/// as [`oe_merged`]: each experiment's filters, the noise model's among them, started at its
+/// own first sample.
+pub fn armax_merged(
+    experiments: &[IdData],
+    orders: &ArmaxOrders,
+    options: &PemOptions,
+) -> Result<Estimate, IdentError> {
+    minimise_merged(experiments, &Layout::armax(orders), initial_armax, options)
+}
+
+/// [`bj`] of several experiments at once (≙ MATLAB `bj(merge(z1, z2, …), orders)`), as
+/// [`oe_merged`].
+pub fn bj_merged(
+    experiments: &[IdData],
+    orders: &BjOrders,
+    options: &PemOptions,
+) -> Result<Estimate, IdentError> {
+    minimise_merged(experiments, &Layout::bj(orders), initial_bj, options)
+}
+
+/// Checks that experiments can be merged for `layout`: the same inputs and sample time (to
+/// 1 ppm; sample times read off logs' time columns differ in their last digits), the orders
+/// valid for them together, and each input varying in at least one. Returns the experiments
+/// end to end (for initial estimates and the pooled fit, never for the search).
+pub(crate) fn merged_experiments(
+    experiments: &[IdData],
+    layout: &Layout,
+) -> Result<IdData, IdentError> {
     let Some(first) = experiments.first() else {
         return Err(IdentError::Empty);
     };
-    let layout = Layout::oe(orders);
-    options.check()?;
     for (k, e) in experiments.iter().enumerate() {
-        // Sample times read off logs' time columns differ in their last digits.
         if e.n_inputs() != first.n_inputs() || (e.ts_s() / first.ts_s() - 1.0).abs() > 1e-6 {
             return Err(IdentError::InvalidOption(format!(
                 "experiment {} has {} inputs at {} s; experiment 1 has {} at {} s",
@@ -166,7 +195,6 @@ pub fn oe_merged(
             )));
         }
     }
-    // The orders against the experiments together; each input must vary within one.
     let together = IdData::new(
         experiments
             .iter()
@@ -194,8 +222,22 @@ pub fn oe_merged(
             return Err(constant);
         }
     }
+    Ok(together)
+}
+
+/// The prediction-error search of [`oe_merged`], [`armax_merged`] and [`bj_merged`]: from
+/// the `initial` estimate (of the experiments end to end, or of one of them) whose loss
+/// over all of them is least.
+fn minimise_merged(
+    experiments: &[IdData],
+    layout: &Layout,
+    initial: fn(&IdData, &Layout) -> Result<PolyModel, IdentError>,
+    options: &PemOptions,
+) -> Result<Estimate, IdentError> {
+    options.check()?;
+    let together = merged_experiments(experiments, layout)?;
     let merged_rss = |start: &PolyModel| -> Option<f64> {
-        let problem = MergedPem::new(experiments, &layout, start);
+        let problem = MergedPem::new(experiments, layout, start);
         problem.stable().then(|| problem.rss())
     };
     let mut best: Option<(f64, PolyModel)> = None;
@@ -203,7 +245,7 @@ pub fn oe_merged(
     // The experiments end to end give an initial estimate where none alone does; the
     // joints' false steps only blur a start the search then leaves.
     for e in std::iter::once(&together).chain(experiments) {
-        match initial_oe(e, &layout) {
+        match initial(e, layout) {
             Ok(start) => {
                 if let Some(rss) = merged_rss(&start)
                     && best.as_ref().is_none_or(|(b, _)| rss < *b)
@@ -219,7 +261,7 @@ pub fn oe_merged(
             "no experiment gave a stable initial estimate".to_owned(),
         )));
     };
-    let problem = MergedPem::new(experiments, &layout, &start);
+    let problem = MergedPem::new(experiments, layout, &start);
     let solver = search(options);
     let (problem, report) = solver.minimize(problem);
     let stop = stop_reason(&report.termination)?;
@@ -239,6 +281,17 @@ pub fn oe_merged(
         .collect();
     let fit = fit_percent(&y, &yhat).unwrap_or(f64::NEG_INFINITY);
     let part = &problem.parts[0];
+    let simulation_fit_percent = if part.model.structure == Structure::Oe {
+        // The OE predictor is the simulation.
+        Some(fit)
+    } else {
+        // Each experiment simulated from rest at its own start, as it was estimated.
+        let simulated = experiments
+            .iter()
+            .map(|e| part.model.simulate(e.u()))
+            .collect::<Result<Vec<_>, _>>()?;
+        fit_percent(&y, &simulated.concat())
+    };
     Ok(Estimate::assemble(RawEstimate {
         model: part.model.clone(),
         names: layout.names(),
@@ -247,31 +300,16 @@ pub fn oe_merged(
         rss: problem.rss(),
         n_samples: y.len(),
         fit_percent: fit,
-        // The OE predictor is the simulation.
-        simulation_fit_percent: Some(fit),
+        simulation_fit_percent,
         method: Method::PredictionErrorLm,
         stop,
         evaluations: report.number_of_evaluations,
     }))
 }
 
-/// [`oe`] of `first` alone, or with `more` experiments [`oe_merged`] of them all: what
-/// `airsus ident --merge` and Python's `ident(merge=…)` run.
-pub fn oe_with(
-    first: &IdData,
-    more: Vec<IdData>,
-    orders: &OeOrders,
-    options: &PemOptions,
-) -> Result<Estimate, IdentError> {
-    if more.is_empty() {
-        return oe(first, orders, options);
-    }
-    let experiments: Vec<IdData> = std::iter::once(first.clone()).chain(more).collect();
-    oe_merged(&experiments, orders, options)
-}
-
 /// The prediction-error problem of several experiments sharing one parameter vector
-/// ([`oe_merged`]): each experiment's own [`PemProblem`], residuals and Jacobian rows stacked.
+/// ([`oe_merged`], [`armax_merged`], [`bj_merged`]): each experiment's own [`PemProblem`],
+/// residuals and Jacobian rows stacked.
 struct MergedPem<'a> {
     parts: Vec<PemProblem<'a>>,
 }

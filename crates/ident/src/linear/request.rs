@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use super::{
     ArmaxOrders, ArxOrders, BjOrders, Estimate, IdData, IdentError, OeOrders, Offsets, PemOptions,
-    Structure, armax, arx, bj, fit_percent, oe_with,
+    Structure, armax, armax_merged, arx, arx_merged, bj, bj_merged, fit_percent, oe, oe_merged,
 };
 
 impl Structure {
@@ -149,8 +149,8 @@ pub enum RequestError {
 
 impl Request<'_> {
     /// The checks that need no data: orders the structure does not have are refused rather
-    /// than ignored (a typo would otherwise pass), and only OE merges runs so far.
-    pub fn check(&self, merging: bool) -> Result<(), RequestError> {
+    /// than ignored (a typo would otherwise pass).
+    pub fn check(&self) -> Result<(), RequestError> {
         let o = self.orders;
         let given = [
             ("na", o.na.is_some()),
@@ -166,13 +166,6 @@ impl Request<'_> {
                     self.structure.label()
                 )));
             }
-        }
-        if merging && self.structure != Structure::Oe {
-            return Err(RequestError::Orders(format!(
-                "{}merge estimates OE models only so far; {} models take one run",
-                self.flag_prefix,
-                self.structure.label()
-            )));
         }
         Ok(())
     }
@@ -228,15 +221,16 @@ impl Request<'_> {
         })
     }
 
-    /// Estimates the requested model on `run` and the runs `merged` with it (OE; each run's
-    /// filters started at its own first sample), each detrended by its own means when asked.
+    /// Estimates the requested model on `run` and the runs `merged` with it (one model, each
+    /// run's filters started at its own first sample: [`arx_merged`], [`oe_merged`], …),
+    /// each run detrended by its own means when asked.
     pub fn estimate(
         &self,
         run: LabelledData,
         merged: Vec<LabelledData>,
         options: &PemOptions,
     ) -> Result<Identified, RequestError> {
-        self.check(!merged.is_empty())?;
+        self.check()?;
         let prepare = |raw: IdData| {
             if self.detrend {
                 let (d, o) = raw.detrend();
@@ -261,44 +255,65 @@ impl Request<'_> {
         let o = self.orders;
         let nb = self.per_input("nb", &o.nb, m)?;
         let nk = self.per_input("nk", &o.nk, m)?;
+        // The estimation data: the run alone, or with the merged runs after it.
+        let single = merged_data.is_empty();
+        let experiments: Vec<IdData> = if single {
+            Vec::new()
+        } else {
+            std::iter::once(data.clone()).chain(merged_data).collect()
+        };
         let estimate = match self.structure {
-            Structure::Arx => arx(
-                &data,
-                &ArxOrders {
+            Structure::Arx => {
+                let orders = ArxOrders {
                     na: self.required("na", o.na)?,
                     nb,
                     nk,
-                },
-            ),
-            Structure::Armax => armax(
-                &data,
-                &ArmaxOrders {
+                };
+                if single {
+                    arx(&data, &orders)
+                } else {
+                    arx_merged(&experiments, &orders)
+                }
+            }
+            Structure::Armax => {
+                let orders = ArmaxOrders {
                     na: self.required("na", o.na)?,
                     nb,
                     nc: self.required("nc", o.nc)?,
                     nk,
-                },
-                options,
-            ),
+                };
+                if single {
+                    armax(&data, &orders, options)
+                } else {
+                    armax_merged(&experiments, &orders, options)
+                }
+            }
             Structure::Oe => {
                 let orders = OeOrders {
                     nb,
                     nf: self.per_input("nf", &o.nf, m)?,
                     nk,
                 };
-                oe_with(&data, merged_data, &orders, options)
+                if single {
+                    oe(&data, &orders, options)
+                } else {
+                    oe_merged(&experiments, &orders, options)
+                }
             }
-            Structure::Bj => bj(
-                &data,
-                &BjOrders {
+            Structure::Bj => {
+                let orders = BjOrders {
                     nb,
                     nc: self.required("nc", o.nc)?,
                     nd: self.required("nd", o.nd)?,
                     nf: self.per_input("nf", &o.nf, m)?,
                     nk,
-                },
-                options,
-            ),
+                };
+                if single {
+                    bj(&data, &orders, options)
+                } else {
+                    bj_merged(&experiments, &orders, options)
+                }
+            }
         }
         .map_err(|e| match e {
             // Name the column rather than its position.
@@ -318,10 +333,15 @@ impl Request<'_> {
                 source,
             },
         })?;
+        let estimated_on = if single {
+            std::slice::from_ref(&data)
+        } else {
+            &experiments[..]
+        };
         let (text, simulation_fit_percent) = self.printout(
             &run.label,
             run.rows,
-            &data,
+            estimated_on,
             offsets.as_ref(),
             &merged_runs,
             &estimate,
@@ -343,12 +363,13 @@ impl Request<'_> {
         })
     }
 
-    /// The printout and the simulation fit on the estimation data.
+    /// The printout and the simulation fit on the estimation data (`estimated_on`: the run,
+    /// or the run and the runs merged with it, each simulated from rest at its own start).
     fn printout(
         &self,
         label: &str,
         rows: usize,
-        data: &IdData,
+        estimated_on: &[IdData],
         offsets: Option<&Offsets>,
         merged: &[MergedRun],
         estimate: &Estimate,
@@ -399,14 +420,20 @@ impl Request<'_> {
             None => {
                 // ARX reports the one-step prediction fit; the simulation fit is added, as it
                 // is what the thesis' models are judged by.
-                let sim = estimate.model.simulate(data.u()).map_err(|source| {
-                    RequestError::Estimation {
+                let simulated = estimated_on
+                    .iter()
+                    .map(|d| estimate.model.simulate(d.u()))
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|source| RequestError::Estimation {
                         structure: self.structure.label(),
                         run: label.to_string(),
                         source,
-                    }
-                })?;
-                let fit = fit_percent(data.y(), &sim);
+                    })?;
+                let measured: Vec<f64> = estimated_on
+                    .iter()
+                    .flat_map(|d| d.y().iter().copied())
+                    .collect();
+                let fit = fit_percent(&measured, &simulated.concat());
                 let _ = match fit {
                     Some(f) => writeln!(text, "Simulation fit to estimation data: {f:.2}%"),
                     None => writeln!(
@@ -483,18 +510,11 @@ mod tests {
     fn orders_are_named_as_the_caller_writes_them() {
         let (inputs, orders) = (two_inputs(), first_order_arx());
         let e = request(Structure::Oe, &orders, &inputs, "--")
-            .check(false)
+            .check()
             .unwrap_err();
         assert!(
             e.to_string()
                 .starts_with("--na does not apply to OE models"),
-            "{e}"
-        );
-        let e = request(Structure::Arx, &orders, &inputs, "")
-            .check(true)
-            .unwrap_err();
-        assert!(
-            e.to_string().starts_with("merge estimates OE models only"),
             "{e}"
         );
         let three = RequestedOrders {
