@@ -68,7 +68,10 @@ pub struct SimulateArgs {
     /// when it ends in `.parquet`, else CSV.
     #[arg(long)]
     pub out: PathBuf,
-    /// Relative tolerance of the adaptive ODE solver.
+    /// Relative tolerance of the adaptive ODE solver. The default is the estimator's (its
+    /// finite-difference Jacobians need it), so a run simulates as a study scored it; 1e-4
+    /// simulates a road run 2-3 times faster, 0.01 mm and 0.03 kPa off at worst (BENCHMARKS.md),
+    /// far below the sensors' noise.
     #[arg(long, default_value_t = 1e-6)]
     pub rtol: f64,
     /// Integration method.
