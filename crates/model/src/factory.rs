@@ -87,6 +87,10 @@ pub struct ModelEntry {
     /// structure). The thesis models keep the file's laws and the thesis' readings of the lab
     /// (5.2.2, 5.2.3: isothermal, `F = p A(h)`).
     pub lab_laws: bool,
+    /// Whether the model's height is a linear block from load and pressure (an OE, thesis
+    /// eq 4.5, Table 5.6) that the study identifies as a submodel on each protocol's own
+    /// estimation runs, the one whose load and pressure are least correlated (Model 3).
+    pub height_block_per_protocol: bool,
 }
 
 impl ModelEntry {
@@ -153,6 +157,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         road_free: &ROAD,
         road_refit: &[],
         lab_laws: false,
+        height_block_per_protocol: false,
     },
     ModelEntry {
         name: "m2",
@@ -163,6 +168,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         road_free: &ROAD,
         road_refit: &[],
         lab_laws: false,
+        height_block_per_protocol: false,
     },
     ModelEntry {
         name: "m2x",
@@ -175,6 +181,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         road_free: &ROAD,
         road_refit: &[],
         lab_laws: false,
+        height_block_per_protocol: false,
     },
     ModelEntry {
         name: "m2xh",
@@ -187,6 +194,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         road_free: &ROAD,
         road_refit: &[],
         lab_laws: false,
+        height_block_per_protocol: false,
     },
     ModelEntry {
         name: "m3",
@@ -198,6 +206,7 @@ pub const THESIS_MODELS: &[ModelEntry] = &[
         road_free: &[],
         road_refit: &[],
         lab_laws: false,
+        height_block_per_protocol: true,
     },
 ];
 

@@ -614,25 +614,14 @@ pub fn fit_and_validate(
     let started = Instant::now();
     let (initial, normalisation) = (options.initial, options.normalisation);
     let mut result = ModelResult::new(model_name);
-    let mut start_truck = match model_entry(model_name) {
-        Ok(entry) => start.truck_for(entry),
+    let start_truck = match model_entry(model_name) {
+        Ok(entry) => {
+            let (truck, notes) = start.truck_for_protocol(entry, input, &protocol.estimation);
+            result.notes.extend(notes);
+            truck
+        }
         Err(_) => start.truck.clone(),
     };
-    // Model 3's height model is a submodel of its own: identified on this protocol's runs.
-    if model_name == "m3" {
-        match crate::submodels::model3_oe_for_protocol(
-            input,
-            &protocol.estimation,
-            start.model3_oe_run.as_deref(),
-            &mut start_truck,
-        ) {
-            Ok(Some(note)) => result.notes.push(note),
-            Ok(None) => {}
-            Err(e) => result.notes.push(format!(
-                "the OE height model could not be re-identified on this protocol's runs ({e}): the submodel fit's is kept"
-            )),
-        }
-    }
     let nominal = match build_any_model(model_name, &start_truck) {
         Ok(m) => m,
         Err(e) => {

@@ -119,6 +119,37 @@ impl SubmodelStart {
         }
         truck
     }
+
+    /// The start of a model under a protocol whose estimation runs are `estimation`: as
+    /// [`Self::truck_for`], and for a model whose height block is identified per protocol
+    /// ([`airsus_model::ModelEntry::height_block_per_protocol`]) that block re-identified on
+    /// the protocol's own runs where they pick another run than the submodel stage did
+    /// ([`model3_oe_for_protocol`]). Also returns notes saying what was done, or why the
+    /// submodel stage's block was kept.
+    pub fn truck_for_protocol(
+        &self,
+        entry: &airsus_model::ModelEntry,
+        input: &StudyInput,
+        estimation: &[String],
+    ) -> (TruckParameters, Vec<String>) {
+        let mut truck = self.truck_for(entry);
+        let mut notes = Vec::new();
+        if entry.height_block_per_protocol {
+            match model3_oe_for_protocol(
+                input,
+                estimation,
+                self.model3_oe_run.as_deref(),
+                &mut truck,
+            ) {
+                Ok(Some(note)) => notes.push(note),
+                Ok(None) => {}
+                Err(e) => notes.push(format!(
+                    "the OE height model could not be re-identified on this protocol's runs ({e}): the submodel fit's is kept"
+                )),
+            }
+        }
+        (truck, notes)
+    }
 }
 
 /// Runs every submodel fit the study's data allow, writes the results into a copy of the
@@ -774,7 +805,7 @@ pub(crate) fn model3_oe_run<'a>(
 /// Model 3's OE re-identified on `protocol`'s estimation runs ([`model3_oe_run`]) into
 /// `truck`, when that picks another run than `start_run`: `Some(note)` saying on which,
 /// `Err` when it failed (the start's OE is kept).
-pub(crate) fn model3_oe_for_protocol(
+fn model3_oe_for_protocol(
     input: &StudyInput,
     estimation: &[String],
     start_run: Option<&str>,

@@ -117,3 +117,43 @@ fn the_submodel_stage_keeps_an_orifice_valve_and_an_area_integral_volume() {
     );
     assert_ne!(start.bellow.gas_volume, input.truck.bellow.gas_volume);
 }
+
+/// Model 3's height block is the one submodel each protocol identifies on its own runs (the
+/// registry says so, `height_block_per_protocol`): the submodel stage identifies it on the
+/// first protocol's runs (here the thesis' data-set 1), and a protocol that also estimates
+/// on a levelling run, whose controller moves the air while the load steps, starts Model 3
+/// from a block identified there. The other models start as the stage left them.
+#[test]
+fn each_protocol_starts_model_3_from_a_height_block_of_its_own_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let generated = airsus_truck::experiments::generate(dir.path(), 1, &mut |_| {}).unwrap();
+    let input = load_study(&generated.study_valve).unwrap();
+    let names = |runs: &[&str]| runs.iter().map(|r| r.to_string()).collect::<Vec<String>>();
+    let thesis = names(&["data-set 1"]);
+    let ours = names(&["data-set 1", "data-set 3", "levelling 1", "road 1"]);
+    let (start, _) = fit_submodels(&input, &thesis);
+    assert_eq!(start.model3_oe_run.as_deref(), Some("data-set 1"));
+    let m3 = airsus_truck::models::model_entry("m3").unwrap();
+    // The protocol the stage ran on: its block, nothing said.
+    let (same, notes) = start.truck_for_protocol(m3, &input, &thesis);
+    assert_eq!(same, start.truck_for(m3));
+    assert!(notes.is_empty(), "{notes:?}");
+    // Our protocol: identified on the levelling run, and said.
+    let (own, notes) = start.truck_for_protocol(m3, &input, &ours);
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].starts_with("the OE height model re-identified on levelling 1"),
+        "{notes:?}"
+    );
+    assert_ne!(own.model3, start.truck.model3);
+    // Only the block differs.
+    let mut only_block = own.clone();
+    only_block.model3 = start.truck.model3.clone();
+    assert_eq!(only_block, start.truck_for(m3));
+    for name in ["m1", "m2", "m2x", "m2xh", "truck"] {
+        let entry = airsus_truck::models::model_entry(name).unwrap();
+        let (truck, notes) = start.truck_for_protocol(entry, &input, &ours);
+        assert_eq!(truck, start.truck_for(entry), "{name}");
+        assert!(notes.is_empty(), "{name}: {notes:?}");
+    }
+}

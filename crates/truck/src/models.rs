@@ -37,6 +37,7 @@ pub const TRUCK_MODEL: ModelEntry = ModelEntry {
     // taken variant 3's inertia 12 % low to make up for its 14 % stiffer tires).
     road_refit: &["dscl", "kw", "ig"],
     lab_laws: true,
+    height_block_per_protocol: false,
 };
 
 /// Every registered model, in report order: the thesis models, then `truck`.
