@@ -4,7 +4,7 @@
 mod common;
 
 use airsus_ident::linear::{
-    ArmaxOrders, ArxOrders, BjOrders, IdData, OeOrders, PemOptions, StopReason, armax,
+    ArmaxOrders, ArxOrders, BjOrders, IdData, IdentError, OeOrders, PemOptions, StopReason, armax,
     armax_merged, arx, arx_merged, bj, bj_merged, oe, oe_merged,
 };
 use common::*;
@@ -312,9 +312,30 @@ fn merged_arx_armax_and_bj_determine_what_neither_run_does_alone() {
             "{a:?} {b:?}"
         );
     }
-    // An input held in every run is named, not solved to noise.
-    let held = IdData::new(valve.y().to_vec(), vec![vec![0.0; N], vec![1.0; N]], 0.01).unwrap();
-    assert!(arx_merged(&[held.clone(), held], &orders).is_err());
+    // An input held in every run is named, not solved to noise, even where it is held at
+    // another level in each (the runs end to end would show it step once).
+    let held = |level: f64| {
+        IdData::new(
+            loading.y().to_vec(),
+            vec![loading.u()[0].clone(), vec![level; N]],
+            0.01,
+        )
+        .unwrap()
+    };
+    let refused = arx_merged(&[held(0.0), held(1.0)], &orders);
+    assert!(
+        matches!(refused, Err(IdentError::ConstantInput { .. })),
+        "{refused:?}"
+    );
+    // An input the orders leave out (nb = 0) may be held, merged as alone.
+    let without_second = ArxOrders {
+        na: orders.na,
+        nb: vec![orders.nb[0], 0],
+        nk: orders.nk.clone(),
+    };
+    let alone = arx(&held(1.0), &without_second);
+    assert!(alone.is_ok(), "{alone:?}");
+    assert!(arx_merged(&[held(0.0), held(1.0)], &without_second).is_ok());
 
     // ARMAX: A y = B1 u1 + B2 u2 + C e.
     let c = [1.0, -0.5];

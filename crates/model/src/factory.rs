@@ -89,7 +89,9 @@ pub struct ModelEntry {
     pub lab_laws: bool,
     /// Whether the model's height is a linear block from load and pressure (an OE, thesis
     /// eq 4.5, Table 5.6) that the study identifies as a submodel on each protocol's own
-    /// estimation runs, the one whose load and pressure are least correlated (Model 3).
+    /// estimation runs, the one whose load and pressure are least correlated. Model 3's
+    /// alone: the study writes the block into the truck file's `model3` table, so the flag
+    /// means that table.
     pub height_block_per_protocol: bool,
 }
 

@@ -212,6 +212,10 @@ pub(crate) fn merged_experiments(
     )?;
     layout.validate(&together)?;
     for input in 0..first.n_inputs() {
+        // An input the orders give no coefficient (`nb = 0`) may be constant, as for one run.
+        if layout.nb.get(input) == Some(&0) {
+            continue;
+        }
         let checks: Vec<Result<(), IdentError>> = experiments
             .iter()
             .map(|e| check_input_varies(input, &e.u()[input]))
@@ -282,8 +286,8 @@ fn minimise_merged(
     let fit = fit_percent(&y, &yhat).unwrap_or(f64::NEG_INFINITY);
     let part = &problem.parts[0];
     let simulation_fit_percent = if part.model.structure == Structure::Oe {
-        // The OE predictor is the simulation.
-        Some(fit)
+        // The OE predictor is the simulation (none for outputs that do not vary, as `oe`).
+        fit_percent(&y, &yhat)
     } else {
         // Each experiment simulated from rest at its own start, as it was estimated.
         let simulated = experiments

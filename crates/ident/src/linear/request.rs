@@ -123,7 +123,7 @@ pub struct Identified {
 #[derive(Debug, thiserror::Error)]
 pub enum RequestError {
     /// The request itself is wrong (an order missing, given twice over, or foreign to the
-    /// structure; a structure unknown; runs merged where the structure takes one).
+    /// structure; a structure unknown).
     #[error("{0}")]
     Orders(String),
     /// An input column does not move: it carries nothing about the dynamics.
