@@ -1056,6 +1056,9 @@ impl LinearCalibration {
         let mut late_settling = Vec::new();
         let mut moving_heights_mm = Vec::new();
         let g = self.gain.abs();
+        // One threshold for sizing the late part and for giving it
+        // ([`Self::apply_with_quality`]).
+        self.late_settling_after_s = rule.settle_s;
         for (i, (run, z)) in runs.iter().zip(run_zs).enumerate() {
             let Some(quality) = run.quality.filter(|q| q.len() == run.time_s.len()) else {
                 continue;
@@ -1082,7 +1085,7 @@ impl LinearCalibration {
                 }
                 let own = g * run.measurement_std_kg.map_or(0.0, |m| m[k]);
                 match quality[k] {
-                    WeighQuality::Settling if rested_s[k] >= rule.settle_s => {
+                    WeighQuality::Settling if rested_s[k] >= self.late_settling_after_s => {
                         late_settling.push((i, r, own))
                     }
                     WeighQuality::Settling => settling.push((i, r, own)),
@@ -1104,7 +1107,6 @@ impl LinearCalibration {
             let mut r: Vec<f64> = v.iter().map(|s| s.1).collect();
             (q95(&mut r), interval)
         };
-        self.late_settling_after_s = rule.settle_s;
         let split = settling.len() >= MIN_CLASS_SAMPLES && late_settling.len() >= MIN_CLASS_SAMPLES;
         if split {
             let (_, late) = fit(late_settling);

@@ -67,7 +67,8 @@ pub enum Normalisation {
     /// outputs' relative weight changes) and `m1` 7.0 → −1.6. Before the prefix starts and
     /// the global stage it lifted every model's data-set 4 pressure (m2 −48.7 → 8.9 %, truck
     /// 16.8 → 37.3 %): a long loading run no longer drowned a valve run's small pressure
-    /// swings. `greybox` m2 on ds1 + ds3 from the nominal truck, ds4 pressure, pooled → noise: seed 1 −143.6 → −83.7 %, seed 2 −6.6 → −5.4 %, seed 3 −228.1 → −79.7 %, but
+    /// swings. `greybox` m2 on ds1 + ds3 from the nominal truck, ds4 pressure, pooled →
+    /// noise: seed 1 −143.6 → −83.7 %, seed 2 −6.6 → −5.4 %, seed 3 −228.1 → −79.7 %, but
     /// seed 5 −65.5 → −77.3 %. And where a structure misses a run's pressure by 50× its noise,
     /// that block dominates the Jacobian: from a poor start (the submodel fits, seed 5) the
     /// identifiability screen then froze every m2 parameter. Issue #12, items 3 and 4.

@@ -240,12 +240,14 @@ impl Request<'_> {
             }
         };
         let m = run.data.n_inputs();
+        // The estimation data: the run first, then the runs merged with it.
         let (data, offsets) = prepare(run.data);
-        let mut merged_data = Vec::with_capacity(merged.len());
+        let mut experiments = Vec::with_capacity(1 + merged.len());
+        experiments.push(data);
         let mut merged_runs = Vec::with_capacity(merged.len());
         for other in merged {
             let (d, offsets) = prepare(other.data);
-            merged_data.push(d);
+            experiments.push(d);
             merged_runs.push(MergedRun {
                 run: other.label,
                 samples: other.rows,
@@ -255,13 +257,7 @@ impl Request<'_> {
         let o = self.orders;
         let nb = self.per_input("nb", &o.nb, m)?;
         let nk = self.per_input("nk", &o.nk, m)?;
-        // The estimation data: the run alone, or with the merged runs after it.
-        let single = merged_data.is_empty();
-        let experiments: Vec<IdData> = if single {
-            Vec::new()
-        } else {
-            std::iter::once(data.clone()).chain(merged_data).collect()
-        };
+        let (single, data) = (experiments.len() == 1, &experiments[0]);
         let estimate = match self.structure {
             Structure::Arx => {
                 let orders = ArxOrders {
@@ -270,7 +266,7 @@ impl Request<'_> {
                     nk,
                 };
                 if single {
-                    arx(&data, &orders)
+                    arx(data, &orders)
                 } else {
                     arx_merged(&experiments, &orders)
                 }
@@ -283,7 +279,7 @@ impl Request<'_> {
                     nk,
                 };
                 if single {
-                    armax(&data, &orders, options)
+                    armax(data, &orders, options)
                 } else {
                     armax_merged(&experiments, &orders, options)
                 }
@@ -295,7 +291,7 @@ impl Request<'_> {
                     nk,
                 };
                 if single {
-                    oe(&data, &orders, options)
+                    oe(data, &orders, options)
                 } else {
                     oe_merged(&experiments, &orders, options)
                 }
@@ -309,7 +305,7 @@ impl Request<'_> {
                     nk,
                 };
                 if single {
-                    bj(&data, &orders, options)
+                    bj(data, &orders, options)
                 } else {
                     bj_merged(&experiments, &orders, options)
                 }
@@ -333,15 +329,10 @@ impl Request<'_> {
                 source,
             },
         })?;
-        let estimated_on = if single {
-            std::slice::from_ref(&data)
-        } else {
-            &experiments[..]
-        };
         let (text, simulation_fit_percent) = self.printout(
             &run.label,
             run.rows,
-            estimated_on,
+            &experiments,
             offsets.as_ref(),
             &merged_runs,
             &estimate,
@@ -353,7 +344,7 @@ impl Request<'_> {
                 output: self.output.to_string(),
                 inputs: self.inputs.to_vec(),
                 samples: run.rows,
-                ts_s: data.ts_s(),
+                ts_s: experiments[0].ts_s(),
                 offsets,
                 merged: merged_runs,
                 estimate,
