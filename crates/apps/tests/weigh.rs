@@ -348,6 +348,7 @@ fn cal_run<'a>(run: &'a Run, est: &'a WeighSeries, h: Option<&'a [f64]>) -> Cali
         quality: None,
         measurement_std_kg: None,
         road_m: Some(&run.inputs.road_height_m),
+        bellow_gauge_pa: None,
     }
 }
 
@@ -807,15 +808,20 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
     // settling interval, sized at a steady load, and it held 39-68 % of them; before the
     // flag carried on while the levelling controller opens the valve, those samples got the
     // valve's interval and the levelling run held 74-78 %.
-    // Measured 1.000 pooled and on the average run: more than 95 %, because the calibration
-    // runs log the load set down as a step when it starts to arrive (what a log knows),
-    // so the class is sized against the settled load, 280-300 kg from the estimate at the
-    // arrival's start, while the truck's load moves there over 4-5 s and the filter trails
-    // it by 2-3 %.
+    // Measured 0.952 pooled, 0.951 on the average run (0.895-0.988 per run). The calibration
+    // runs log the load set down as a step when it starts to arrive (what a log knows);
+    // sized against that step, 280-300 kg from the estimate at the arrival's start while
+    // the truck's load moves there over 3-8 s, the interval held 1.000. Sized against
+    // where the pressure says the load was (within the lag it trails by,
+    // `arriving_load_kg`), it holds what it says; against the pressure's reading without
+    // the lag, 0.86 (the static weighing's).
     let (arriving, arriving_run_mean) = held_out_coverage(&runs, |a| &a.load_change);
     println!("load arriving: pooled {arriving:.3}, average run {arriving_run_mean:.3}");
-    assert!(arriving > 0.95, "{arriving}");
-    assert!(arriving_run_mean > 0.95, "{arriving_run_mean}");
+    assert!((0.92..=0.98).contains(&arriving), "{arriving}");
+    assert!(
+        (0.92..=0.98).contains(&arriving_run_mean),
+        "{arriving_run_mean}"
+    );
 }
 
 /// Issue #14: static weighing with each variant's study estimate, on the runs the EKF weighs
@@ -877,12 +883,17 @@ fn static_weighing_with_the_study_estimate_reads_its_wall() {
     println!("static, standstill coverage: pooled {coverage:.3}, average run {run_mean:.3}");
     assert!((0.92..=0.98).contains(&coverage), "{coverage}");
     assert!((0.92..=0.98).contains(&run_mean), "{run_mean}");
-    // Measured 0.999 (0.948 before the `loading` flag carried on while the levelling
-    // controller works the valve: levelling 2 0.87-0.90); sized against the settled load,
-    // as the filter's above.
-    let (arriving, _) = held_out_coverage(&runs, |a| &a.load_change);
-    println!("static, load arriving: pooled {arriving:.3}");
-    assert!(arriving > 0.95, "{arriving}");
+    // Measured 0.947 pooled, 0.946 on the average run (0.872-0.992 per run): sized against
+    // where the pressure says the load was, as the filter's above. Sized against the
+    // logged step, 0.999; against the pressure's reading without the lag it trails by,
+    // 0.862.
+    let (arriving, arriving_run_mean) = held_out_coverage(&runs, |a| &a.load_change);
+    println!("static, load arriving: pooled {arriving:.3}, average run {arriving_run_mean:.3}");
+    assert!((0.92..=0.98).contains(&arriving), "{arriving}");
+    assert!(
+        (0.92..=0.98).contains(&arriving_run_mean),
+        "{arriving_run_mean}"
+    );
     // The wall is what reads to a tenth of a percent: the same file without it, calibrated
     // with every term a static law lacks, misses 0.5 % on data-set 2.
     let plain =

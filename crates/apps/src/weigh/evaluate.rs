@@ -29,6 +29,11 @@ pub struct StandstillRule {
     /// How long the load must have been steady for a sample to count as during valve
     /// activity, s (a load still arriving is not the valve's doing).
     pub load_settle_s: f64,
+    /// How far the bellow pressure may trail the load the truck feels while a load
+    /// arrives, s: the felt load lies between the pressure's reading now and this much
+    /// later (the calibration's `loading` interval, [`super::LinearCalibration`]). Measured
+    /// 0.12-0.18 s on the virtual-truck variants (the wall friction and the damper).
+    pub pressure_lag_s: f64,
 }
 
 impl Default for StandstillRule {
@@ -40,6 +45,7 @@ impl Default for StandstillRule {
             after_valve_window_s: 120.0,
             steady_tolerance_kg: 0.5,
             load_settle_s: 10.0,
+            pressure_lag_s: 0.3,
         }
     }
 }
