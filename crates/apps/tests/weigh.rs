@@ -783,6 +783,13 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
         // the calibrated heights, that run held 0.841.
         assert!(a.standstill.within_95_interval > 0.9, "{who}: {a:?}");
     }
+    // Every sample of the held-out runs, whatever its class: measured 0.961 pooled, 0.959
+    // on the average run (the 10-30 s after a load change 0.991, over-covered: they get the
+    // early settling interval, sized on the seconds after a valve step).
+    let (every, every_run_mean) = held_out_coverage(&runs, |a| &a.all);
+    println!("every sample: pooled {every:.3}, average run {every_run_mean:.3}");
+    assert!((0.92..=0.98).contains(&every), "{every}");
+    assert!((0.92..=0.98).contains(&every_run_mean), "{every_run_mean}");
     let (valve_coverage, _) = held_out_coverage(&runs, |a| &a.valve_activity);
     let (after_coverage, _) = held_out_coverage(&runs, |a| &a.after_valve);
     println!(
@@ -881,6 +888,15 @@ fn static_weighing_with_the_study_estimate_reads_its_wall() {
     // run.
     let (coverage, run_mean) = held_out_coverage(&runs, |a| &a.standstill);
     println!("static, standstill coverage: pooled {coverage:.3}, average run {run_mean:.3}");
+    // Every sample of the held-out runs, whatever its class: measured 0.967 pooled, 0.973
+    // on the average run. Over-covered still (left alone): the 10-30 s after a load change
+    // (1.000: they get the early settling interval, sized on the seconds after a valve
+    // step, when the gas is still warm) and, at 0.980-0.985, the valve's work and the
+    // standstills after it.
+    let (every, every_run_mean) = held_out_coverage(&runs, |a| &a.all);
+    println!("static, every sample: pooled {every:.3}, average run {every_run_mean:.3}");
+    assert!((0.92..=0.98).contains(&every), "{every}");
+    assert!((0.92..=0.98).contains(&every_run_mean), "{every_run_mean}");
     assert!((0.92..=0.98).contains(&coverage), "{coverage}");
     assert!((0.92..=0.98).contains(&run_mean), "{run_mean}");
     // Measured 0.947 pooled, 0.946 on the average run (0.872-0.992 per run): sized against
