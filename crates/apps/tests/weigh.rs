@@ -510,8 +510,13 @@ fn ekf_on_a_richer_truck_calibrated_held_out() {
         let calibrated = score(
             &ds2.logged,
             truth,
-            &cal.apply_with_quality(&raw, Some(&heights(&ds2.logged)), Some(&flags(&ds2.logged)))
-                .unwrap(),
+            &cal.apply_with_quality(
+                &raw,
+                Some(&heights(&ds2.logged)),
+                Some(&flags(&ds2.logged)),
+                Some(&ds2.logged.inputs.valve),
+            )
+            .unwrap(),
         );
         println!(
             "variant {variant}: EKF nominal: mean {:+.3} %, max {:.3} %, coverage {:.3}; calibrated: mean {:+.3} %, max {:.3} %, coverage {:.3}, mean σ {:.1} kg",
@@ -536,8 +541,13 @@ fn ekf_on_a_richer_truck_calibrated_held_out() {
             let a = score(
                 &run,
                 &truth,
-                &cal.apply_with_quality(&ekf(&run), Some(&heights(&run)), Some(&flags(&run)))
-                    .unwrap(),
+                &cal.apply_with_quality(
+                    &ekf(&run),
+                    Some(&heights(&run)),
+                    Some(&flags(&run)),
+                    Some(&run.inputs.valve),
+                )
+                .unwrap(),
             );
             println!(
                 "  {name}: standstill max {:.3} % cov {:.3}; after valve max {:.3} % cov {:.3}; valve at work max {:.3} % mean {:+.3} % cov {:.3}",
@@ -694,7 +704,12 @@ fn weigh_variants_held_out(
             let heights = run.logged.measured().unwrap().sensor_height_m.clone();
             let flags = flags(&run.logged);
             let weighed = cal
-                .apply_with_quality(&raw, Some(&heights), Some(&flags))
+                .apply_with_quality(
+                    &raw,
+                    Some(&heights),
+                    Some(&flags),
+                    Some(&run.logged.inputs.valve),
+                )
                 .unwrap();
             let a = score(&run.logged, &run.truth.inputs.wheel_load_kg, &weighed);
             let who = format!("variant {k}, {name}");
@@ -784,24 +799,31 @@ fn ekf_with_the_study_estimate_weighs_every_variant_to_half_a_percent() {
         assert!(a.standstill.within_95_interval > 0.9, "{who}: {a:?}");
     }
     // Every sample of the held-out runs, whatever its class: measured 0.961 pooled, 0.959
-    // on the average run (the 10-30 s after a load change 0.991, over-covered: they get the
-    // early settling interval, sized on the seconds after a valve step).
+    // on the average run.
     let (every, every_run_mean) = held_out_coverage(&runs, |a| &a.all);
     println!("every sample: pooled {every:.3}, average run {every_run_mean:.3}");
     assert!((0.92..=0.98).contains(&every), "{every}");
     assert!((0.92..=0.98).contains(&every_run_mean), "{every_run_mean}");
+    // The 10-30 s after a load change, the valve closed: measured 0.983 pooled, 0.992 on
+    // the average run (0.991 and 0.995 while they got the settling part sized on the
+    // seconds after a valve step too). Still a little wide: their own part's scale, sized
+    // at 0.47-0.61, is raised to the standstill's (0.54-0.90), which every class is held
+    // to; without that floor they held 0.963, but the valve's work 0.912.
+    let (settling, _) = held_out_coverage(&runs, |a| &a.settling);
+    println!("settling: pooled {settling:.3}");
+    assert!((0.92..=0.985).contains(&settling), "{settling}");
     let (valve_coverage, _) = held_out_coverage(&runs, |a| &a.valve_activity);
     let (after_coverage, _) = held_out_coverage(&runs, |a| &a.after_valve);
     println!(
         "coverage of the 95 % interval while the valve works {valve_coverage:.3}, at standstill after it {after_coverage:.3}"
     );
-    // Measured 0.927 and 0.965. Without the interval's widening beyond the calibrated
+    // Measured 0.932 and 0.966. Without the interval's widening beyond the calibrated
     // heights, 0.914 and 0.933: data-set 4's valve steps and their settling are where the
     // bellow leaves the calibration's heights.
     assert!((0.92..=0.98).contains(&valve_coverage), "{valve_coverage}");
     assert!((0.92..=0.98).contains(&after_coverage), "{after_coverage}");
     let (coverage, run_mean) = held_out_coverage(&runs, |a| &a.standstill);
-    // Measured: 0.966 pooled and on the average run; 0.976 and 0.975 while the standstill
+    // Measured: 0.965 pooled, 0.966 on the average run; 0.976 and 0.975 while the standstill
     // interval was sized on every known standstill of the calibration runs, not only those
     // their flags call standstill. With the filter's own covariance unscaled, 0.994: the
     // interval said less than it could.
@@ -877,7 +899,7 @@ fn static_weighing_with_the_study_estimate_reads_its_wall() {
         // Measured 0.915-1.000 per run.
         assert!(a.standstill.within_95_interval > 0.9, "{who}: {a:?}");
     }
-    // The interval says what it holds: measured 0.963 pooled, 0.973 on the average run.
+    // The interval says what it holds: measured 0.960 pooled, 0.972 on the average run.
     // It held 0.999 and 0.998-1.0 per run while (1) the standstill interval was sized on
     // every known standstill of the calibration runs: the levelling run's, which its flags
     // call settling (the pressure drifts for minutes after the controller's fills), set it
@@ -888,11 +910,20 @@ fn static_weighing_with_the_study_estimate_reads_its_wall() {
     // run.
     let (coverage, run_mean) = held_out_coverage(&runs, |a| &a.standstill);
     println!("static, standstill coverage: pooled {coverage:.3}, average run {run_mean:.3}");
-    // Every sample of the held-out runs, whatever its class: measured 0.967 pooled, 0.973
-    // on the average run. Over-covered still (left alone): the 10-30 s after a load change
-    // (1.000: they get the early settling interval, sized on the seconds after a valve
-    // step, when the gas is still warm) and, at 0.980-0.985, the valve's work and the
-    // standstills after it.
+    // The 10-30 s after a load change, the valve closed: measured 0.953 pooled, 0.978 on
+    // the average run. They held 1.000 while every early `settling` sample got one part,
+    // sized on the seconds after a valve step too (the gas still warm, up to 13 kg off);
+    // settling after a load's arrival with the valve closed has its own part now.
+    let (settling, settling_run_mean) = held_out_coverage(&runs, |a| &a.settling);
+    println!("static, settling: pooled {settling:.3}, average run {settling_run_mean:.3}");
+    assert!((0.92..=0.98).contains(&settling), "{settling}");
+    assert!(
+        (0.92..=0.98).contains(&settling_run_mean),
+        "{settling_run_mean}"
+    );
+    // Every sample of the held-out runs, whatever its class: measured 0.961 pooled, 0.969
+    // on the average run (0.967 and 0.973 before the part after a load). Over-covered
+    // still (left alone), at 0.980-0.985: the valve's work and the standstills after it.
     let (every, every_run_mean) = held_out_coverage(&runs, |a| &a.all);
     println!("static, every sample: pooled {every:.3}, average run {every_run_mean:.3}");
     assert!((0.92..=0.98).contains(&every), "{every}");

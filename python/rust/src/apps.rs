@@ -151,6 +151,7 @@ fn run_weigh(
             &series,
             Some(&run.measured()?.sensor_height_m),
             Some(&flags),
+            Some(&run.inputs.valve),
         )?;
         fitted = Some(cal);
     }
@@ -274,6 +275,8 @@ pub fn weigh<'py>(
             cal.set_item("late_settling_std_kg", c.late_settling_std_kg)?;
             cal.set_item("late_settling_own_scale", c.late_settling_own_scale)?;
             cal.set_item("late_settling_after_s", c.late_settling_after_s)?;
+            cal.set_item("load_settling_std_kg", c.load_settling_std_kg)?;
+            cal.set_item("load_settling_own_scale", c.load_settling_own_scale)?;
             cal.set_item("loading_q95_kg", c.loading_q95_kg)?;
             cal.set_item("loading_std_kg", c.loading_std_kg)?;
             cal.set_item("loading_own_scale", c.loading_own_scale)?;

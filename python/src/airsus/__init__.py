@@ -942,7 +942,8 @@ def weigh(
         residual_rms_kg, residual_q95_kg, settling_q95_kg, valve_q95_kg, standstill_std_kg,
         settling_std_kg, valve_std_kg, own_std_scale, settling_own_scale, valve_own_scale,
         late_settling_std_kg, late_settling_own_scale, late_settling_after_s,
-        loading_q95_kg, loading_std_kg, loading_own_scale, height_range_mm`` and ``dropped``
+        load_settling_std_kg, load_settling_own_scale, loading_q95_kg, loading_std_kg,
+        loading_own_scale, height_range_mm`` and ``dropped``
         (the terms the runs did not determine, with why) when ``calibration_run`` is given:
         ``load = gain·estimate + offset + hysteresis·z + height·(h − reference)``, with ``z``
         the wall-friction state from the heights (a fill reads high, ``hysteresis_kg < 0``
@@ -953,18 +954,20 @@ def weigh(
         smallest scale at which the own part alone held 95 % of the average calibration
         run's known loads (the EKF's covariance is wider than its errors at standstill), and
         ``σ_c`` (``standstill_std_kg``, ``settling_std_kg``, ``valve_std_kg``,
-        ``loading_std_kg``; the loading class sized on every arriving sample, the others at
-        a steady load) the smallest
+        ``loading_std_kg``; the loading class sized on every arriving sample against where
+        the bellow pressure says the load was, the others at a steady load) the smallest
         part beside it that held 95 % of each calibration run's known loads (the
         ``*_q95_kg``: what the residuals' 95th percentile was; None with too few such
         samples). A ``settling`` sample at least ``late_settling_after_s`` after the flags
         last said ``valve`` or ``loading`` gets the late settling part
         (``late_settling_std_kg``; the gas has cooled or warmed, the pressure drifts less),
-        the earlier ones the settling part. Beyond the calibration's sensor heights
-        (``height_range_mm``, lowest and highest, mm) the calibration measured nothing: a
-        part ``σ_p min(1, (d/span)²)`` is added, with ``d`` the distance beyond the range,
-        ``span`` its width and ``σ_p`` the estimator's assumed parameter errors, so one span
-        out the interval is the uncalibrated one again.
+        the earlier ones after a load's arrival through which the valve stayed closed the
+        load-settling part (``load_settling_std_kg``), the others the settling part. Beyond
+        the calibration's sensor heights (``height_range_mm``, lowest and highest, mm) the
+        calibration measured nothing: a part ``σ_p min(1, (d/span)²)`` is added, with ``d``
+        the distance beyond the range, ``span`` its width and ``σ_p`` the estimator's
+        assumed parameter errors, so one span out the interval is the uncalibrated one
+        again.
     """
     if isinstance(calibration_run, (list, tuple)):
         if not calibration_run:

@@ -225,6 +225,12 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
                 cal.late_settling_after_s
             );
         }
+        if let Some(std) = cal.load_settling_std_kg {
+            println!(
+                "  settling within {:.0} s of a load's arrival, the valve closed, σ {std:.1} kg",
+                cal.late_settling_after_s
+            );
+        }
         if let (Some(q95), Some(std)) = (cal.loading_q95_kg, cal.loading_std_kg) {
             println!("  while a load arrives, 95 % within {q95:.1} kg (σ {std:.1} kg)");
         }
@@ -245,6 +251,7 @@ pub fn run(args: &WeighArgs) -> anyhow::Result<()> {
             &series,
             Some(&run.measured()?.sensor_height_m),
             Some(&quality),
+            Some(&run.inputs.valve),
         )?;
     }
     let count = |q: WeighQuality| quality.iter().filter(|&&f| f == q).count();

@@ -137,6 +137,10 @@ pub enum RequestError {
         run: String,
         merged: bool,
     },
+    /// The runs do not go together: a run's columns are not the ones named, or runs merged
+    /// with it have other inputs or another sample time.
+    #[error("{0}")]
+    Runs(String),
     /// The estimator failed.
     #[error("{structure} estimation on {run}")]
     Estimation {
@@ -240,6 +244,36 @@ impl Request<'_> {
             }
         };
         let m = run.data.n_inputs();
+        if m != self.inputs.len() {
+            return Err(RequestError::Runs(format!(
+                "{} has {m} input columns but {} are named ({})",
+                run.label,
+                self.inputs.len(),
+                self.inputs.join(", ")
+            )));
+        }
+        // Named here, where the runs have their labels (the estimators can only count).
+        let ts_s = run.data.ts_s();
+        for other in &merged {
+            if other.data.n_inputs() != m {
+                return Err(RequestError::Runs(format!(
+                    "{} has {} input columns, {} has {m}: merged runs share their inputs",
+                    other.label,
+                    other.data.n_inputs(),
+                    run.label
+                )));
+            }
+            // The estimators' tolerance: sample times read off logs' time columns differ
+            // in their last digits.
+            if (other.data.ts_s() / ts_s - 1.0).abs() > 1e-6 {
+                return Err(RequestError::Runs(format!(
+                    "{} is sampled every {} s, {} every {ts_s} s: merged runs share one sample time (resample one of them)",
+                    other.label,
+                    other.data.ts_s(),
+                    run.label
+                )));
+            }
+        }
         // The estimation data: the run first, then the runs merged with it.
         let (data, offsets) = prepare(run.data);
         let mut experiments = Vec::with_capacity(1 + merged.len());
@@ -494,6 +528,59 @@ mod tests {
             nb: vec![1],
             nk: vec![1],
             ..Default::default()
+        }
+    }
+
+    #[test]
+    fn runs_that_do_not_go_together_are_named() {
+        let (inputs, orders) = (two_inputs(), first_order_arx());
+        let arx = request(Structure::Arx, &orders, &inputs, "--");
+        let options = PemOptions::default();
+        // One column named for two inputs.
+        let one = ["u1".to_string()];
+        let e = request(Structure::Arx, &orders, &one, "--")
+            .estimate(run("r.csv", false), Vec::new(), &options)
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "r.csv has 2 input columns but 1 are named (u1)"
+        );
+        // A merged run at another sample time, or with another number of inputs.
+        let mut slow = run("slow.csv", false);
+        slow.data = IdData::new(slow.data.y().to_vec(), slow.data.u().to_vec(), 0.2).unwrap();
+        let e = arx
+            .estimate(run("r.csv", false), vec![slow], &options)
+            .unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("slow.csv is sampled every 0.2 s, r.csv every 0.1 s"),
+            "{e}"
+        );
+        let mut narrow = run("narrow.csv", false);
+        narrow.data =
+            IdData::new(narrow.data.y().to_vec(), narrow.data.u()[..1].to_vec(), 0.1).unwrap();
+        for structure in [Structure::Arx, Structure::Oe] {
+            let e = request(structure, &orders_for(structure), &inputs, "--")
+                .estimate(run("r.csv", false), vec![narrow.clone()], &options)
+                .unwrap_err();
+            assert!(
+                e.to_string()
+                    .starts_with("narrow.csv has 1 input columns, r.csv has 2"),
+                "{e}"
+            );
+        }
+    }
+
+    /// First-order orders of `structure` for [`run`]'s two inputs.
+    fn orders_for(structure: Structure) -> RequestedOrders {
+        match structure {
+            Structure::Oe => RequestedOrders {
+                nb: vec![1],
+                nf: vec![1],
+                nk: vec![1],
+                ..Default::default()
+            },
+            _ => first_order_arx(),
         }
     }
 
