@@ -26,7 +26,7 @@ use crate::error::EstimateError;
 use crate::greybox::{
     GreyboxEstimate, GreyboxOptions, GreyboxProblem, InitialChoice, estimate, loss_at,
 };
-use crate::initial_state::{PrefixOptions, StartMethod, estimate_initial_state};
+use crate::initial_state::{PrefixOptions, StartMethod, estimate_initial_state_freeing};
 use crate::load_ramp::{
     LoadRamp, LoadTransitionsFit, ease_runs, fit_load_ramp, logged_load_changes,
     longest_transition_s,
@@ -58,7 +58,7 @@ pub fn prefix_starts(
 ) -> Vec<Option<InitialState>> {
     runs.iter()
         .map(|run| {
-            estimate_initial_state(model, run, StartMethod::Prefix, options)
+            estimate_initial_state_freeing(model, run, StartMethod::Prefix, options, false)
                 .ok()
                 .filter(|start| start.method == StartMethod::Prefix)
                 .map(|start| start.initial)

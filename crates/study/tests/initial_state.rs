@@ -17,18 +17,9 @@ fn a_known_offset_in_the_air_amount_is_recovered_from_the_prefix() {
     // settles. Noise-free outputs of that run; the prefix fit must find the offset.
     let truck = airsus_data::TruckParameters::reference();
     let model = build_model("m2", &truck).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let generated = airsus_truck::experiments::generate(dir.path(), 2, &mut |_| {}).unwrap();
-    let input = load_study(&generated.study).unwrap();
-    let mut run = input.run("data-set 4").unwrap().run.clone();
+    let mut run = data_set_4_of_seed_2();
     let inputs = InputSeries::from_run(&run).unwrap();
-    let first = run.outputs.as_ref().unwrap().sensor_height_m[0];
-    let x_eq = model
-        .initial_state(
-            &inputs.sample(0),
-            &InitialCondition::SensorHeight { height_m: first },
-        )
-        .unwrap();
+    let x_eq = equilibrium_at_first_height(&*model, &run);
     let air = model.state_index(StateRole::BellowAir).unwrap();
     let mut x_true = x_eq.clone();
     x_true[air] *= 1.01;
@@ -38,22 +29,8 @@ fn a_known_offset_in_the_air_amount_is_recovered_from_the_prefix() {
         InitialState::State(x_true.clone()),
     ))
     .unwrap();
-    let outputs = run.outputs.as_mut().unwrap();
-    outputs.sensor_height_m = truth.sensor_height_m.clone();
-    outputs.bellow_gauge_pa = truth.bellow_gauge_pa.clone();
     // The run now "starts" at the true first height, which is not the equilibrium's.
-    let start = estimate_initial_state(
-        &*model,
-        &run,
-        StartMethod::Prefix,
-        &PrefixOptions::default(),
-    )
-    .unwrap();
-    assert_eq!(start.method, StartMethod::Prefix);
-    // The start stays relative to the equilibrium, so it survives a parameter change.
-    let InitialState::EquilibriumOffset { offsets, .. } = &start.initial else {
-        panic!("{start:?}")
-    };
+    let (start, offsets) = prefix_fit_on(&*model, &mut run, &truth);
     let relative = (x_eq[air] + offsets[air] - x_true[air]) / x_true[air];
     assert!(
         relative.abs() < 1e-3,
@@ -140,4 +117,118 @@ fn the_prefix_start_of_a_noise_free_run_after_a_move_reproduces_it() {
         let p = nrmse_percent(&measured.bellow_gauge_pa, &sim.bellow_gauge_pa).unwrap();
         assert!(h > 99.8 && p > 99.8, "{file}: {h:.3}/{p:.3} %");
     }
+}
+
+#[test]
+fn a_creep_under_way_in_an_identified_block_is_recovered_from_the_prefix() {
+    // Model 2 extended's OE block is the creep after a load change (33 s time constant).
+    // Started with the creep of an earlier step still under way, a run's height drifts for
+    // a minute; the block's state, in its own scaling (unit "1"), is freed by the prefix fit
+    // like the other history states. Noise-free outputs of data-set 4 (one load, valve
+    // steps) from that start.
+    let truck = airsus_data::TruckParameters::reference();
+    let model = build_model("m2x", &truck).unwrap();
+    let mut run = data_set_4_of_seed_2();
+    let inputs = InputSeries::from_run(&run).unwrap();
+    let x_eq = equilibrium_at_first_height(&*model, &run);
+    let filter = model
+        .states()
+        .iter()
+        .position(|s| s.role == StateRole::Filter)
+        .unwrap();
+    let simulate_from = |x: Vec<f64>| {
+        simulate(&SimulationProblem::new(
+            &*model,
+            inputs,
+            InitialState::State(x),
+        ))
+        .unwrap()
+    };
+    let at_rest = simulate_from(x_eq.clone());
+    // The block is linear: a state that moves the height by 3 mm at most.
+    let mut unit = x_eq.clone();
+    unit[filter] += 1.0;
+    let per_unit_m = simulate_from(unit)
+        .sensor_height_m
+        .iter()
+        .zip(&at_rest.sensor_height_m)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let mut x_true = x_eq.clone();
+    x_true[filter] += 3e-3 / per_unit_m;
+    let truth = simulate_from(x_true.clone());
+    let (start, offsets) = prefix_fit_on(&*model, &mut run, &truth);
+    let recovered = offsets[filter] / (x_true[filter] - x_eq[filter]);
+    assert!(
+        (recovered - 1.0).abs() < 0.05,
+        "creep state recovered at {recovered:.3} of the truth: {start:?}"
+    );
+    // The whole run follows: the creep at rest leaves it millimetres off for a minute.
+    let sim = simulate_run(
+        &*model,
+        &run,
+        StartMethod::Prefix,
+        &PrefixOptions::default(),
+        None,
+    )
+    .unwrap();
+    let rest = simulate_run(
+        &*model,
+        &run,
+        StartMethod::Equilibrium,
+        &PrefixOptions::default(),
+        None,
+    )
+    .unwrap();
+    let h = nrmse_percent(&truth.sensor_height_m, &sim.sensor_height_m).unwrap();
+    let h_rest = nrmse_percent(&truth.sensor_height_m, &rest.sensor_height_m).unwrap();
+    // Measured 99.99 % against 98.30 % (data-set 4's valve steps span 60 mm; the creep's
+    // 3 mm is what the start at rest misses).
+    assert!(
+        h > 99.9 && h_rest < 99.0,
+        "{h:.2} % against {h_rest:.2} % at rest"
+    );
+}
+
+/// Data-set 4 of the virtual truck's seed-2 study (one load, valve steps).
+fn data_set_4_of_seed_2() -> airsus_data::Run {
+    let dir = tempfile::tempdir().unwrap();
+    let generated = airsus_truck::experiments::generate(dir.path(), 2, &mut |_| {}).unwrap();
+    let input = load_study(&generated.study).unwrap();
+    input.run("data-set 4").unwrap().run.clone()
+}
+
+/// `model`'s static equilibrium at `run`'s first measured height.
+fn equilibrium_at_first_height(
+    model: &dyn airsus_model::SuspensionModel,
+    run: &airsus_data::Run,
+) -> Vec<f64> {
+    let inputs = InputSeries::from_run(run).unwrap();
+    let first = run.outputs.as_ref().unwrap().sensor_height_m[0];
+    model
+        .initial_state(
+            &inputs.sample(0),
+            &InitialCondition::SensorHeight { height_m: first },
+        )
+        .unwrap()
+}
+
+/// `run` with `truth`'s outputs, its start fitted to the prefix: the start and its offsets
+/// from the equilibrium (relative to it, so that a start survives a parameter change).
+fn prefix_fit_on(
+    model: &dyn airsus_model::SuspensionModel,
+    run: &mut airsus_data::Run,
+    truth: &airsus_sim::SimulationResponse,
+) -> (airsus_estimate::EstimatedStart, Vec<f64>) {
+    let outputs = run.outputs.as_mut().unwrap();
+    outputs.sensor_height_m = truth.sensor_height_m.clone();
+    outputs.bellow_gauge_pa = truth.bellow_gauge_pa.clone();
+    let start =
+        estimate_initial_state(model, run, StartMethod::Prefix, &PrefixOptions::default()).unwrap();
+    assert_eq!(start.method, StartMethod::Prefix);
+    let InitialState::EquilibriumOffset { offsets, .. } = &start.initial else {
+        panic!("{start:?}")
+    };
+    let offsets = offsets.clone();
+    (start, offsets)
 }
