@@ -427,7 +427,8 @@ fn rms(r: &DVector<f64>) -> f64 {
 }
 
 /// The start of `run` by `method`: the equilibrium at the first measured height, or that
-/// with its history states fitted to the first `options.prefix_s` seconds.
+/// with its history states fitted to the first `options.prefix_s` seconds, an identified
+/// block's filter states among them.
 pub fn estimate_initial_state(
     model: &dyn SuspensionModel,
     run: &Run,

@@ -50,7 +50,8 @@ pub const JOINT_MIN_GAIN: f64 = 0.01;
 pub const JOINT_REFIT_ITERATIONS: usize = 15;
 
 /// Each run's start fitted to its first `options.prefix_s` under `model`; `None` where the
-/// fit failed or kept the equilibrium (that run starts in equilibrium).
+/// fit failed or kept the equilibrium (that run starts in equilibrium). An identified
+/// block's filter states start at rest here (why: `estimate_initial_state_freeing`).
 pub fn prefix_starts(
     model: &dyn SuspensionModel,
     runs: &[&Run],

@@ -373,7 +373,8 @@ pub struct LinearCalibration {
     /// (how: `class_interval`, private to this module).
     pub own_std_scale: f64,
     /// The same as [`Self::standstill_std_kg`] and [`Self::own_std_scale`] for the samples
-    /// flagged `settling` and `valve` (see [`Self::settling_q95_kg`]); `None` with too few
+    /// flagged `settling` and `valve` (see [`Self::settling_q95_kg`]; the settling part then
+    /// only for those the late and after-load parts do not take); `None` with too few
     /// such samples. Such a sample's interval is never narrower than a standstill's: each
     /// part is at least the standstill's.
     pub settling_std_kg: Option<f64>,
@@ -408,10 +409,11 @@ pub struct LinearCalibration {
     /// When a settling sample counts as late, s after the flags last said `valve` or
     /// `loading`: the standstill rule's settling time ([`StandstillRule::settle_s`]).
     pub late_settling_after_s: f64,
-    /// The same for the samples flagged `loading` ([`WeighQuality::Loading`]), every one,
-    /// the known load steady or not: what the estimate misses while a load arrives, against
-    /// the farther end of where the pressure says the truck's load was while the logged
-    /// step arrived ([`arriving_load_kg`]). `None` with fewer than 50 such samples; such a
+    /// The same for the samples flagged `loading` ([`WeighQuality::Loading`]), the known
+    /// load steady or not: what the estimate misses while a load arrives, against the
+    /// farther end of where the pressure says the truck's load was while the logged step
+    /// arrived (`arriving_load_kg`, private to this module; the samples after the valve
+    /// opens within an arrival size nothing). `None` with fewer than 50 such samples; such a
     /// sample then gets the settling interval.
     pub loading_q95_kg: Option<f64>,
     pub loading_std_kg: Option<f64>,
@@ -489,8 +491,8 @@ pub struct CalibrationRun<'a> {
     /// valve closed would otherwise be all standstills).
     pub road_m: Option<&'a [f64]>,
     /// The measured bellow gauge pressure, Pa: how far a logged load had arrived while it
-    /// arrived ([`arriving_load_kg`]), for the `loading` interval. Without it the samples of
-    /// an arrival size nothing.
+    /// arrived (`arriving_load_kg`, private to this module), for the `loading` interval.
+    /// Without it an arrival's samples are sized against the logged step (a wider interval).
     pub bellow_gauge_pa: Option<&'a [f64]>,
 }
 
@@ -581,9 +583,11 @@ fn smallest_holding(hi: f64, holds: impl Fn(f64) -> bool) -> f64 {
 /// ([`LinearCalibration::settling_std_kg`] and the parts beside it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum SettlingPart {
-    /// Within `late_settling_after_s` of the valve's work (or of the run's start).
+    /// Within `late_settling_after_s` of the valve's work, of the run's start, or of a load's
+    /// arrival that the valve's work came close to or during (or whose valve is not known).
     AfterValve,
-    /// Within `late_settling_after_s` of a load's arrival with the valve closed throughout.
+    /// Within `late_settling_after_s` of a load's arrival, the valve at rest for that long
+    /// before it and closed during it.
     AfterLoad,
     /// Later.
     Late,
@@ -591,34 +595,38 @@ enum SettlingPart {
 
 /// The [`SettlingPart`] of each sample of a run (a sample that is not `settling` gets the
 /// part it would have): by how long before it the flags last said `valve` or `loading`, and
-/// whether the valve stayed closed through that stretch of flags. A levelling controller
-/// opens the valve while a load arrives (the flags then say `loading`): what settles after
-/// is the air it moved. Without the valve's states no sample is [`SettlingPart::AfterLoad`].
+/// which; a load's arrival counts only when the valve has rested `late_after_s` by then
+/// (neither flagged `valve` nor open, the run's start counting as the valve's last work:
+/// its history is unknown). A levelling controller opens the valve while a load arrives (the
+/// flags then say `loading`), and a valve step shortly before a load leaves the gas warm:
+/// what settles after either is the air. Without the valve's states no sample is
+/// [`SettlingPart::AfterLoad`] (the flags alone do not show a valve opened while a load
+/// arrived).
 fn settling_parts(
     time_s: &[f64],
     quality: &[WeighQuality],
     valve: Option<&[airsus_data::ValveState]>,
     late_after_s: f64,
 ) -> Vec<SettlingPart> {
-    let mut moved_s = time_s.first().copied().unwrap_or(0.0);
-    let (mut by_load, mut moving) = (false, false);
+    let start_s = time_s.first().copied().unwrap_or(0.0);
+    let (mut moved_s, mut valve_moved_s, mut by_load) = (start_s, start_s, false);
     time_s
         .iter()
         .zip(quality)
         .enumerate()
         .map(|(k, (&t, &q))| {
-            let moves = matches!(q, WeighQuality::Valve | WeighQuality::Loading);
-            if moves {
-                moved_s = t;
-                if !moving {
-                    by_load = valve.is_some();
-                }
-                let valve_closed =
-                    valve.and_then(|v| v.get(k)) == Some(&airsus_data::ValveState::Closed);
-                by_load &= q == WeighQuality::Loading && valve_closed;
+            let valve_open = valve
+                .and_then(|v| v.get(k))
+                .is_some_and(|&v| v != airsus_data::ValveState::Closed);
+            if q == WeighQuality::Valve || valve_open {
+                valve_moved_s = t;
             }
-            moving = moves;
-            match (t - moved_s >= late_after_s, by_load) {
+            if matches!(q, WeighQuality::Valve | WeighQuality::Loading) {
+                moved_s = t;
+                by_load = q == WeighQuality::Loading;
+            }
+            let air_rested = valve.is_some() && moved_s - valve_moved_s >= late_after_s;
+            match (t - moved_s >= late_after_s, by_load && air_rested) {
                 (true, _) => SettlingPart::Late,
                 (false, true) => SettlingPart::AfterLoad,
                 (false, false) => SettlingPart::AfterValve,
@@ -799,7 +807,11 @@ fn arriving_load_kg(
                 .take_while(|&j| run.time_s[j] - t <= rule.pressure_lag_s + 1e-9)
                 .last()
                 .unwrap_or(k);
-            *felt_k = (reads_kg(k), reads_kg(later));
+            let ends = (reads_kg(k), reads_kg(later));
+            // A pressure missing at either end: the logged step, as without pressures.
+            if ends.0.is_finite() && ends.1.is_finite() {
+                *felt_k = ends;
+            }
         }
         felt[a.valve_opens..a.end].fill((f64::NAN, f64::NAN));
     }
@@ -1109,10 +1121,11 @@ impl LinearCalibration {
                 || run.height_m.is_some_and(|h| h.len() != n)
                 || run.measurement_std_kg.is_some_and(|m| m.len() != n)
                 || run.road_m.is_some_and(|r| r.len() != n)
+                || run.bellow_gauge_pa.is_some_and(|p| p.len() != n)
             {
                 return Err(invalid(
                     format!("calibration run {}", i + 1),
-                    "time, estimate, known load, valve, height and road differ in length",
+                    "time, estimate, known load, valve, height, road and bellow pressure differ in length",
                 ));
             }
             let idx =
@@ -1767,6 +1780,26 @@ mod tests {
             }
         }
         assert!(bracketed > 60, "{bracketed}");
+        // A pressure missing: the samples whose either end it is read against the log.
+        let mut gappy_pa = gauge_pa.clone();
+        gappy_pa[1020] = f64::NAN;
+        let gappy = CalibrationRun {
+            bellow_gauge_pa: Some(&gappy_pa),
+            ..as_run(&run)
+        };
+        let felt = arriving_load_kg(&gappy, &found, pa_per_kg, &rule);
+        // 102.0 s itself, and 101.7 s whose later end (0.3 s on) it is.
+        assert_eq!(felt[1020], (3300.0, 3300.0));
+        assert_eq!(felt[1017], (3300.0, 3300.0));
+        assert!(felt[1018].1 < 3300.0 && felt[1021].0 < 3300.0);
+        // Pressures of another length are an error, not a silent step.
+        let short = CalibrationRun {
+            bellow_gauge_pa: Some(&gauge_pa[1..]),
+            quality: None,
+            ..as_run(&run)
+        };
+        let e = LinearCalibration::fit_runs(&[short], &rule).unwrap_err();
+        assert!(e.to_string().contains("bellow pressure"), "{e}");
         // Without pressures, the log's load: as wide as before.
         let plain = as_run(&run);
         let felt = arriving_load_kg(&plain, &arrivals(&plain, &rule), None, &rule);
@@ -1817,45 +1850,53 @@ mod tests {
 
     #[test]
     fn settling_after_a_load_is_told_from_settling_after_the_valve() {
-        use WeighQuality::{Loading, Settling, Valve};
-        let time_s: Vec<f64> = (0..9).map(|k| k as f64 * 10.0).collect();
-        let quality = [
-            Settling, Loading, Settling, Loading, Loading, Settling, Valve, Settling, Settling,
-        ];
-        let closed = ValveState::Closed;
-        let valve = [
-            closed,
-            closed,
-            closed,
-            ValveState::Fill,
-            closed,
-            closed,
-            ValveState::Exhaust,
-            closed,
-            closed,
-        ];
-        let parts = settling_parts(&time_s, &quality, Some(&valve), 30.0);
         use SettlingPart::{AfterLoad, AfterValve, Late};
+        use WeighQuality::{Loading, Settling, Valve};
+        let (closed, fill) = (ValveState::Closed, ValveState::Fill);
+        // (time, flag, valve, the part expected), the late part 30 s after.
+        let samples = [
+            // The run's start: its history unknown, as after the valve.
+            (0.0, Settling, closed, AfterValve),
+            // A load arrives, the valve 40 s at rest: settling after it is the load's.
+            (40.0, Loading, closed, AfterLoad),
+            (50.0, Settling, closed, AfterLoad),
+            // A controller opens the valve while the next load arrives: the air's.
+            (60.0, Loading, fill, AfterValve),
+            (70.0, Loading, closed, AfterValve),
+            (80.0, Settling, closed, AfterValve),
+            (90.0, Valve, fill, AfterValve),
+            (100.0, Settling, closed, AfterValve),
+            // A load 35 s after the valve's work: the load's.
+            (125.0, Loading, closed, AfterLoad),
+            (130.0, Settling, closed, AfterLoad),
+            // A valve step, then a load 15 s later: the gas still warm, the air's.
+            (140.0, Valve, fill, AfterValve),
+            (150.0, Settling, closed, AfterValve),
+            (155.0, Loading, closed, AfterValve),
+            (160.0, Settling, closed, AfterValve),
+            // 45 s after the last flag: late, whatever moved.
+            (200.0, Settling, closed, Late),
+        ];
+        let time_s: Vec<f64> = samples.iter().map(|s| s.0).collect();
+        let quality: Vec<WeighQuality> = samples.iter().map(|s| s.1).collect();
+        let valve: Vec<ValveState> = samples.iter().map(|s| s.2).collect();
+        let expected: Vec<SettlingPart> = samples.iter().map(|s| s.3).collect();
         assert_eq!(
-            parts,
-            [
-                AfterValve, AfterLoad, AfterLoad, AfterValve, AfterValve, AfterValve, AfterValve,
-                AfterValve, AfterValve
-            ]
+            settling_parts(&time_s, &quality, Some(&valve), 30.0),
+            expected
         );
-        // 30 s after the last flag: late, whatever moved.
-        let parts = settling_parts(&time_s[..3], &quality[..3], Some(&valve[..3]), 10.0);
-        assert_eq!(parts, [AfterValve, AfterLoad, Late]);
         // Without the valve's states, nothing is known to have settled after a load alone.
         let parts = settling_parts(&time_s, &quality, None, 30.0);
-        assert!(parts.iter().all(|&p| p == AfterValve), "{parts:?}");
+        assert!(parts.iter().all(|&p| p != AfterLoad), "{parts:?}");
     }
 
     #[test]
     fn settling_after_a_load_has_its_own_interval_beside_settling_after_the_valve() {
         // Loads step at 100 and 200 s; the flags say `loading` for 5 s after each (and at
-        // the start). A controller opens the valve while the first step's load arrives:
-        // what settles after it misses by 10 kg; after the other arrivals, 3 kg.
+        // the start, which counts as after the valve: its history is unknown). A controller
+        // opens the valve while the first step's load arrives: what settles after it misses
+        // by 10 kg; after the others, 3 kg.
+        use WeighQuality::{Loading, Settling, Standstill};
         let mut run = synthetic(step_load, |_| 0.23);
         let mut flags = Vec::new();
         for k in 0..run.time_s.len() {
@@ -1878,7 +1919,6 @@ mod tests {
             run.estimate_kg[k] = run.known_kg[k] + miss_kg;
             flags.push(flag);
         }
-        use WeighQuality::{Loading, Settling, Standstill};
         let cal_run = CalibrationRun {
             quality: Some(&flags),
             ..as_run(&run)
@@ -1892,22 +1932,22 @@ mod tests {
         // Applied: with the valve's states, a sample settling after a load alone gets the
         // narrower part; without them, the settling part.
         let s = WeighSeries {
-            time_s: vec![0.0, 10.0],
-            wheel_load_kg: vec![3000.0; 2],
-            std_kg: vec![1.0; 2],
-            measurement_std_kg: vec![0.0; 2],
+            time_s: vec![0.0, 40.0, 50.0],
+            wheel_load_kg: vec![3000.0; 3],
+            std_kg: vec![1.0; 3],
+            measurement_std_kg: vec![0.0; 3],
             notes: Vec::new(),
         };
-        let quality = [Loading, Settling];
-        let valve = [ValveState::Closed; 2];
+        let quality = [Standstill, Loading, Settling];
+        let valve = [ValveState::Closed; 3];
         let read = cal
             .apply_with_quality(&s, None, Some(&quality), Some(&valve))
             .unwrap();
-        assert!((read.std_kg[1] - after_load).abs() < 1e-9, "{read:?}");
+        assert!((read.std_kg[2] - after_load).abs() < 1e-9, "{read:?}");
         let read = cal
             .apply_with_quality(&s, None, Some(&quality), None)
             .unwrap();
-        assert!((read.std_kg[1] - after_valve).abs() < 1e-9, "{read:?}");
+        assert!((read.std_kg[2] - after_valve).abs() < 1e-9, "{read:?}");
         // Valve states of another length are an error, not a guess.
         assert!(
             cal.apply_with_quality(&s, None, Some(&quality), Some(&valve[..1]))

@@ -246,10 +246,14 @@ impl Request<'_> {
         let m = run.data.n_inputs();
         if m != self.inputs.len() {
             return Err(RequestError::Runs(format!(
-                "{} has {m} input columns but {} are named ({})",
+                "{} has {m} input columns, the request names {}: {}",
                 run.label,
                 self.inputs.len(),
-                self.inputs.join(", ")
+                if self.inputs.is_empty() {
+                    "none".to_string()
+                } else {
+                    self.inputs.join(", ")
+                }
             )));
         }
         // Named here, where the runs have their labels (the estimators can only count).
@@ -543,7 +547,7 @@ mod tests {
             .unwrap_err();
         assert_eq!(
             e.to_string(),
-            "r.csv has 2 input columns but 1 are named (u1)"
+            "r.csv has 2 input columns, the request names 1: u1"
         );
         // A merged run at another sample time, or with another number of inputs.
         let mut slow = run("slow.csv", false);
