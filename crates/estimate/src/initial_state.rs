@@ -139,7 +139,13 @@ impl EstimatedStart {
                     .adjusted
                     .iter()
                     .filter(|s| s.estimated != s.equilibrium)
-                    .map(|s| format!("{} {:+.4e} {}", s.name, s.estimated - s.equilibrium, s.unit))
+                    .map(|s| {
+                        // A filter state's unit "1" (its block's own scaling) is no unit to print.
+                        let unit = if s.unit == "1" { "" } else { s.unit };
+                        format!("{} {:+.4e} {unit}", s.name, s.estimated - s.equilibrium)
+                            .trim_end()
+                            .to_owned()
+                    })
                     .collect();
                 format!(
                     "static equilibrium with its history states fitted to the first seconds ({}); prefix residual {:.2} → {:.2} × noise",
