@@ -24,7 +24,7 @@ use nalgebra::{DMatrix, DVector, Dyn};
 
 use airsus_data::Run;
 use airsus_model::{InitialCondition, StateRole, SuspensionModel};
-use airsus_sim::{InitialState, InputSeries, SimulationProblem, simulate};
+use airsus_sim::{InitialState, InputSeries, SimulationProblem, SimulationResponse, simulate};
 
 use crate::error::EstimateError;
 use crate::greybox::{HEIGHT_RESOLUTION_M, PRESSURE_RESOLUTION_PA, measurement_noise};
@@ -192,28 +192,26 @@ const PRIOR_FILTER_NOISE_UNITS: f64 = 5.0;
 /// about one noise standard deviation at most (`noise_h`, `noise_p`), found by probing
 /// steps of 1e-9 to 1e6 (the block's scaling is its own, unit "1"); `None` when no step
 /// moves them or the probes do not simulate. The block is linear: the step found is
-/// rescaled to exactly one noise unit of the largest change it caused.
+/// rescaled to exactly one noise unit of the largest change it caused. `base` is the prefix
+/// simulated from `x0`, shared by every state's probes.
 fn probe_filter_scale(
     model: &dyn SuspensionModel,
     inputs: InputSeries<'_>,
     x0: &[f64],
+    base: &SimulationResponse,
     state: usize,
     noise: (f64, f64),
 ) -> Option<f64> {
-    let simulate_from = |x: Vec<f64>| {
-        simulate(&SimulationProblem::new(
-            model,
-            inputs,
-            InitialState::State(x),
-        ))
-        .ok()
-    };
-    let base = simulate_from(x0.to_vec())?;
     for exponent in (-9..=6).step_by(3) {
         let step = 10f64.powi(exponent);
         let mut x = x0.to_vec();
         x[state] += step;
-        let probed = simulate_from(x)?;
+        let probed = simulate(&SimulationProblem::new(
+            model,
+            inputs,
+            InitialState::State(x),
+        ))
+        .ok()?;
         let moved_h = base
             .sensor_height_m
             .iter()
@@ -512,12 +510,28 @@ pub(crate) fn estimate_initial_state_freeing(
     let condition = anchor_condition(run, condition, noise_h);
     let x0 = model.initial_state(&inputs.sample(0), &condition)?;
     let states = model.states();
+    let history = history_states(model);
+    // The probes' reference, simulated once, and only for a model with filter states to free.
+    let probe_base = (free_filters && history.iter().any(|&i| states[i].role == StateRole::Filter))
+        .then(|| {
+            simulate(&SimulationProblem::new(
+                model,
+                inputs,
+                InitialState::State(x0.clone()),
+            ))
+            .ok()
+        })
+        .flatten();
     // A filter state no probe step moves is not freed: the prefix cannot tell it.
-    let (free, scales): (Vec<usize>, Vec<f64>) = history_states(model)
+    let (free, scales): (Vec<usize>, Vec<f64>) = history
         .into_iter()
         .filter_map(|i| match states[i].role {
             StateRole::Filter if !free_filters => None,
-            StateRole::Filter => probe_filter_scale(model, inputs, &x0, i, (noise_h, noise_p))
+            StateRole::Filter => probe_base
+                .as_ref()
+                .and_then(|base| {
+                    probe_filter_scale(model, inputs, &x0, base, i, (noise_h, noise_p))
+                })
                 .map(|scale| (i, scale)),
             _ => Some((i, scale(states[i].unit, x0[i]))),
         })

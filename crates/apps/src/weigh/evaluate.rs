@@ -221,22 +221,36 @@ pub fn standstill_indices(
     classify(time_s, load_kg, valve, road_m, rule).standstill
 }
 
+/// The load's changes by more than `rule.steady_tolerance_kg` from the level it had
+/// settled at: `(index, the level before, the level after)` (a drift within the tolerance
+/// accumulates until it exceeds it).
+pub(crate) fn load_steps(load_kg: &[f64], rule: &StandstillRule) -> Vec<(usize, f64, f64)> {
+    let mut steps = Vec::new();
+    let mut reference_load = load_kg.first().copied().unwrap_or(0.0);
+    for (k, &m) in load_kg.iter().enumerate() {
+        if (m - reference_load).abs() > rule.steady_tolerance_kg {
+            steps.push((k, reference_load, m));
+            reference_load = m;
+        }
+    }
+    steps
+}
+
 /// At every sample, the time the load last moved by more than `rule.steady_tolerance_kg`
-/// from the level it had settled at (−∞ before the first change).
+/// from the level it had settled at (−∞ before the first change; [`load_steps`]).
 pub(crate) fn last_load_change_s(
     time_s: &[f64],
     load_kg: &[f64],
     rule: &StandstillRule,
 ) -> Vec<f64> {
+    let mut steps = load_steps(load_kg, rule).into_iter().peekable();
     let mut last_change_s = f64::NEG_INFINITY;
-    let mut reference_load = load_kg.first().copied().unwrap_or(0.0);
     time_s
         .iter()
-        .zip(load_kg)
-        .map(|(&t, &m)| {
-            if (m - reference_load).abs() > rule.steady_tolerance_kg {
+        .enumerate()
+        .map(|(k, &t)| {
+            if steps.next_if(|step| step.0 == k).is_some() {
                 last_change_s = t;
-                reference_load = m;
             }
             last_change_s
         })

@@ -672,15 +672,7 @@ const ARRIVAL_LEVEL_S: f64 = 2.0;
 fn arrivals(run: &CalibrationRun<'_>, rule: &StandstillRule) -> Vec<Arrival> {
     let n = run.time_s.len().min(run.known_kg.len());
     // Logged steps: (first index, L₀, L₁).
-    let mut steps = Vec::new();
-    let mut reference = run.known_kg.first().copied().unwrap_or(0.0);
-    for k in 1..n {
-        let m = run.known_kg[k];
-        if m.is_finite() && (m - reference).abs() > rule.steady_tolerance_kg {
-            steps.push((k, reference, m));
-            reference = m;
-        }
-    }
+    let steps = evaluate::load_steps(&run.known_kg[..n], rule);
     let gauge_pa = run.bellow_gauge_pa.filter(|p| p.len() == n);
     let closed = |k: usize| run.valve.get(k) == Some(&airsus_data::ValveState::Closed);
     // The mean pressure over the samples of `range` with the valve closed.

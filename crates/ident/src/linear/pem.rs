@@ -172,10 +172,16 @@ pub fn bj_merged(
     minimise_merged(experiments, &Layout::bj(orders), initial_bj, options)
 }
 
-/// Checks that experiments can be merged for `layout`: the same inputs and sample time (to
-/// 1 ppm; sample times read off logs' time columns differ in their last digits), the orders
-/// valid for them together, and each input varying in at least one. Returns the experiments
-/// end to end (for initial estimates and the pooled fit, never for the search).
+/// Whether two sample times are one for merging: equal to 1 ppm (sample times read off
+/// logs' time columns differ in their last digits).
+pub(crate) fn same_sample_time(a_s: f64, b_s: f64) -> bool {
+    (a_s / b_s - 1.0).abs() <= 1e-6
+}
+
+/// Checks that experiments can be merged for `layout`: the same inputs and sample time
+/// ([`same_sample_time`]), the orders valid for them together, and each input varying in
+/// at least one. Returns the experiments end to end (for initial estimates and the pooled
+/// fit, never for the search).
 pub(crate) fn merged_experiments(
     experiments: &[IdData],
     layout: &Layout,
@@ -184,7 +190,7 @@ pub(crate) fn merged_experiments(
         return Err(IdentError::Empty);
     };
     for (k, e) in experiments.iter().enumerate() {
-        if e.n_inputs() != first.n_inputs() || (e.ts_s() / first.ts_s() - 1.0).abs() > 1e-6 {
+        if e.n_inputs() != first.n_inputs() || !same_sample_time(e.ts_s(), first.ts_s()) {
             return Err(IdentError::InvalidOption(format!(
                 "experiment {} has {} inputs at {} s; experiment 1 has {} at {} s",
                 k + 1,

@@ -267,9 +267,7 @@ impl Request<'_> {
                     run.label
                 )));
             }
-            // The estimators' tolerance: sample times read off logs' time columns differ
-            // in their last digits.
-            if (other.data.ts_s() / ts_s - 1.0).abs() > 1e-6 {
+            if !super::pem::same_sample_time(other.data.ts_s(), ts_s) {
                 return Err(RequestError::Runs(format!(
                     "{} is sampled every {} s, {} every {ts_s} s: merged runs share one sample time (resample one of them)",
                     other.label,
