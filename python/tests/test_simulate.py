@@ -36,7 +36,7 @@ def test_the_model_registry() -> None:
     assert m2["road_free"] == ["dscl"] and "dscl" in m2["parameters"]
     assert registry.set_index("name").loc["m3"]["road_free"] == []
     truck = registry.set_index("name").loc["truck"]
-    assert truck["road_refit"] == ["dscl", "kw", "ig"] and m2["road_refit"] == []
+    assert truck["road_refit"] == ["dscl", "kw", "ig", "kf"] and m2["road_refit"] == []
     assert truck["roles"][truck["states"].index("gas_t_k")] == "gas_temperature"
 
 

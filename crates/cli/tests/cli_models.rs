@@ -26,7 +26,7 @@ fn models_json_lists_every_model_with_parameters_and_states() {
     // What the study refits on the road runs alone, after the joint estimate.
     assert_eq!(
         models[5]["road_refit"],
-        serde_json::json!(["dscl", "kw", "ig"])
+        serde_json::json!(["dscl", "kw", "ig", "kf"])
     );
     assert_eq!(models[1]["road_refit"], serde_json::json!([]));
     for model in models {

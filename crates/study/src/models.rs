@@ -237,38 +237,11 @@ fn refit_on_road(
     }
     let runs: Vec<&Run> = road.iter().map(|&i| problem.runs[i]).collect();
     let run_names: Vec<&str> = runs.iter().map(|r| r.name.as_str()).collect();
-    let mut refit = GreyboxProblem {
-        model,
-        runs: runs.clone(),
-        free: names.iter().map(|n| FreeParameter::new(*n)).collect(),
-        start_states: vec![None; runs.len()],
-        force_map: None,
-        ..problem.clone()
-    };
-    // The bounds of the joint fit, around the file's values: centred on the joint estimate,
-    // each stage could carry a parameter a bound's width further.
-    for name in &names {
-        if let Some((lo, hi)) = bounds(problem.model, name) {
-            refit = refit.with_bounds(name, lo, hi);
-        }
-    }
-    let single = MultiStart {
-        count: 1,
-        ..MultiStart::default()
-    };
-    let fitted = estimate_with_starts(
-        &refit,
-        options,
-        &single,
-        method,
-        prefix,
-        // A road run carries its load still: there is no load change to ease.
-        LoadRamp::Logged,
-        &mut NoProgress,
-    );
     let what = format!("{} on {} alone", names.join(", "), run_names.join(" + "));
-    let road_fit = match fitted {
-        Ok((road_fit, _)) => road_fit,
+    let road_fit = match fit_on_road(
+        model, problem, &runs, &names, options, method, prefix, notes,
+    ) {
+        Ok(road_fit) => road_fit,
         Err(e) => {
             notes.push(format!(
                 "the refit of {what} failed ({e}): the joint estimate is kept"
@@ -342,6 +315,142 @@ fn refit_on_road(
     }
     joint.estimate.estimated_model = est.estimated_model;
     joint
+}
+
+/// A parameter started at its usual magnitude: (name, file value, start).
+type Raised<'a> = (&'a str, f64, f64);
+
+/// `model` with each of `names` whose value lies below its declared usual magnitude
+/// ([`airsus_model::ParameterInfo::typical`]: only a parameter whose file value may
+/// be 0 declares one) set to that magnitude, and `(name, file value, start)` of each.
+///
+/// Why: the thesis' `k_f` = 0.1 N s/m is a placeholder for a hinge that damps with 0.2-2.5
+/// kN s/m on the virtual truck family. Started there, the fits stopped in another valley: the
+/// road refit at 220-760 N s/m with the damper's scale 1-8 % high (a road logged at 10 Hz
+/// samples the wheel hop aliased, and the loss over the tire, the lever and the two dampers
+/// has valleys apart), the joint fit (which a valve step's motion makes feel the hinge too)
+/// near 0 while the valve and the gas volume slid 17-19 % low to make up.
+fn raised_to_usual_magnitude<'a>(
+    model: &dyn SuspensionModel,
+    names: &[&'a str],
+) -> (Box<dyn SuspensionModel>, Vec<Raised<'a>>) {
+    let mut start = model.box_clone();
+    let mut raised = Vec::new();
+    for &name in names {
+        let Some(typical) = model
+            .parameter_info()
+            .iter()
+            .find(|i| i.name == name)
+            .and_then(|i| i.typical)
+        else {
+            continue;
+        };
+        let Ok(value) = model.parameter(name) else {
+            continue;
+        };
+        if value.abs() < typical && start.set_parameter(name, typical).is_ok() {
+            raised.push((name, value, typical));
+        }
+    }
+    (start, raised)
+}
+
+/// `kf 1.0000e3 (file 1.0000e-1)`, comma-separated, for a note.
+fn describe_raised(raised: &[Raised<'_>]) -> String {
+    raised
+        .iter()
+        .map(|(name, file, start)| format!("{name} {start:.4e} (file {file:.4e})"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// `names` fitted on the road runs `runs` alone from `model`, each run started as in
+/// `problem`'s fit (`method`), under `problem`'s bounds, normalisation and options. The loss
+/// it reports as nominal is `model`'s. Pushes a note when the second start wins.
+#[allow(clippy::too_many_arguments)]
+fn fit_on_road(
+    model: &dyn SuspensionModel,
+    problem: &GreyboxProblem<'_>,
+    runs: &[&Run],
+    names: &[&str],
+    options: &GreyboxOptions,
+    method: StartMethod,
+    prefix: &PrefixOptions,
+    notes: &mut Vec<String>,
+) -> Result<JointEstimate, String> {
+    let run_names: Vec<&str> = runs.iter().map(|r| r.name.as_str()).collect();
+    let refit_from = |start: &dyn SuspensionModel| {
+        let mut refit = GreyboxProblem {
+            model: start,
+            runs: runs.to_vec(),
+            free: names.iter().map(|n| FreeParameter::new(*n)).collect(),
+            start_states: vec![None; runs.len()],
+            force_map: None,
+            ..problem.clone()
+        };
+        // The bounds of the joint fit, around the file's values: centred on the joint
+        // estimate, each stage could carry a parameter a bound's width further.
+        for name in names {
+            if let Some((lo, hi)) = bounds(problem.model, name) {
+                refit = refit.with_bounds(name, lo, hi);
+            }
+        }
+        let single = MultiStart {
+            count: 1,
+            ..MultiStart::default()
+        };
+        estimate_with_starts(
+            &refit,
+            options,
+            &single,
+            method,
+            prefix,
+            // A road run carries its load still: there is no load change to ease.
+            LoadRamp::Logged,
+            &mut NoProgress,
+        )
+        .map(|(road_fit, _)| road_fit)
+    };
+    let mut road_fit = refit_from(model).map_err(|e| e.to_string())?;
+    // The road runs' loss under the joint estimate, what the refit must improve on.
+    let joint_loss = road_fit.estimate.loss_nominal;
+    // A second start for the parameters the joint fit left below their usual magnitude (it
+    // did not free them, or took them there; the thesis' placeholder `k_f` = 0.1 N s/m): at
+    // that magnitude ([`raised_to_usual_magnitude`]). Measured with `k_f` held at 0.1 in the
+    // joint fit, on variants 1-3 of the virtual truck (`k_f` 0.9-2.0 kN s/m): the refit from
+    // 0.1 stopped at 220-760 N s/m with the damper's scale 1-8 % high (road 1 1.9 points of
+    // height short of its ceiling); from 1 kN s/m within 4-24 % of the truth.
+    let (start, raised) = raised_to_usual_magnitude(model, names);
+    if !raised.is_empty() {
+        // A start that fails to simulate leaves the first refit in place.
+        let second = refit_from(&*start);
+        if let Ok(second) = &second {
+            road_fit.estimate.simulations += second.estimate.simulations;
+            road_fit.estimate.failed_simulations += second.estimate.failed_simulations;
+        }
+        if let Ok(second) = second {
+            let (first_loss, second_loss) = (
+                road_fit.estimate.loss_estimated,
+                second.estimate.loss_estimated,
+            );
+            if second_loss < first_loss || first_loss.is_nan() {
+                let (simulations, failed) = (
+                    road_fit.estimate.simulations,
+                    road_fit.estimate.failed_simulations,
+                );
+                notes.push(format!(
+                    "the refit on {} started again from {} (the usual magnitude) reached loss {second_loss:.4e} against {first_loss:.4e} from the joint estimate, and is kept",
+                    run_names.join(" + "),
+                    describe_raised(&raised)
+                ));
+                road_fit = second;
+                road_fit.estimate.loss_nominal = joint_loss;
+                road_fit.estimate.simulations = simulations;
+                road_fit.estimate.failed_simulations = failed;
+            }
+        }
+    }
+    Ok(road_fit)
 }
 
 /// Merges a refit's parameters into the joint estimate's: a parameter the refit determined
@@ -676,7 +785,26 @@ pub fn fit_and_validate(
         .map(|entry| entry.free_parameters(excitation, &*nominal))
         .unwrap_or_default();
     result.free = free.iter().map(|s| (*s).to_owned()).collect();
-    let mut problem = GreyboxProblem::new(&*nominal, &estimation, &free)
+    // A parameter freed for the road runs (the registry's `road_free`) that the file holds
+    // below its usual magnitude starts there (why: [`raised_to_usual_magnitude`]); the
+    // nominal fit stays the file's. Not the default set's: without a road the thesis models'
+    // `k_f` is undetermined, and raised, Model 1's fit carried it to 6.6e5 N s/m.
+    let road_freed: Vec<&str> = match model_entry(model_name) {
+        Ok(entry) if excitation.road => free
+            .iter()
+            .copied()
+            .filter(|name| entry.road_free.contains(name))
+            .collect(),
+        _ => Vec::new(),
+    };
+    let (start, raised) = raised_to_usual_magnitude(&*nominal, &road_freed);
+    if !raised.is_empty() {
+        result.notes.push(format!(
+            "{} started at the usual magnitude, not at the file's value",
+            describe_raised(&raised)
+        ));
+    }
+    let mut problem = GreyboxProblem::new(&*start, &estimation, &free)
         .with_normalisation(normalisation)
         .with_exclusion_after_load_changes(options.exclude_after_load_change_s);
     for name in &free {

@@ -262,7 +262,10 @@ fn a_road_run_determines_the_damper_scale_tire_stiffness_and_lever_inertia_toget
     let free = airsus_truck::models::model_entry("truck")
         .unwrap()
         .road_refit;
-    assert_eq!(free, ["dscl", "kw", "ig"]);
+    assert_eq!(free, ["dscl", "kw", "ig", "kf"]);
+    // The hinge's friction stays at the file's (the truth's) value here; its own recovery,
+    // with the study's start, is the test below.
+    let free = &free[..3];
     let reference = TruckParameters::reference();
     for k in 0..=3u32 {
         let mut truck = VirtualTruck::variant(k);
@@ -278,10 +281,14 @@ fn a_road_run_determines_the_damper_scale_tire_stiffness_and_lever_inertia_toget
         file.mass.lever_inertia_kg_m2 = reference.mass.lever_inertia_kg_m2;
         let model = build_any_model("truck", &file).unwrap();
         let problem = GreyboxProblem::new(&*model, &[&road1.logged], free);
+        // With the study's global stage: from the reference's values alone, variant 1 (its
+        // hinge damping with 1.4 kN s/m) stopped in another valley, the tire 13 % and the
+        // inertia 20 % low (a road logged at 10 Hz samples the wheel hop aliased).
         let fit = fit_as_the_study_starts(
             &problem,
             MultiStart {
-                count: 1,
+                count: airsus_study::DEFAULT_STARTS,
+                screen: airsus_study::DEFAULT_SCREEN,
                 ..MultiStart::default()
             },
         );
@@ -330,15 +337,18 @@ fn a_road_run_determines_the_damper_scale_tire_stiffness_and_lever_inertia_toget
             percent(before),
             percent(errors)
         );
-        // Measured (dscl, kw, ig): variant 0 +0.1, -0.5, +0.1 %; 1 +0.2, -0.8, -0.9 %;
-        // 2 +0.0, -0.2, +0.6 %; 3 +0.4, -2.1, -1.0 %.
+        // Measured (dscl, kw, ig): variant 0 -0.4, +1.2, +1.3 %; 1 +0.3, -1.5, -1.4 %;
+        // 2 -0.2, +0.1, +0.6 %; 3 +1.1, -2.6, -0.7 % (before the family's hinges damped, from
+        // a single start: +0.1, -0.5, +0.1 %; +0.2, -0.8, -0.9 %; +0.0, -0.2, +0.6 %; +0.4,
+        // -2.1, -1.0 %).
         assert!(
             errors.iter().all(|e| e.abs() < 0.03),
             "variant {k}: {errors:?}"
         );
-        // Measured 99.71, 99.59, 99.74, 98.85 % refitted; 87.32, 80.74, 73.84, 90.39 % with
-        // the reference's values.
-        assert!(refit_fit > 98.5, "variant {k}: {refit_fit:.2} %");
+        // Measured 99.06, 99.23, 99.65, 98.35 % refitted; 87.32, 82.57, 74.48, 91.78 % with
+        // the reference's values (99.71, 99.59, 99.74, 98.85 % refitted before the family's
+        // hinges damped).
+        assert!(refit_fit > 98.0, "variant {k}: {refit_fit:.2} %");
     }
 }
 

@@ -17,6 +17,12 @@ use airsus_study::{Protocol, StudyOptions, load_study, run_study};
 type Scores = Vec<(String, f64, f64, f64, f64)>;
 
 fn study_variant(k: u32) -> (Scores, Vec<String>) {
+    let (scores, notes, _) = study_variant_estimates(k);
+    (scores, notes)
+}
+
+/// [`study_variant`] with the estimate of each freed parameter, by name.
+fn study_variant_estimates(k: u32) -> (Scores, Vec<String>, Vec<(String, f64)>) {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
     let generated = airsus_truck::experiments::generate_variant(&data, 1, k, &mut |_| {}).unwrap();
@@ -51,7 +57,35 @@ fn study_variant(k: u32) -> (Scores, Vec<String>) {
             )
         })
         .collect();
-    (scores, truck.notes.clone())
+    let estimates = truck
+        .estimates
+        .iter()
+        .map(|p| (p.name.clone(), p.estimate))
+        .collect();
+    (scores, truck.notes.clone(), estimates)
+}
+
+/// The hinge friction (eq 3.4) the study estimated against the variant's truth, `k_f` freed
+/// with road runs in the joint fit and the road refit and started at its usual magnitude
+/// (1 kN s/m), not the file's 0.1 N s/m. Measured (the truth, N s/m): variant 1 1520 (1448),
+/// 2 1255 (914), 3 2021 (1962); the hinge trades against the damper's scale (correlation
+/// about -0.8), variant 2's damper 1.191 against 1.195. Started at 0.1 and freed in the road
+/// refit alone: 269, 221, 762, with the damper's scale 1-8 % high, road 1 1.9 points of
+/// height short of its ceiling on variant 1 and data-set 4 1.2 points of pressure on
+/// variant 3.
+fn assert_hinge_friction(k: u32, estimates: &[(String, f64)], tolerance: f64) {
+    let mut truck = airsus_truck::truth::VirtualTruck::variant(k);
+    truck.resolve_laws();
+    let truth = truck.physical.bellow.hinge_friction_n_s_per_m;
+    let estimate = estimates
+        .iter()
+        .find(|(name, _)| name == "kf")
+        .map(|(_, value)| *value)
+        .expect("the road refit frees kf");
+    assert!(
+        (estimate / truth - 1.0).abs() < tolerance,
+        "variant {k}: k_f {estimate:.0} N s/m against the truth's {truth:.0}"
+    );
 }
 
 /// Every run within `margin` points of its ceiling (#13 asks 3 on the validation runs), both
@@ -84,7 +118,16 @@ fn the_structure_reaches_the_ceiling_of_a_truck_drawn_anew() {
     // against 95.2/99.1 (89.5/96.4 with the estimation runs' common ramp). With the gas's thermal
     // time held at the built-in 20 s: data-set 4's pressure 79.0 %, levelling 1's height
     // 83.8 % (an estimation run).
-    let (scores, notes) = study_variant(1);
+    //
+    // Since the variants draw the hinge's friction (variant 1: 1448 N s/m): every run within
+    // 0.2 points of its ceiling (data-set 4 99.2/97.1 against 99.3/97.2 %, road 2 96.9/98.5
+    // against 97.1/98.6).
+    let (scores, notes, estimates) = study_variant_estimates(1);
+    assert_noted(
+        &notes,
+        "kf 1.0000e3 (file 1.0000e-1) started at the usual magnitude",
+    );
+    assert_hinge_friction(1, &estimates, 0.4);
     assert_near_ceiling(1, &scores, &notes, 0.5);
 }
 
@@ -97,9 +140,15 @@ fn the_structure_takes_the_linear_valve_the_lab_calls_for() {
     // 99.1/94.4 against 99.3/94.7, levelling 2 95.3/99.0 against 95.5/99.1. Under the
     // structure's orifice with the lab's fit of one (b at its bound): data-set 3 75.5 %,
     // data-set 4 75.6 %, levelling 2 81.0 %.
-    let (scores, notes) = study_variant(3);
+    //
+    // Since the variants draw the hinge's friction (variant 3: 1962 N s/m, the family's
+    // stiffest): every run within 0.3 points (data-set 4 99.2/94.6 against 99.3/94.7 %). With
+    // `k_f` held at the file's 0.1 in the joint fit (a valve step's motion feels the hinge)
+    // and freed in the road refit alone, data-set 4's pressure was 93.3 %.
+    let (scores, notes, estimates) = study_variant_estimates(3);
     assert_noted(&notes, "under law `linear_resistance`");
-    assert_noted(&notes, "refitted dscl, kw, ig on road 1 alone");
+    assert_noted(&notes, "refitted dscl, kw, ig, kf on road 1 alone");
+    assert_hinge_friction(3, &estimates, 0.4);
     assert_near_ceiling(3, &scores, &notes, 1.0);
 }
 
@@ -115,11 +164,13 @@ fn the_structure_reads_the_lab_right_on_a_truck_whose_area_bends() {
     // stiffness held, 5 points; with the valve freed against the lab, c1, c2 and a0 sat 20 %
     // low together on the ridge that scales them (the first estimate, before the refit with
     // the lab's valve: 94.1 %).
-    let (scores, notes) = study_variant(2);
+    // With the hinge's friction drawn (914 N s/m): every run within 0.3 points.
+    let (scores, notes, estimates) = study_variant_estimates(2);
     assert_noted(
         &notes,
         "the valve held at the lab's values (c1, c2) and a1, rline freed",
     );
+    assert_hinge_friction(2, &estimates, 0.4);
     assert_near_ceiling(2, &scores, &notes, 1.0);
 }
 

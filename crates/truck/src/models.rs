@@ -30,12 +30,12 @@ pub const TRUCK_MODEL: ModelEntry = ModelEntry {
         "p0", "p1", "p2", "p3", "p4", "m2", "ig", "kc", "tc", "kdahl",
     ],
     valve_free: &["c1", "c2", "a0", "tth"],
-    road_free: &["dscl"],
+    road_free: &["dscl", "kf"],
     // Freed jointly with the standing runs' set, the tire's stiffness came out 10-20 % low on
     // variants 0-2; refitted on the road run alone from the joint estimate, with the damper's
     // scale and the lever's inertia, within 0.2-4.5 % on variants 0-3 (the joint estimate had
     // taken variant 3's inertia 12 % low to make up for its 14 % stiffer tires).
-    road_refit: &["dscl", "kw", "ig"],
+    road_refit: &["dscl", "kw", "ig", "kf"],
     lab_laws: true,
     height_block_per_protocol: false,
 };

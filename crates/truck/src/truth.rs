@@ -194,8 +194,8 @@ impl VirtualTruck {
     /// curvature and its growth with pressure; gas-volume scale and slope; valve law (every
     /// fourth variant flows through linear resistances instead of ISO 6358 orifices) and
     /// flow coefficients; wall friction; creep; gas thermal time; masses, lever inertia and
-    /// flex; tire stiffness; damping; supply-line resistance. Identification tested on them
-    /// meets laws and values it was not built from.
+    /// flex; tire stiffness; damping; the hinge's friction; supply-line resistance.
+    /// Identification tested on them meets laws and values it was not built from.
     pub fn variant(k: u32) -> Self {
         let mut truck = Self::reference();
         if k == 0 {
@@ -288,6 +288,10 @@ impl VirtualTruck {
         if k >= FIRST_OTHER_FORM_VARIANT {
             truck.draw_other_forms(&mut uniform);
         }
+        // The lever's bushings (eq 3.4): a few hundred to a few thousand N s/m, a tenth of
+        // the damper's slope or less (the reference's hinge is frictionless). Drawn last, so
+        // that every value drawn before it stays what it was before the family had it.
+        truck.physical.bellow.hinge_friction_n_s_per_m = uniform(200.0, 2500.0);
         truck
     }
 
