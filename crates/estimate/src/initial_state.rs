@@ -127,6 +127,10 @@ pub struct EstimatedStart {
     /// estimate (1 ≈ the noise level).
     pub prefix_rms_equilibrium: f64,
     pub prefix_rms_estimated: f64,
+    /// The identified blocks' filter states the fit would have freed but left at rest, as the
+    /// equilibrium puts them: no probe step moved the prefix's outputs (or the probes did not
+    /// simulate), so the prefix cannot tell them.
+    pub left_at_rest: Vec<&'static str>,
 }
 
 impl EstimatedStart {
@@ -147,8 +151,16 @@ impl EstimatedStart {
                             .to_owned()
                     })
                     .collect();
+                let at_rest = if self.left_at_rest.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; {} left at rest (the prefix does not move them)",
+                        self.left_at_rest.join(", ")
+                    )
+                };
                 format!(
-                    "static equilibrium with its history states fitted to the first seconds ({}); prefix residual {:.2} → {:.2} × noise",
+                    "static equilibrium with its history states fitted to the first seconds ({}); prefix residual {:.2} → {:.2} × noise{at_rest}",
                     if moved.is_empty() {
                         "unchanged".to_owned()
                     } else {
@@ -480,6 +492,7 @@ pub(crate) fn estimate_initial_state_freeing(
         adjusted: vec![],
         prefix_rms_equilibrium: rms,
         prefix_rms_estimated: rms,
+        left_at_rest: vec![],
     };
     if method == StartMethod::Equilibrium {
         return Ok(unchanged(f64::NAN));
@@ -529,17 +542,22 @@ pub(crate) fn estimate_initial_state_freeing(
             .ok()
         })
         .flatten();
-    // A filter state no probe step moves is not freed: the prefix cannot tell it.
+    // A filter state no probe step moves is not freed: the prefix cannot tell it. It is
+    // named in the result, not left at rest silently.
+    let mut left_at_rest = Vec::new();
     let (free, scales): (Vec<usize>, Vec<f64>) = history
         .into_iter()
         .filter_map(|i| match states[i].role {
             StateRole::Filter if !free_filters => None,
-            StateRole::Filter => probe_base
-                .as_ref()
-                .and_then(|base| {
+            StateRole::Filter => {
+                let probed = probe_base.as_ref().and_then(|base| {
                     probe_filter_scale(model, inputs, &x0, base, i, (noise_h, noise_p))
-                })
-                .map(|scale| (i, scale)),
+                });
+                if probed.is_none() {
+                    left_at_rest.push(states[i].name);
+                }
+                probed.map(|scale| (i, scale))
+            }
             _ => Some((i, scale(states[i].unit, x0[i]))),
         })
         .unzip();
@@ -654,6 +672,7 @@ pub(crate) fn estimate_initial_state_freeing(
         method: StartMethod::Prefix,
         prefix_rms_equilibrium: rms_start,
         prefix_rms_estimated: rms_best,
+        left_at_rest,
     })
 }
 

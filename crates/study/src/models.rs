@@ -433,7 +433,12 @@ fn fit_on_road(
                 road_fit.estimate.loss_estimated,
                 second.estimate.loss_estimated,
             );
-            if second_loss < first_loss || first_loss.is_nan() {
+            // Kept only where its screen determined every raised parameter: one it fixed
+            // would stay at the raised start, not at the joint estimate the report keeps.
+            let determined = raised
+                .iter()
+                .all(|(name, _, _)| !second.estimate.is_not_identifiable(name));
+            if determined && second_loss < first_loss {
                 let (simulations, failed) = (
                     road_fit.estimate.simulations,
                     road_fit.estimate.failed_simulations,
@@ -933,7 +938,8 @@ pub fn fit_and_validate(
                     .collect();
                 // A start of the global stage other than the study's drew it, or an earlier
                 // round of the fit (which this one refined) moved it.
-                let kept = match (est.parameter(&n.name), nominal.parameter(&n.name)) {
+                // The start the fit had: the file's value, or its usual magnitude where raised.
+                let kept = match (est.parameter(&n.name), start.parameter(&n.name)) {
                     (Some(p), Ok(start)) if p.estimate != start => format!(
                         "kept at {:.4e}, where {} left it (the study's start value: {start:.4e})",
                         p.estimate,

@@ -158,6 +158,7 @@ fn a_creep_under_way_in_an_identified_block_is_recovered_from_the_prefix() {
     x_true[filter] += 3e-3 / per_unit_m;
     let truth = simulate_from(x_true.clone());
     let (start, offsets) = prefix_fit_on(&*model, &mut run, &truth);
+    assert!(start.left_at_rest.is_empty(), "{start:?}");
     let recovered = offsets[filter] / (x_true[filter] - x_eq[filter]);
     assert!(
         (recovered - 1.0).abs() < 0.05,
@@ -188,6 +189,37 @@ fn a_creep_under_way_in_an_identified_block_is_recovered_from_the_prefix() {
         h > 99.9 && h_rest < 99.0,
         "{h:.2} % against {h_rest:.2} % at rest"
     );
+}
+
+#[test]
+fn a_filter_state_the_prefix_cannot_move_is_named_not_left_at_rest_silently() {
+    // Model 2 extended whose creep block acts with no force (`k_sd` 0): its state reaches no
+    // output, no probe step moves the prefix, and the start says so.
+    let mut truck = airsus_data::TruckParameters::reference();
+    truck.slow_dynamics.force_scale = Some(0.0);
+    let model = build_model("m2x", &truck).unwrap();
+    let run = data_set_4_of_seed_2();
+    let start = estimate_initial_state(
+        &*model,
+        &run,
+        StartMethod::Prefix,
+        &PrefixOptions::default(),
+    )
+    .unwrap();
+    let filter = model
+        .states()
+        .iter()
+        .find(|s| s.role == StateRole::Filter)
+        .unwrap();
+    assert_eq!(start.left_at_rest, [filter.name], "{start:?}");
+    assert!(
+        start
+            .describe()
+            .contains(&format!("{} left at rest", filter.name)),
+        "{}",
+        start.describe()
+    );
+    assert!(start.adjusted.iter().all(|a| a.name != filter.name));
 }
 
 /// Data-set 4 of the virtual truck's seed-2 study (one load, valve steps).
