@@ -421,39 +421,31 @@ fn fit_on_road(
     // 0.1 stopped at 220-760 N s/m with the damper's scale 1-8 % high (road 1 1.9 points of
     // height short of its ceiling); from 1 kN s/m within 4-24 % of the truth.
     let (start, raised) = raised_to_usual_magnitude(model, names);
-    if !raised.is_empty() {
-        // A start that fails to simulate leaves the first refit in place.
-        let second = refit_from(&*start);
-        if let Ok(second) = &second {
-            road_fit.estimate.simulations += second.estimate.simulations;
-            road_fit.estimate.failed_simulations += second.estimate.failed_simulations;
+    // A start that fails to simulate leaves the first refit in place.
+    if let Some(Ok(second)) = (!raised.is_empty()).then(|| refit_from(&*start)) {
+        // Every simulation of both refits is counted, whichever is kept.
+        let simulations = road_fit.estimate.simulations + second.estimate.simulations;
+        let failed = road_fit.estimate.failed_simulations + second.estimate.failed_simulations;
+        let (first_loss, second_loss) = (
+            road_fit.estimate.loss_estimated,
+            second.estimate.loss_estimated,
+        );
+        // Kept only where its screen determined every raised parameter: one it fixed would
+        // stay at the raised start, not at the joint estimate the report keeps.
+        let determined = raised
+            .iter()
+            .all(|(name, _, _)| !second.estimate.is_not_identifiable(name));
+        if determined && second_loss < first_loss {
+            notes.push(format!(
+                "the refit on {} started again from {} (the usual magnitude) reached loss {second_loss:.4e} against {first_loss:.4e} from the joint estimate, and is kept",
+                run_names.join(" + "),
+                describe_raised(&raised)
+            ));
+            road_fit = second;
+            road_fit.estimate.loss_nominal = joint_loss;
         }
-        if let Ok(second) = second {
-            let (first_loss, second_loss) = (
-                road_fit.estimate.loss_estimated,
-                second.estimate.loss_estimated,
-            );
-            // Kept only where its screen determined every raised parameter: one it fixed
-            // would stay at the raised start, not at the joint estimate the report keeps.
-            let determined = raised
-                .iter()
-                .all(|(name, _, _)| !second.estimate.is_not_identifiable(name));
-            if determined && second_loss < first_loss {
-                let (simulations, failed) = (
-                    road_fit.estimate.simulations,
-                    road_fit.estimate.failed_simulations,
-                );
-                notes.push(format!(
-                    "the refit on {} started again from {} (the usual magnitude) reached loss {second_loss:.4e} against {first_loss:.4e} from the joint estimate, and is kept",
-                    run_names.join(" + "),
-                    describe_raised(&raised)
-                ));
-                road_fit = second;
-                road_fit.estimate.loss_nominal = joint_loss;
-                road_fit.estimate.simulations = simulations;
-                road_fit.estimate.failed_simulations = failed;
-            }
-        }
+        road_fit.estimate.simulations = simulations;
+        road_fit.estimate.failed_simulations = failed;
     }
     Ok(road_fit)
 }
