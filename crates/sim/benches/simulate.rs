@@ -2,7 +2,8 @@
 //! noisy logged supply pressure), reference truck, rtol 1e-6, one core.
 //!
 //! And a 40 s road run (ISO 8608 class C at 50 km/h, sampled at 100 ms, as the virtual
-//! truck's road runs), the road linear between samples, at three tolerances.
+//! truck's road runs), the road linear between samples: BDF at three tolerances, and
+//! `Method::Auto`.
 //!
 //! `cargo bench -p airsus-sim --bench simulate`
 
@@ -126,8 +127,9 @@ fn iso_road_run() -> Run {
     }
 }
 
-/// The road run at three tolerances; what a looser one costs in accuracy is printed against
-/// a reference solution at rtol 1e-9.
+/// The road run with BDF at three tolerances and with `Method::Auto` (the explicit method
+/// while the road moves); what each costs in accuracy is printed against a BDF solution at
+/// rtol 1e-9.
 fn bench_road(c: &mut Criterion) {
     let truck = TruckParameters::reference();
     let run = iso_road_run();
@@ -136,25 +138,30 @@ fn bench_road(c: &mut Criterion) {
     let mut group = c.benchmark_group("iso_road_40s");
     for name in ["m1", "m2"] {
         let model = build_model(name, &truck).expect("model builds");
-        let solve = |rtol: f64| {
+        let solve = |method: Method, rtol: f64| {
             let problem = SimulationProblem::new(&*model, inputs, initial.clone())
-                .with_options(SolverOptions::default().with_rtol(rtol));
+                .with_options(SolverOptions::default().with_method(method).with_rtol(rtol));
             let mut response = SimulationResponse::default();
             simulate_into(&problem, &mut response).expect("simulates");
             (problem, response)
         };
-        let (_, reference) = solve(1e-9);
+        let (_, reference) = solve(Method::Bdf, 1e-9);
         let worst = |a: &[f64], b: &[f64]| {
             a.iter()
                 .zip(b)
                 .map(|(x, y)| (x - y).abs())
                 .fold(0.0, f64::max)
         };
-        for rtol in [1e-6, 1e-5, 1e-4] {
-            let (problem, mut response) = solve(rtol);
+        for (method, rtol) in [
+            (Method::Bdf, 1e-6),
+            (Method::Bdf, 1e-5),
+            (Method::Bdf, 1e-4),
+            (Method::Auto, 1e-6),
+        ] {
+            let (problem, mut response) = solve(method, rtol);
             let s = response.statistics;
             eprintln!(
-                "{name} rtol {rtol:e}: {} steps, {} rejected, {} rhs evaluations, {} Jacobians, {} restarts; against rtol 1e-9 height {:.2e} mm, pressure {:.2e} kPa at worst",
+                "{name} {method:?} rtol {rtol:e}: {} steps, {} rejected, {} rhs evaluations, {} Jacobians, {} restarts; against rtol 1e-9 height {:.2e} mm, pressure {:.2e} kPa at worst",
                 s.steps,
                 s.rejected_steps,
                 s.rhs_evaluations,
@@ -163,7 +170,7 @@ fn bench_road(c: &mut Criterion) {
                 1e3 * worst(&response.sensor_height_m, &reference.sensor_height_m),
                 1e-3 * worst(&response.bellow_gauge_pa, &reference.bellow_gauge_pa),
             );
-            group.bench_function(format!("{name}/rtol{rtol:e}"), |b| {
+            group.bench_function(format!("{name}/{method:?}/rtol{rtol:e}"), |b| {
                 b.iter(|| simulate_into(&problem, &mut response).expect("simulates"))
             });
         }

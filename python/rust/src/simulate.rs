@@ -30,11 +30,14 @@ pub fn parse_estimation_start(name: &str) -> anyhow::Result<(StartMethod, bool)>
 /// The integration method by its command-line name (`--method`).
 pub fn parse_method(name: &str) -> anyhow::Result<Method> {
     Ok(match name {
+        "auto" => Method::Auto,
         "bdf" => Method::Bdf,
         "tr-bdf2" | "trbdf2" => Method::TrBdf2,
         "esdirk34" => Method::Esdirk34,
         "tsit45" => Method::Tsit45,
-        other => bail!("unknown method `{other}`; the methods are: bdf, tr-bdf2, esdirk34, tsit45"),
+        other => {
+            bail!("unknown method `{other}`; the methods are: auto, bdf, tr-bdf2, esdirk34, tsit45")
+        }
     })
 }
 
@@ -200,7 +203,7 @@ pub fn simulate<'py>(
             )));
         }
     };
-    let method = parse_method(method.as_deref().unwrap_or("bdf")).or_py()?;
+    let method = parse_method(method.as_deref().unwrap_or("auto")).or_py()?;
     // The command's default `--rtol`.
     let rtol = rtol.unwrap_or(1e-6);
 

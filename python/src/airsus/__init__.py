@@ -406,7 +406,7 @@ def simulate(
     states: bool = False,
     *,
     rtol: float = 1e-6,
-    method: str = "bdf",
+    method: str = "auto",
     load_ramp_s: Optional[float] = None,
     load_transitions_s: Optional[Sequence[float]] = None,
 ) -> pd.DataFrame:
@@ -429,7 +429,9 @@ def simulate(
             state vector itself (SI units, the model's state order, see :func:`models`).
         states: also return the model's states (SI units) as columns.
         rtol: relative tolerance of the adaptive solver (the command's ``--rtol``).
-        method: ``bdf``, ``tr-bdf2``, ``esdirk34`` or ``tsit45`` (``--method``).
+        method: ``auto`` (BDF, and the explicit Tsitouras 5(4) where the road moves with the
+            valve closed: a road run 3-5 times faster), ``bdf``, ``tr-bdf2``, ``esdirk34`` or
+            ``tsit45`` (``--method``).
         load_ramp_s: ease every change of the logged load over this many seconds, as the
             wheel takes a load over seconds while a log steps (``--load-ramp-s``; a study's
             ``load_ramp_s`` per model is the fitted value).
