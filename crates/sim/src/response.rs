@@ -21,6 +21,8 @@ pub struct SolverStatistics {
     pub linear_solver_setups: usize,
     /// Clean restarts at input discontinuities (the first start not counted).
     pub restarts: usize,
+    /// Under `Method::Auto`, the restarts at which one solver handed the state to another.
+    pub method_changes: usize,
 }
 
 impl SolverStatistics {
@@ -32,6 +34,7 @@ impl SolverStatistics {
         self.newton_iterations += other.newton_iterations;
         self.linear_solver_setups += other.linear_solver_setups;
         self.restarts += other.restarts;
+        self.method_changes += other.method_changes;
     }
 }
 

@@ -18,16 +18,17 @@
 //! The road is the exception to the hold ([`RoadInput::Linear`], the default): a surface is
 //! continuous, so the rhs sees the road interpolated linearly between samples and a road
 //! sample ends no segment, except where the road starts or stops moving (a hump on a level
-//! road: a solver in long steps would step over it). Inside a segment the explicit method
-//! stops at every kink of the road, without a restart (it loses nothing by a stop, and no
-//! feature narrower than a step is stepped over); BDF steps across them (see
-//! `Engine::kinks`). On a 20 s ISO 8608 road at 2 ms (Model 2) that is 0 restarts
-//! instead of 9,999, 161 k rhs calls instead of 261 k, and no artificial steps into the tire
-//! force (its extremes 8.6–55.2 kN instead of 7.8–55.9 kN).
+//! road: a solver in long steps would step over it). On a 20 s ISO 8608 road at 2 ms (Model
+//! 2) that is 0 restarts instead of 9,999, 161 k rhs calls instead of 261 k, and no
+//! artificial steps into the tire force (its extremes 8.6–55.2 kN instead of 7.8–55.9 kN).
+//! Inside a segment the explicit method stops at every kink of the road, without a restart
+//! (it loses nothing by a stop, and no feature narrower than a step is stepped over); BDF
+//! steps across them (see `Engine::kinks`).
 //!
-//! Under [`Method::Auto`] each segment gets its method: Tsitouras 5(4) where the road moves,
-//! BDF elsewhere; at a change of method the state passes from one
-//! solver to the other at the segment's clean restart.
+//! Under [`Method::Auto`] each segment gets its method: Tsitouras 5(4) where the road moves
+//! (and over a level stretch of a second or less between two such segments), BDF elsewhere;
+//! at a change of method the state passes from one solver to the other at the segment's
+//! clean restart.
 //!
 //! After every accepted step the state is checked (finite, inside [`StateBounds`]); every
 //! output must be finite. A violation is a typed [`SimError`] naming model, time and state.
@@ -80,16 +81,21 @@ type V = NalgebraVec<f64>;
 const BLOW_UP_LIMIT: f64 = 1e9;
 
 /// The explicit fallback's step budget per input sample (the implicit methods' failing point
-/// on a 90 s ISO road, 901 samples, takes Tsit45 50,613 steps, 56 per sample, 60 ms).
+/// on a 90 s ISO road, 901 samples, took Tsit45 50,613 steps, 56 per sample, 60 ms, before
+/// it stopped at the road's kinks).
 const TSIT45_FALLBACK_STEPS_PER_SAMPLE: usize = 200;
 
 /// Under [`Method::Auto`], the explicit method's step budget per sample of a driving segment
-/// at rtol 1e-6 (on the virtual truck's ISO road it takes about 15; BDF takes four times as
-/// many), and at least [`AUTO_TSIT45_MIN_STEPS`] per segment: a one-sample pothole's segment
+/// at rtol 1e-6 (on the virtual truck's ISO road it takes about 15; BDF takes about five
+/// times as many), and at least [`AUTO_TSIT45_MIN_STEPS`] per segment: a one-sample pothole's segment
 /// is two samples long, and the wheel hop it sets off is resolved in it (Model 1 at rtol
 /// 1e-10: over 200 steps).
 const AUTO_TSIT45_STEPS_PER_SAMPLE: usize = 100;
 const AUTO_TSIT45_MIN_STEPS: usize = 2_000;
+
+/// Under [`Method::Auto`], the longest level stretch between two moving ones that the
+/// explicit method drives through, s.
+const SHORT_LEVEL_STRETCH_S: f64 = 1.0;
 
 /// Simulates `problem`: outputs (and optionally states) at exactly the input sample times.
 ///
@@ -340,12 +346,18 @@ fn simulate_with<M: SuspensionModel + ?Sized>(
                     .map_err(start_failure)?;
                 engine.run(solver, Method::Tsit45, &mut progress, &mut recorder)?
             }
-            // Only `Method::Auto` changes method between segments.
-            (Method::TrBdf2, _) => {
+            // Only `Method::Auto` changes method between segments, and only to BDF or the
+            // explicit method: a state handed to these would be a defect, reported as such.
+            (method @ (Method::TrBdf2 | Method::Esdirk34), Some(_)) => {
+                return Err(invalid(format!(
+                    "internal: a state handed over to {method:?}, which no segment asks for"
+                )));
+            }
+            (Method::TrBdf2, None) => {
                 let solver = ode.tr_bdf2::<Lu>().map_err(start_failure)?;
                 engine.run(solver, Method::TrBdf2, &mut progress, &mut recorder)?
             }
-            (Method::Esdirk34, _) => {
+            (Method::Esdirk34, None) => {
                 let solver = ode.esdirk34::<Lu>().map_err(start_failure)?;
                 engine.run(solver, Method::Esdirk34, &mut progress, &mut recorder)?
             }
@@ -753,6 +765,7 @@ struct Progress {
     kink_cursor: usize,
     steps: usize,
     restarts: usize,
+    method_changes: usize,
     /// The finished solvers' counts.
     rejected_steps: usize,
     newton_iterations: usize,
@@ -768,6 +781,7 @@ impl Progress {
             kink_cursor: 0,
             steps: 0,
             restarts: 0,
+            method_changes: 0,
             rejected_steps: 0,
             newton_iterations: 0,
             linear_solver_setups: 0,
@@ -789,6 +803,7 @@ impl Progress {
             newton_iterations: self.newton_iterations,
             linear_solver_setups: self.linear_solver_setups,
             restarts: self.restarts,
+            method_changes: self.method_changes,
             fallback: None,
         }
     }
@@ -881,13 +896,25 @@ where
     /// elsewhere. The valve does not matter: a fill while driving took the explicit method
     /// fewer steps than BDF (Model 2, 40 s of rough road with a 2 s fill: 6,210 steps
     /// throughout against 7,232 with BDF over the fill).
+    ///
+    /// A level stretch of a second or less between two moving ones is driven through too: a
+    /// road logged in whole millimetres repeats a sample now and then while the wheel hops,
+    /// and each would otherwise cost two changes of solver.
     fn segment_method(&self, start: usize, last: usize) -> Method {
         if self.method != Method::Auto {
             return self.method;
         }
+        if self.shared.road.is_none() {
+            return Method::Bdf;
+        }
         let road = self.problem.inputs.road_height_m();
-        let driving =
-            self.shared.road.is_some() && road[start..=last].windows(2).any(|w| w[0] != w[1]);
+        let times = self.problem.inputs.time_s();
+        let moves = |k: usize| road.get(k + 1).is_some_and(|next| *next != road[k]);
+        let driving = (start..last).any(moves)
+            || (start >= 1
+                && moves(start - 1)
+                && moves(last)
+                && times[last] - times[start] <= SHORT_LEVEL_STRETCH_S);
         if driving { Method::Tsit45 } else { Method::Bdf }
     }
 
@@ -910,7 +937,7 @@ where
         let mut dx = vec![0.0; n];
         // The explicit method stops at every kink of the road: a one-step method loses
         // nothing by a stop, and takes the steps on either side without the kink's error
-        // (on 90 s of ISO road: 4,000 rejected steps instead of 7,300). The implicit methods
+        // (the `truck` structure on 90 s of ISO road: 4,284 rejected steps instead of 7,263). The implicit methods
         // step across kinks as they always did; see `Engine::kinks`.
         let stops_at_kinks = method == Method::Tsit45;
         // Steps go as rtol^(-1/5) for a method of order 5.
@@ -921,6 +948,7 @@ where
             let wanted = self.segment_method(progress.segment_start, last);
             if wanted != method {
                 progress.add(solver.get_statistics());
+                progress.method_changes += 1;
                 return Ok(Some((wanted, solver.into_state().into_common())));
             }
             let steps_before = progress.steps;
@@ -967,7 +995,7 @@ where
                     .kinks
                     .get(progress.kink_cursor)
                     .copied()
-                    .filter(|&k| stops_at_kinks && k < last && times[k] < t_at + h)
+                    .filter(|&k| stops_at_kinks && k < last && times[k] <= t_at + h)
                     .unwrap_or(last);
                 if wanted_stop != stop {
                     stop = wanted_stop;
@@ -1032,7 +1060,15 @@ where
                 if let Some(road) = &self.shared.road {
                     road.segment.set((last, len - 1));
                 }
-                let order = solver.order();
+                // The step size is estimated for the method that takes the next segment, and
+                // a solver that hands over needs no fresh Jacobian.
+                let (_, next_last) = self.segment_end(progress);
+                let next_method = self.segment_method(last, next_last);
+                let order = match next_method {
+                    same if same == method => solver.order().max(1),
+                    Method::Tsit45 => 5,
+                    _ => 1,
+                };
                 {
                     let mut state = solver.state_mut();
                     let t = *state.t;
@@ -1040,16 +1076,12 @@ where
                     for (i, v) in dx.iter().enumerate() {
                         state.dy[i] = *v;
                     }
-                    state.set_step_size(
-                        1.0,
-                        &self.ode.atol,
-                        self.ode.rtol,
-                        &self.ode.eqn,
-                        order.max(1),
-                    );
+                    state.set_step_size(1.0, &self.ode.atol, self.ode.rtol, &self.ode.eqn, order);
                 }
-                // Forces a fresh Jacobian (and Newton matrix) at the restart.
-                drop(solver.checkpoint());
+                if next_method == method {
+                    // Forces a fresh Jacobian (and Newton matrix) at the restart.
+                    drop(solver.checkpoint());
+                }
                 progress.restarts += 1;
             }
         }

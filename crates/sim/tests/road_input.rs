@@ -220,7 +220,31 @@ fn auto_drives_with_the_explicit_method_and_stands_with_bdf() {
             auto.statistics.steps,
             bdf.statistics.steps
         );
+        // Standing → driving → standing.
+        assert_eq!(auto.statistics.method_changes, 2, "{name}");
+        assert_eq!(bdf.statistics.method_changes, 0, "{name}");
     }
+}
+
+#[test]
+fn auto_drives_through_a_road_logged_in_whole_millimetres() {
+    // Rounded to the millimetre, the rough road repeats a sample here and there: a level
+    // stretch of 0.1-0.3 s between moving ones, which the explicit method drives through.
+    let (t, road, valve) = drive_then_fill(1.0);
+    let road_mm: Vec<f64> = road.iter().map(|r| (r * 1e3).round() * 1e-3).collect();
+    let repeats = road_mm[100..500]
+        .windows(2)
+        .filter(|w| w[0] == w[1])
+        .count();
+    assert!(repeats >= 20, "{repeats} repeated samples");
+    let model = build_model("m2", &TruckParameters::reference()).unwrap();
+    let run = |method, rtol| over_road(&*model, (&t, &road_mm, &valve), method, rtol);
+    let auto = run(Method::Auto, 1e-6);
+    let reference = run(Method::Bdf, 1e-10);
+    assert_eq!(auto.statistics.fallback, None);
+    assert_eq!(auto.statistics.method_changes, 2);
+    let height_mm = 1e3 * max_abs_diff(&auto.sensor_height_m, &reference.sensor_height_m);
+    assert!(height_mm < 0.01, "{height_mm:.4} mm off rtol 1e-10");
 }
 
 #[test]

@@ -429,8 +429,8 @@ def simulate(
             state vector itself (SI units, the model's state order, see :func:`models`).
         states: also return the model's states (SI units) as columns.
         rtol: relative tolerance of the adaptive solver (the command's ``--rtol``).
-        method: ``auto`` (BDF, and the explicit Tsitouras 5(4) where the road moves with the
-            valve closed: a road run 3-5 times faster), ``bdf``, ``tr-bdf2``, ``esdirk34`` or
+        method: ``auto`` (BDF, and the explicit Tsitouras 5(4) where the road moves: a rough
+            road 3-5 times faster), ``bdf``, ``tr-bdf2``, ``esdirk34`` or
             ``tsit45`` (``--method``).
         load_ramp_s: ease every change of the logged load over this many seconds, as the
             wheel takes a load over seconds while a log steps (``--load-ramp-s``; a study's

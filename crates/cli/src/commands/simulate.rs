@@ -28,7 +28,7 @@ use super::{RunSourceArgs, read_run_file, read_truck_listing_defaults};
 /// Integration method (see BENCHMARKS.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum MethodArg {
-    /// BDF, and Tsitouras 5(4) where the road moves with the valve closed (default).
+    /// BDF, and Tsitouras 5(4) where the road moves (default).
     Auto,
     /// Variable-order BDF throughout.
     Bdf,
@@ -77,10 +77,10 @@ pub struct SimulateArgs {
     /// far below the sensors' noise.
     #[arg(long, default_value_t = 1e-6)]
     pub rtol: f64,
-    /// Integration method. `auto` runs the explicit Tsitouras 5(4) where the road moves with
-    /// the valve closed and BDF elsewhere: a road run 3-5 times faster than `bdf` (the
-    /// study's method), 0.001 mm and 0.004 kPa off a tight solution, so the scores match the
-    /// study's to their printed precision (BENCHMARKS.md).
+    /// Integration method. `auto` runs the explicit Tsitouras 5(4) where the road moves and
+    /// BDF elsewhere: a rough road 3-5 times faster than `bdf` (the study's method), 0.001 mm
+    /// and 0.004 kPa off a tight solution, so the scores match the study's to their printed
+    /// precision (BENCHMARKS.md).
     #[arg(long, value_enum, default_value_t = MethodArg::Auto)]
     pub method: MethodArg,
     /// Start in static equilibrium at this bellow gauge pressure (kPa) instead of the run's
