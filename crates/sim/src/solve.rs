@@ -87,9 +87,9 @@ const TSIT45_FALLBACK_STEPS_PER_SAMPLE: usize = 200;
 
 /// Under [`Method::Auto`], the explicit method's step budget per sample of a driving segment
 /// at rtol 1e-6 (on the virtual truck's ISO road it takes about 15; BDF takes about five
-/// times as many), and at least [`AUTO_TSIT45_MIN_STEPS`] per segment: a one-sample pothole's segment
-/// is two samples long, and the wheel hop it sets off is resolved in it (Model 1 at rtol
-/// 1e-10: over 200 steps).
+/// times as many), and at least [`AUTO_TSIT45_MIN_STEPS`] per segment: a one-sample
+/// pothole's segment is two samples long, and the wheel hop it sets off is resolved in it
+/// (Model 1 at rtol 1e-10: over 200 steps).
 const AUTO_TSIT45_STEPS_PER_SAMPLE: usize = 100;
 const AUTO_TSIT45_MIN_STEPS: usize = 2_000;
 
@@ -316,10 +316,11 @@ fn simulate_with<M: SuspensionModel + ?Sized>(
     };
     let start_failure = |e: DiffsolError| engine.solver_error(t0, &x0, &e);
     let mut progress = Progress::new(u0);
-    let (_, first_last) = engine.segment_end(&progress);
+    let first = engine.segment_end(&progress);
+    progress.planned = Some(first);
     // `method` is the one asked for, except where the fallback runs another.
     let mut current = match method {
-        Method::Auto => engine.segment_method(0, first_last),
+        Method::Auto => engine.segment_method(0, first.1),
         other => other,
     };
     // The state a solver hands to the next at a change of method (under `Method::Auto`).
@@ -763,6 +764,9 @@ struct Progress {
     segment_start: usize,
     /// The first kink not yet passed.
     kink_cursor: usize,
+    /// The current segment's `(r, last)` ([`Engine::segment_end`]) where the restart that
+    /// began it already found them.
+    planned: Option<(usize, usize)>,
     steps: usize,
     restarts: usize,
     method_changes: usize,
@@ -779,6 +783,7 @@ impl Progress {
             next: 1,
             segment_start: 0,
             kink_cursor: 0,
+            planned: None,
             steps: 0,
             restarts: 0,
             method_changes: 0,
@@ -918,6 +923,22 @@ where
         if driving { Method::Tsit45 } else { Method::Bdf }
     }
 
+    /// Stops `solver` at sample `to`, the road's rate taken between samples `from` and `to`
+    /// (so the evaluations at the stop itself get the slope behind).
+    fn stop_at<S: OdeSolverMethod<'e, Eqn>>(
+        &self,
+        solver: &mut S,
+        from: usize,
+        to: usize,
+    ) -> Result<(), SimError> {
+        if let Some(road) = &self.shared.road {
+            road.segment.set((from, to));
+        }
+        solver
+            .set_stop_time(self.problem.inputs.time_s()[to])
+            .map_err(|e| self.fail(solver, &e))
+    }
+
     /// Runs `solver` (of `method`) from `progress` on, segment by segment, until the run
     /// ends (`None`) or the next segment wants another method: then its state, restarted
     /// under the next segment's inputs, and that method.
@@ -937,20 +958,23 @@ where
         let mut dx = vec![0.0; n];
         // The explicit method stops at every kink of the road: a one-step method loses
         // nothing by a stop, and takes the steps on either side without the kink's error
-        // (the `truck` structure on 90 s of ISO road: 4,284 rejected steps instead of 7,263). The implicit methods
-        // step across kinks as they always did; see `Engine::kinks`.
+        // (the `truck` structure on 90 s of ISO road: 4,284 rejected steps instead of 7,263).
+        // The implicit methods step across kinks as they always did; see `Engine::kinks`.
         let stops_at_kinks = method == Method::Tsit45;
         // Steps go as rtol^(-1/5) for a method of order 5.
         let tolerance_factor = (1e-6 / options.rtol).powf(0.2).max(1.0);
 
         while progress.next < len {
-            let (r, last) = self.segment_end(progress);
+            let (r, last) = progress
+                .planned
+                .unwrap_or_else(|| self.segment_end(progress));
             let wanted = self.segment_method(progress.segment_start, last);
             if wanted != method {
                 progress.add(solver.get_statistics());
                 progress.method_changes += 1;
                 return Ok(Some((wanted, solver.into_state().into_common())));
             }
+            progress.planned = None;
             let steps_before = progress.steps;
             let explicit_budget =
                 (self.method == Method::Auto && method == Method::Tsit45).then(|| {
@@ -961,12 +985,7 @@ where
             // The sample the solver is stopped at: the segment's end, or a kink on the way.
             let mut stop = last;
             let mut stop_from = progress.segment_start;
-            if let Some(road) = &self.shared.road {
-                road.segment.set((progress.segment_start, last));
-            }
-            solver
-                .set_stop_time(times[last])
-                .map_err(|e| self.fail(&solver, &e))?;
+            self.stop_at(&mut solver, stop_from, last)?;
 
             loop {
                 if progress.steps >= options.max_steps {
@@ -999,13 +1018,7 @@ where
                     .unwrap_or(last);
                 if wanted_stop != stop {
                     stop = wanted_stop;
-                    if let Some(road) = &self.shared.road {
-                        // The evaluations at the stop itself get the slope behind.
-                        road.segment.set((stop_from, stop));
-                    }
-                    solver
-                        .set_stop_time(times[stop])
-                        .map_err(|e| self.fail(&solver, &e))?;
+                    self.stop_at(&mut solver, stop_from, stop)?;
                 }
                 let reason = solver.step().map_err(|e| self.fail(&solver, &e))?;
                 progress.steps += 1;
@@ -1042,12 +1055,7 @@ where
                     // On past the kink, without a restart: the slope ahead from here.
                     stop_from = stop;
                     stop = last;
-                    if let Some(road) = &self.shared.road {
-                        road.segment.set((stop_from, last));
-                    }
-                    solver
-                        .set_stop_time(times[last])
-                        .map_err(|e| self.fail(&solver, &e))?;
+                    self.stop_at(&mut solver, stop_from, last)?;
                 }
             }
 
@@ -1062,8 +1070,9 @@ where
                 }
                 // The step size is estimated for the method that takes the next segment, and
                 // a solver that hands over needs no fresh Jacobian.
-                let (_, next_last) = self.segment_end(progress);
-                let next_method = self.segment_method(last, next_last);
+                let next_segment = self.segment_end(progress);
+                progress.planned = Some(next_segment);
+                let next_method = self.segment_method(last, next_segment.1);
                 let order = match next_method {
                     same if same == method => solver.order().max(1),
                     Method::Tsit45 => 5,

@@ -173,17 +173,21 @@ fn drive_then_fill(scale: f64) -> (Vec<f64>, Vec<f64>, Vec<ValveState>) {
             }
         })
         .collect();
-    let valve = t
-        .iter()
-        .map(|&t| {
-            if (53.0..55.0).contains(&t) {
+    let valve = filling_over(&t, 53.0..55.0);
+    (t, road, valve)
+}
+
+/// The valve filling while the time is in `seconds`, closed otherwise.
+fn filling_over(t: &[f64], seconds: std::ops::Range<f64>) -> Vec<ValveState> {
+    t.iter()
+        .map(|t| {
+            if seconds.contains(t) {
                 ValveState::Fill
             } else {
                 ValveState::Closed
             }
         })
-        .collect();
-    (t, road, valve)
+        .collect()
 }
 
 #[test]
@@ -252,16 +256,7 @@ fn auto_hands_the_state_on_at_a_fill_while_driving() {
     // The valve filling for 2 s in the middle of the rough road: the explicit method runs on
     // across the fill's restarts, and hands over to BDF where the road ends.
     let (t, road, _) = drive_then_fill(1.0);
-    let valve: Vec<ValveState> = t
-        .iter()
-        .map(|&t| {
-            if (30.0..32.0).contains(&t) {
-                ValveState::Fill
-            } else {
-                ValveState::Closed
-            }
-        })
-        .collect();
+    let valve = filling_over(&t, 30.0..32.0);
     let model = build_model("m2", &TruckParameters::reference()).unwrap();
     let run = |method, rtol| over_road(&*model, (&t, &road, &valve), method, rtol);
     let auto = run(Method::Auto, 1e-6);
