@@ -581,7 +581,18 @@ pub fn continue_jointly(
         .collect();
     joint.load_ramp_s = previous.load_ramp_s;
     if previous.load_ramp_s.is_some() {
+        let kept = notes.len();
         refit_common_ramp(&mut joint, &started, &mut notes);
+        if notes.len() == kept {
+            // Not refitted (or no better time found): `previous`'s time and its line stand.
+            notes.extend(
+                previous
+                    .load_notes
+                    .iter()
+                    .filter(|n| n.starts_with(COMMON_RAMP_NOTE))
+                    .cloned(),
+            );
+        }
     }
     joint.load_notes = notes;
     Ok(joint)

@@ -360,6 +360,11 @@ pub fn fit_load_transitions(
                 .collect(),
             solver: solver_for_ramp(&problem.solver, longest),
             force_map: None,
+            run_weights: if problem.run_weights.is_empty() {
+                Vec::new()
+            } else {
+                picked.iter().map(|&i| problem.run_weights[i]).collect()
+            },
             ..problem.clone()
         };
         loss_at(&fixed, only.is_none())
@@ -474,6 +479,11 @@ impl ChangeStart {
             solver: solver_for_ramp(&problem.solver, longest),
             weights: self.weights,
             force_map: None,
+            run_weights: problem
+                .run_weights
+                .get(i)
+                .map(|w| vec![*w])
+                .unwrap_or_default(),
             ..problem.clone()
         };
         loss_at(&cut, false)
@@ -505,6 +515,11 @@ fn change_states(
             .clone()
             .with_load(LoadInput::Linear)
             .with_states(true),
+        run_weights: problem
+            .run_weights
+            .get(i)
+            .map(|w| vec![*w])
+            .unwrap_or_default(),
         ..problem.clone()
     };
     let factors = |p: &GreyboxProblem<'_>| output_factors(p).ok()?.first().copied();

@@ -7,8 +7,8 @@ use airsus_data::{Run, TruckParameters};
 use airsus_estimate::greybox::{ParameterStatus, Stage, Unidentifiable};
 use airsus_estimate::{
     EstimateError, GreyboxEstimate, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
-    NoProgress, PrefixOptions, StopReason, continue_jointly, ease_logged_load, estimate,
-    estimate_jointly, fit_load_transitions, loss_at,
+    NoProgress, OutputWeights, PrefixOptions, StopReason, continue_jointly, ease_logged_load,
+    estimate, estimate_jointly, fit_load_transitions, loss_at,
 };
 use airsus_model::{SuspensionModel, build_model};
 use common::{load_step_run, measure, perturbed, valve_pulse_run};
@@ -417,6 +417,54 @@ fn the_loss_of_a_model_as_it_stands_is_that_of_an_estimate_that_frees_nothing() 
     );
     let at_truth = GreyboxProblem::new(&*truth, &[&steps, &pulses], &[]);
     assert!(loss_at(&at_truth, true).unwrap() < 0.5 * estimated.loss_estimated);
+}
+
+#[test]
+fn a_run_s_own_weights_scale_its_share_of_the_loss() {
+    let truck = TruckParameters::reference();
+    let truth = build_model("m2", &truck).unwrap();
+    let (steps, pulses) = runs(&*truth, 102);
+    let model = perturbed(&truck, "m2", &[("m2", 1.1), ("p0", 1.1)]);
+    let problem = GreyboxProblem::new(&*model, &[&steps, &pulses], &[]);
+    let loss = |weights: [(f64, f64); 2]| {
+        let weighted = problem.clone().with_run_weights(
+            weights
+                .iter()
+                .map(|&(height, pressure)| OutputWeights { height, pressure })
+                .collect(),
+        );
+        loss_at(&weighted, true).unwrap()
+    };
+    let whole = loss_at(&problem, true).unwrap();
+    // The normalisation is that of the runs as given: a weight only scales its block.
+    let (only_steps, only_pulses) = (
+        loss([(1.0, 1.0), (0.0, 0.0)]),
+        loss([(0.0, 0.0), (1.0, 1.0)]),
+    );
+    assert!(only_steps > 0.0 && only_pulses > 0.0);
+    assert!((only_steps + only_pulses - whole).abs() <= 1e-12 * whole);
+    let (heights, pressures) = (
+        loss([(1.0, 0.0), (1.0, 0.0)]),
+        loss([(0.0, 1.0), (0.0, 1.0)]),
+    );
+    assert!((heights + pressures - whole).abs() <= 1e-12 * whole);
+    let tripled = loss([(1.0, 1.0), (3.0, 1.0)]);
+    let pulses_height = loss([(0.0, 0.0), (1.0, 0.0)]);
+    assert!((tripled - whole - 8.0 * pulses_height).abs() <= 1e-12 * tripled);
+    // One weight per run, finite and non-negative.
+    let short = problem
+        .clone()
+        .with_run_weights(vec![OutputWeights::default()]);
+    assert!(loss_at(&short, true).is_err());
+    let negative = problem.clone().with_run_weights(vec![
+        OutputWeights::default(),
+        OutputWeights {
+            height: -1.0,
+            pressure: 1.0,
+        },
+    ]);
+    let message = loss_at(&negative, true).unwrap_err().to_string();
+    assert!(message.contains("non-negative"), "{message}");
 }
 
 /// The times the wheel took over the load changes of [`felt_load_steps`], s.

@@ -15,6 +15,7 @@ pub mod figures;
 pub mod findings;
 pub mod input;
 pub mod models;
+pub mod no_trade;
 pub mod protocol;
 pub mod submodels;
 

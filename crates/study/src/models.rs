@@ -38,7 +38,7 @@ pub const RESIDUAL_MAX_LAG: usize = 50;
 /// the truth with conductances 6-13 times, leaving the supply line alone to limit the
 /// flow. A thesis model's `a0` also stands in for what its volume law lacks, and the data
 /// move it far (Model 3 to 8 times on variant 0, its fits better for it): not bounded.
-fn bounds(model: &dyn SuspensionModel, name: &str) -> Option<(f64, f64)> {
+pub(crate) fn bounds(model: &dyn SuspensionModel, name: &str) -> Option<(f64, f64)> {
     let nominal = model.parameter(name).ok()?;
     let info = model.parameter_info().iter().find(|i| i.name == name)?;
     let (lo, hi) = match (model.name(), name) {
@@ -572,6 +572,25 @@ pub struct FeltLoad {
 }
 
 impl FeltLoad {
+    /// The load `joint`'s estimation runs (`estimation`, in its problem's order) were
+    /// fitted with.
+    pub fn of(joint: &JointEstimate, estimation: &[&Run]) -> Self {
+        Self {
+            common_s: joint.load_ramp_s,
+            per_run: joint
+                .fitted_transitions_s()
+                .map(|transitions| {
+                    estimation
+                        .iter()
+                        .zip(transitions)
+                        .filter(|(_, d)| !d.is_empty())
+                        .map(|(run, d)| (run.name.clone(), d.clone()))
+                        .collect()
+                })
+                .unwrap_or_default(),
+        }
+    }
+
     /// `run` as the models see it.
     pub fn feed<'r>(&self, run: &'r Run) -> std::borrow::Cow<'r, Run> {
         if let Some((_, durations)) = self.per_run.iter().find(|(name, _)| *name == run.name) {
@@ -592,7 +611,7 @@ impl FeltLoad {
     }
 }
 
-fn output_fit(run: &Run, response: &SimulationResponse) -> Option<OutputFit> {
+pub(crate) fn output_fit(run: &Run, response: &SimulationResponse) -> Option<OutputFit> {
     let measured = run.outputs.as_ref()?;
     Some(OutputFit {
         height_percent: nrmse_percent(&measured.sensor_height_m, &response.sensor_height_m).ok()?,
@@ -875,20 +894,23 @@ pub fn fit_and_validate(
             nominal.clone()
         }
         Ok((joint, summary)) => {
+            // No estimation run explained worse than by the start values (issue #12).
+            let guarded = crate::no_trade::keep_every_run(
+                joint,
+                &problem,
+                &*nominal,
+                &fit_options,
+                initial,
+                &prefix,
+            );
+            let joint = guarded.joint;
             // Everything reported below describes the fit whose model is validated.
             result.notes.extend(joint.load_notes.iter().cloned());
             if initial == StartMethod::Prefix || joint.transitions_s.is_some() {
                 result.notes.push(joint.describe(prefix.prefix_s));
             }
-            felt.common_s = joint.load_ramp_s;
-            if let Some(transitions) = joint.fitted_transitions_s() {
-                felt.per_run = estimation
-                    .iter()
-                    .zip(transitions)
-                    .filter(|(_, d)| !d.is_empty())
-                    .map(|(run, d)| (run.name.clone(), d.clone()))
-                    .collect();
-            }
+            result.notes.extend(guarded.note);
+            felt = FeltLoad::of(&joint, &estimation);
             joint_starts = estimation
                 .iter()
                 .zip(&joint.starts)

@@ -1,8 +1,8 @@
-//! Issue #12: every model's estimate is at least its nominal fit on every estimation run, or
-//! the result says where it is not. The thesis models on the built-in virtual truck under our
-//! protocol (loading, valve, levelling and road runs), a richer truck than any of them: the
-//! data are not the fitted model's own, so an estimate can only trade runs against each
-//! other, not overfit one structure's noise.
+//! Issue #12: every model's estimate is at least its nominal fit on every estimation run. The
+//! thesis models on the built-in virtual truck under our protocol (loading, valve, levelling
+//! and road runs), a richer truck than any of them: the data are not the fitted model's own,
+//! so a pooled loss can trade runs against each other, and the study's guard
+//! (`airsus_study::no_trade`) must not let it.
 
 mod common;
 
@@ -36,7 +36,7 @@ fn worse_than_the_start(
 }
 
 #[test]
-fn every_thesis_model_gains_on_every_estimation_run_or_says_what_it_traded() {
+fn every_thesis_model_gains_on_every_estimation_run() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
     let generated = airsus_truck::experiments::generate(&data, 1, &mut |_| {}).unwrap();
@@ -79,44 +79,40 @@ fn every_thesis_model_gains_on_every_estimation_run_or_says_what_it_traded() {
                 model.model, fit.run, fit.nominal, fit.estimated
             );
         }
+        // Every model, Model 3 too, explains every estimation run and output at least as
+        // well as its start values did. Measured (seed 1): m1, m2, m2x, m2xh gain on every
+        // run and output, 4-315 points on the height and 4-96 on the pressure.
         let worse = worse_than_the_start(model, 0.1);
-        match model.model.as_str() {
-            // Measured: every estimation run and output gains, 4-315 points on the height
-            // and 4-96 on the pressure (seed 1).
-            "m1" | "m2" | "m2x" | "m2xh" => {
-                assert!(worse.is_empty(), "{}: {worse:?}", model.model);
-            }
-            // Model 3's OE is identified on the levelling run, where the controller moves
-            // the air while the load steps (on data-set 1, where load and pressure rise
-            // together, it could not tell a valve's pressure change from a load's: data-set
-            // 3's height -1.4 % and the levelling run's -464 % after the fit). The loss
-            // pools the runs, and the estimate trades data-set 3's pressure (-201.5 ->
-            // -237.0 %), the levelling run's (86.6 -> 58.4 %) and road 1 (about 0 -> -1.7 /
-            // -2.7 %) for the heights (data-set 1 +23, data-set 3 +175, levelling 1 +113
-            // points). The result names each such run and output.
-            _ => {
-                let height = |run: &str| {
-                    let fit = model.runs.iter().find(|f| f.run == run).unwrap();
-                    fit.estimated.unwrap().height_percent
-                };
-                // Measured 65.3 and 33.1 %.
-                assert!(
-                    height("data-set 3") > 25.0 && height("levelling 1") > 25.0,
-                    "{:?}",
-                    model.runs
-                );
-                for (run, output, before, after) in &worse {
-                    let said = format!(
-                        "the estimate explains {run}'s {output} worse than the start values did ({before:.1} → {after:.1} %)"
-                    );
-                    assert!(
-                        model.notes.iter().any(|n| n.starts_with(&said)),
-                        "{}: no note says {said}: {:?}",
-                        model.model,
-                        model.notes
-                    );
-                }
-            }
+        assert!(worse.is_empty(), "{}: {worse:?}", model.model);
+        if model.model == "m3" {
+            // Model 3's pooled estimate traded data-set 3's pressure (-202.0 -> -237.0 %),
+            // the levelling run's (86.5 -> 58.4 %) and road 1 (about 0 -> -1.7 / -2.7 %) for
+            // the heights; the guard refitted it with those blocks weighted more, and the
+            // result says so. Measured after the guard: data-set 3 54.7 / -20.1 %,
+            // levelling 1 -43.8 / 93.3 % (start -109.7 / -202.0 and -76.7 / 86.5).
+            assert!(
+                model
+                    .notes
+                    .iter()
+                    .any(|n| n.contains("it explains every estimation run and output at least as well as the start values")),
+                "{:?}",
+                model.notes
+            );
+            let fit = |run: &str| {
+                model
+                    .runs
+                    .iter()
+                    .find(|f| f.run == run)
+                    .unwrap()
+                    .estimated
+                    .unwrap()
+            };
+            assert!(
+                fit("data-set 3").pressure_percent > -100.0
+                    && fit("levelling 1").pressure_percent > 86.5,
+                "{:?}",
+                model.runs
+            );
         }
         // Issue #14: the load filter on each model's estimated file (nothing of the truth)
         // neither fails nor runs away on the held-out runs. An issue measured Model 1's
@@ -136,8 +132,9 @@ fn every_thesis_model_gains_on_every_estimation_run_or_says_what_it_traded() {
             );
             assert!(series.wheel_load_kg.iter().all(|m| m.is_finite()));
             // Measured (seed 1), every sample / standstills: m1, m2, m2x 1.9-4.5 / 0.3-1.9 %;
-            // m2xh 1.5-5.4 / 0.5-4.7 %; m3 4.6-8.9 / 2.5-8.9 % (2.7-39 / 1.1-32 % with its
-            // OE identified on data-set 1). None runs away; only the `truck` structure
+            // m2xh 1.5-5.4 / 0.5-4.7 %; m3 3.9-10.9 / 1.1-10.9 % (4.6-8.9 / 2.5-8.9 % from
+            // the pooled fit that traded runs; 2.7-39 / 1.1-32 % with its OE identified on
+            // data-set 1). None runs away; only the `truck` structure
             // weighs to 0.5 % (README, Weighing).
             let (every_max, standstill_max) = match model.model.as_str() {
                 "m3" => (12.0, 12.0),

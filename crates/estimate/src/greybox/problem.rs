@@ -202,6 +202,12 @@ pub struct GreyboxProblem<'a> {
     /// A bellow force map that enters the loss as a prior on the model's effective-area law
     /// ([`ForceMapPrior`]). `None`: the runs alone.
     pub force_map: Option<ForceMapPrior<'a>>,
+    /// Per run (in `runs` order), a further weight on each output, multiplying `weights`
+    /// after the normalisation; empty: 1 for every run. What a caller raises on a run and
+    /// output the pooled loss would otherwise trade for the others (the study's guard that
+    /// no estimation run ends worse than the start values explained it). The force map's
+    /// prior keeps the weight the unweighted runs give it.
+    pub run_weights: Vec<OutputWeights>,
 }
 
 /// Checks a time to leave out after each logged load change, given by a user
@@ -240,6 +246,7 @@ impl<'a> GreyboxProblem<'a> {
             solver: SolverOptions::default(),
             exclude_after_load_change_s: 0.0,
             force_map: None,
+            run_weights: Vec::new(),
         }
     }
 
@@ -278,6 +285,13 @@ impl<'a> GreyboxProblem<'a> {
 
     pub fn with_weights(mut self, weights: OutputWeights) -> Self {
         self.weights = weights;
+        self
+    }
+
+    /// Weighs each run's outputs by `run_weights[i]` on top of `weights`
+    /// ([`GreyboxProblem::run_weights`]).
+    pub fn with_run_weights(mut self, run_weights: Vec<OutputWeights>) -> Self {
+        self.run_weights = run_weights;
         self
     }
 
