@@ -151,3 +151,44 @@ fn every_thesis_model_gains_on_every_estimation_run() {
         }
     }
 }
+
+/// Where no weighting brings every estimation run back to the start values' fit, the refit
+/// that falls least short is kept. Model 3 on variant 1 (seed 1): its pooled estimate fell
+/// 63 NRMSE points short in all (data-set 3's pressure −792 → −825 %, the levelling run's
+/// −28.7 → −35.3 %, road 1's −0.1 → −23.3 %); its height on road 1, which its OE model of
+/// load and pressure does not see (only the start's offset sets it), no weight brings back.
+#[test]
+fn model_3_keeps_the_refit_that_trades_least_where_none_trades_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let generated = airsus_truck::experiments::generate_variant(&data, 1, 1, &mut |_| {}).unwrap();
+    let input = load_study(&generated.study_valve).unwrap();
+    let options = StudyOptions {
+        models: vec!["m3".to_owned()],
+        ..StudyOptions::new(vec![Protocol::from_roles(&input)])
+    };
+    let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
+    let m3 = &outcome.results.protocols[0].models[0];
+    assert!(m3.error.is_none(), "{:?}", m3.error);
+    assert!(
+        m3.notes
+            .iter()
+            .any(|n| n.contains("falls least short") && n.contains("is kept")),
+        "{:?}",
+        m3.notes
+    );
+    // Measured: only road 1's height is left short (-1.0 -> -1.4 %); data-set 3's
+    // pressure -247.7 % and the levelling run's 50.2 %.
+    let worse = worse_than_the_start(m3, 0.1);
+    assert!(
+        worse
+            .iter()
+            .all(|(run, output, before, after)| run == "road 1"
+                && *output == "height"
+                && before - after < 1.0),
+        "{worse:?}"
+    );
+    let estimated = |run: &str| m3.run(run).and_then(|f| f.estimated).unwrap();
+    assert!(estimated("data-set 3").pressure_percent > -400.0);
+    assert!(estimated("levelling 1").pressure_percent > 40.0);
+}
