@@ -503,7 +503,9 @@ fn refit_common_ramp(
 /// transition times; a fit of `problem` from there is followed by the alternation of
 /// starts, transitions (when `previous` fitted them) and parameters, as in
 /// [`estimate_with_starts`]. The caller compares the losses: the two estimates are fitted
-/// to the same runs with the same weights.
+/// to the same runs, with the same weights unless `problem` has run weights of its own
+/// ([`GreyboxProblem::run_weights`]); then the losses are weighted so and `previous`'s is
+/// not comparable.
 ///
 /// What it is for: a free set whose optimum lies in a narrow valley, reached from a point
 /// that a freer set found first (the study's `truck` structure with the lab's valve: see
@@ -555,7 +557,15 @@ pub fn continue_jointly(
     // starts, times and parameters took a sixth of the built-in study's work for another
     // 0.2 %). Where it explains them worse, the alternation may still bring it below: on
     // variant 1 from 0.75 % above `previous` to 1.5 % below.
-    let gain = 1.0 - first.loss_estimated / previous.estimate.loss_estimated.max(f64::MIN_POSITIVE);
+    // Under run weights of the caller's own, `previous`'s loss is on another scale: the
+    // baseline is the first fit's start, `problem`'s model (the caller's continuation of
+    // `previous`) under the new weights.
+    let baseline = if problem.run_weights.is_empty() {
+        previous.estimate.loss_estimated
+    } else {
+        first.loss_nominal
+    };
+    let gain = 1.0 - first.loss_estimated / baseline.max(f64::MIN_POSITIVE);
     let mut joint = match (&previous.transitions_s, prefix) {
         _ if (0.0..JOINT_MIN_GAIN).contains(&gain) => JointEstimate {
             transitions_s: previous.transitions_s.clone(),
@@ -583,15 +593,13 @@ pub fn continue_jointly(
     if previous.load_ramp_s.is_some() {
         let kept = notes.len();
         refit_common_ramp(&mut joint, &started, &mut notes);
-        if notes.len() == kept {
-            // Not refitted (or no better time found): `previous`'s time and its line stand.
-            notes.extend(
-                previous
-                    .load_notes
-                    .iter()
-                    .filter(|n| n.starts_with(COMMON_RAMP_NOTE))
-                    .cloned(),
-            );
+        if notes.len() == kept
+            && let Some(tau) = joint.load_ramp_s
+        {
+            // Not refitted (or no better time found): `previous`'s time stands.
+            notes.push(format!(
+                "{COMMON_RAMP_NOTE} {tau:.2} s, fitted to these runs under an earlier estimate's parameters"
+            ));
         }
     }
     joint.load_notes = notes;

@@ -331,6 +331,13 @@ pub fn fit_load_transitions(
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicUsize, Ordering};
 
+    if !problem.run_weights.is_empty() && problem.run_weights.len() != problem.runs.len() {
+        return Err(EstimateError::InvalidOption(format!(
+            "{} run weights for {} runs",
+            problem.run_weights.len(),
+            problem.runs.len()
+        )));
+    }
     let evaluations = AtomicUsize::new(0);
     let changes: Vec<usize> = problem
         .runs
@@ -363,7 +370,10 @@ pub fn fit_load_transitions(
             run_weights: if problem.run_weights.is_empty() {
                 Vec::new()
             } else {
-                picked.iter().map(|&i| problem.run_weights[i]).collect()
+                picked
+                    .iter()
+                    .map(|&i| problem.run_weights.get(i).copied().unwrap_or_default())
+                    .collect()
             },
             ..problem.clone()
         };
