@@ -13,6 +13,8 @@
 //!   parameters and starts estimated together.
 //! * [`load_ramp`] — the load the wheel felt from the load that was logged: each logged
 //!   step eased over a transition time estimated from the runs.
+//! * [`no_trade`] — an estimate that explains no estimation run worse than the start values
+//!   did: traded runs weighted more and refitted.
 //! * [`progress`] — observers of a running estimation (an `indicatif` display on a
 //!   terminal).
 //!
@@ -33,6 +35,7 @@ pub mod greybox;
 pub mod initial_state;
 pub mod joint;
 pub mod load_ramp;
+pub mod no_trade;
 pub mod progress;
 pub mod submodel;
 

@@ -8,7 +8,7 @@ use airsus_data::{Outputs, TruckParameters};
 use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice, LoadRamp,
     MultiStart, Normalisation, OutputWeights, PrefixOptions, StartMethod, check_force_map_noise_n,
-    estimate_with_starts, estimation_start,
+    estimate_with_starts, estimation_start, no_trade::keep_every_run_by_fits,
 };
 use airsus_truck::models::{build_any_model, default_free};
 
@@ -60,6 +60,8 @@ struct Estimated {
     load: String,
     load_transitions_s: Vec<Vec<f64>>,
     load_ramp_s: Option<f64>,
+    /// What the guard against trading estimation runs did, in words (None: nothing traded).
+    trades: Option<String>,
     stop: String,
     converged: bool,
     truck: TruckParameters,
@@ -126,18 +128,25 @@ fn run_greybox(
         ..GreyboxOptions::default()
     };
     let mut observer = ProgressObserver(progress);
+    let prefix = PrefixOptions {
+        refit_starts: settings.refit_starts,
+        ..PrefixOptions::default()
+    };
     let (joint, _) = estimate_with_starts(
         &problem,
         &options,
         &MultiStart::default(),
         settings.start,
-        &PrefixOptions {
-            refit_starts: settings.refit_starts,
-            ..PrefixOptions::default()
-        },
+        &prefix,
         settings.load_ramp,
         &mut observer,
     )?;
+    // No run or output explained worse than by the start values (issue #12), as the
+    // command does.
+    let prefix_if =
+        (settings.start == StartMethod::Prefix && prefix.refit_starts).then_some(&prefix);
+    let guarded = keep_every_run_by_fits(joint, &problem, &options, prefix_if);
+    let joint = guarded.joint;
     let start = match settings.start {
         StartMethod::Prefix => joint.describe(PrefixOptions::default().prefix_s),
         StartMethod::Equilibrium => "every run starts in static equilibrium".to_owned(),
@@ -161,6 +170,7 @@ fn run_greybox(
         load,
         load_transitions_s,
         load_ramp_s,
+        trades: guarded.note,
         stop: result.stop.to_string(),
         converged: result.stop.is_converged(),
         truck,
@@ -172,7 +182,9 @@ fn run_greybox(
 ///
 /// Returns `{"report": JSON text of `--json`, "text": the command's printout, "stop_reason",
 /// "converged", "start", "load" (what easing the logged load did), "load_transitions_s" (per
-/// run, each logged change's transition time), "load_ramp_s", "truck": the truck with the
+/// run, each logged change's transition time), "load_ramp_s", "trades" (what was done where
+/// the pooled estimate explained a run and output worse than the start values: refitted
+/// with it weighted more; None where nothing was traded), "truck": the truck with the
 /// estimates written back (as `--out`)}`.
 #[pyfunction]
 #[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None, normalisation=None, initial_state=None, load_ramp=None, force_map=None, force_map_noise_n=None))]
@@ -263,6 +275,7 @@ pub fn greybox<'py>(
     out.set_item("load", estimated.load)?;
     out.set_item("load_transitions_s", estimated.load_transitions_s)?;
     out.set_item("load_ramp_s", estimated.load_ramp_s)?;
+    out.set_item("trades", estimated.trades)?;
     out.set_item("truck", NativeTruck::new(estimated.truck))?;
     Ok(out)
 }

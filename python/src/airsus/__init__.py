@@ -530,6 +530,9 @@ class GreyboxResult:
         load_ramp_s: the one transition time other runs' logged load is eased over (fitted
             to these runs under the estimate); None: the load as logged. Pass it to
             :func:`simulate` as ``load_ramp_s`` to validate on another run.
+        trades: where the pooled estimate explained a run and output worse than the start
+            values did (by more than 0.1 NRMSE point), what was done, in words: refitted with
+            that run and output weighted more; None where nothing was traded.
         nrmse: DataFrame indexed by run: ``samples, height_nominal, height_estimated,
             pressure_nominal, pressure_estimated`` (percent, thesis eq 3.33).
         report: the full result, as ``airsus greybox --json`` prints it (a dict).
@@ -547,6 +550,7 @@ class GreyboxResult:
             [float(t) for t in run] for run in native["load_transitions_s"]
         ]
         self.load_ramp_s: Optional[float] = native["load_ramp_s"]
+        self.trades: Optional[str] = native["trades"]
         self.truck: Truck = Truck(native["truck"])
         parameters = self.report.get("parameters", [])
         self.estimates: pd.DataFrame = pd.DataFrame(

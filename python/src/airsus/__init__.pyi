@@ -80,6 +80,7 @@ class GreyboxResult:
     load: str
     load_transitions_s: List[List[float]]
     load_ramp_s: Optional[float]
+    trades: Optional[str]
     nrmse: pd.DataFrame
     report: Dict[str, Any]
     text: str

@@ -24,6 +24,7 @@ use airsus_estimate::{
     FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy, InitialChoice, LoadRamp,
     MultiStart, NoProgress, Normalisation, Observer, OutputWeights, PrefixOptions, StartMethod,
     TerminalProgress, estimate_with_starts, estimation_start, initial_state::DEFAULT_PREFIX_S,
+    no_trade::keep_every_run_by_fits,
 };
 use airsus_truck::models::{build_any_model, default_free};
 
@@ -301,6 +302,11 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     }
     let start = estimation_start(problem.initial, args.initial_state.map(Into::into))
         .map_err(|e| anyhow::anyhow!("--initial pressure with --initial-state prefix: {e}"))?;
+    let prefix = PrefixOptions {
+        prefix_s: args.prefix_s,
+        refit_starts: args.initial_state.is_none_or(|arg| arg.refits_starts()),
+        ..PrefixOptions::default()
+    };
     let (joint, global) = estimate_with_starts(
         &problem,
         &options,
@@ -311,19 +317,22 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
             screen: args.screen,
         },
         start,
-        &PrefixOptions {
-            prefix_s: args.prefix_s,
-            refit_starts: args.initial_state.is_none_or(|arg| arg.refits_starts()),
-            ..PrefixOptions::default()
-        },
+        &prefix,
         args.load_ramp.into(),
         observer,
     )?;
+    // No run or output explained worse than by the start values (issue #12).
+    let prefix_if = (start == StartMethod::Prefix && prefix.refit_starts).then_some(&prefix);
+    let guarded = keep_every_run_by_fits(joint, &problem, &options, prefix_if);
+    let joint = guarded.joint;
     for note in &joint.load_notes {
         eprintln!("{note}");
     }
     if start == StartMethod::Prefix || joint.transitions_s.is_some() {
         eprintln!("{}", joint.describe(args.prefix_s));
+    }
+    if let Some(note) = &guarded.note {
+        eprintln!("{note}");
     }
     let result = joint.estimate;
     if args.starts > 1 {
