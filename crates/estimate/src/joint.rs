@@ -484,6 +484,8 @@ fn refit_common_ramp(
             joint.starts.clone()
         },
         exclude_after_load_change_s: 0.0,
+        // For other runs: fitted to these as they are, not as a caller weighted them.
+        run_weights: Vec::new(),
         ..started.clone()
     };
     if let Ok(fit) = fit_load_ramp(&at_final)

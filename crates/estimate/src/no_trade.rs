@@ -99,6 +99,16 @@ struct Spent {
     iterations: usize,
 }
 
+impl Spent {
+    /// Adds the refits' work and `elapsed_s` to the pooled estimate it keeps.
+    fn charge_to(&self, joint: &mut JointEstimate, elapsed_s: f64) {
+        joint.estimate.simulations += self.simulations;
+        joint.estimate.failed_simulations += self.failed;
+        joint.estimate.iterations += self.iterations;
+        joint.estimate.elapsed_s += elapsed_s;
+    }
+}
+
 /// `refit` (a refit of `pooled` under run weights) restated as `pooled` is: its loss
 /// unweighted (the runs as it was fitted to them: its starts, its load transitions); the
 /// start values, their loss and fits `pooled`'s (a refit's own are those of the estimate it
@@ -107,10 +117,14 @@ fn restated(
     mut refit: JointEstimate,
     pooled: &JointEstimate,
     problem: &GreyboxProblem<'_>,
+    options: &GreyboxOptions,
     spent: &Spent,
     elapsed_s: f64,
-) -> JointEstimate {
+) -> (JointEstimate, &'static str) {
     let est = &mut refit.estimate;
+    // The screen before the fit at the start values, not at the estimate the refit began
+    // from under raised weights.
+    est.identifiability.before = pooled.estimate.identifiability.before.clone();
     est.simulations = pooled.estimate.simulations + spent.simulations;
     est.failed_simulations = pooled.estimate.failed_simulations + spent.failed;
     est.iterations = pooled.estimate.iterations + spent.iterations;
@@ -150,11 +164,20 @@ fn restated(
         run_weights: Vec::new(),
         ..problem.clone()
     };
-    if let Ok(loss) = loss_at(&unweighted, true) {
-        refit.estimate.loss_estimated = loss;
-        refit.estimate.simulations += unweighted.runs.len();
+    match loss_at(&unweighted, options.parallel) {
+        Ok(loss) => {
+            refit.estimate.loss_estimated = loss;
+            refit.estimate.simulations += unweighted.runs.len();
+            (
+                refit,
+                "its loss is not weighted, its gradient norm, standard deviations and correlations are",
+            )
+        }
+        Err(_) => (
+            refit,
+            "its loss, gradient norm, standard deviations and correlations are weighted too",
+        ),
     }
-    refit
 }
 
 /// The estimate the guard keeps, and what it did (`None`: nothing was traded).
@@ -179,6 +202,26 @@ pub fn keep_every_run(
     score: &dyn Fn(&JointEstimate) -> Vec<Option<RunScore>>,
 ) -> Guarded {
     let runs = &problem.runs;
+    // An output the loss leaves out (weight 0) is fitted to nothing, and no weight on it can
+    // bring it back: it is not held to its floor.
+    let floors: Vec<Option<RunScore>> = floors
+        .iter()
+        .map(|floor| {
+            floor.map(|f| RunScore {
+                height_percent: if problem.weights.height > 0.0 {
+                    f.height_percent
+                } else {
+                    f64::NEG_INFINITY
+                },
+                pressure_percent: if problem.weights.pressure > 0.0 {
+                    f.pressure_percent
+                } else {
+                    f64::NEG_INFINITY
+                },
+            })
+        })
+        .collect();
+    let floors = &floors[..];
     let scores = score(&joint);
     let mut worse = traded(floors, &scores);
     if worse.is_empty() {
@@ -232,8 +275,7 @@ pub fn keep_every_run(
             }
             Err(e) => {
                 let mut joint = joint;
-                joint.estimate.simulations += spent.simulations;
-                joint.estimate.failed_simulations += spent.failed;
+                spent.charge_to(&mut joint, started.elapsed().as_secs_f64());
                 return Guarded {
                     note: Some(format!(
                         "refitting with the traded runs weighted more ({}) failed ({e}): the pooled estimate is kept",
@@ -249,15 +291,16 @@ pub fn keep_every_run(
         let scores = score(&refit);
         worse = traded(floors, &scores);
         if worse.is_empty() {
-            let refit = restated(
+            let (refit, weighted) = restated(
                 refit,
                 &joint,
                 problem,
+                options,
                 &spent,
                 started.elapsed().as_secs_f64(),
             );
             let note = format!(
-                "the pooled estimate explained some estimation runs worse than the start values did; refitted with them weighted more ({}, {round} round{}; the losses of those rounds are weighted so, the estimate's is not), it explains every estimation run and output at least as well as the start values, within {TRADE_MARGIN_POINTS} NRMSE point",
+                "the pooled estimate explained some estimation runs worse than the start values did; refitted with them weighted more ({}, {round} round{}; the losses of those rounds are weighted so; {weighted}), it explains every estimation run and output at least as well as the start values, within {TRADE_MARGIN_POINTS} NRMSE point",
                 describe(&weights),
                 if round == 1 { "" } else { "s" }
             );
@@ -277,16 +320,17 @@ pub fn keep_every_run(
     // not brought back by any weight; the refit that trades least still keeps the others.
     match closest {
         Some((shortfall, round, weights)) => {
-            let refit = restated(
+            let (refit, weighted) = restated(
                 refits.swap_remove(round - 1),
                 &joint,
                 problem,
+                options,
                 &spent,
                 started.elapsed().as_secs_f64(),
             );
             Guarded {
                 note: Some(format!(
-                    "the pooled estimate explained some estimation runs worse than the start values did ({pooled_shortfall:.1} NRMSE points short in all); refitted with them weighted more, no round kept every run at least at the start values' fit, and round {round}'s ({}; the losses of those rounds are weighted so, the estimate's is not) falls least short ({shortfall:.1} points) and is kept",
+                    "the pooled estimate explained some estimation runs worse than the start values did ({pooled_shortfall:.1} NRMSE points short in all); refitted with them weighted more, no round kept every run at least at the start values' fit, and round {round}'s ({}; the losses of those rounds are weighted so; {weighted}) falls least short ({shortfall:.1} points) and is kept",
                     describe(&weights)
                 )),
                 joint: refit,
@@ -294,8 +338,7 @@ pub fn keep_every_run(
         }
         None => {
             let mut joint = joint;
-            joint.estimate.simulations += spent.simulations;
-            joint.estimate.failed_simulations += spent.failed;
+            spent.charge_to(&mut joint, started.elapsed().as_secs_f64());
             Guarded {
                 note: Some(format!(
                     "refitting with the traded runs weighted up to {} did not keep every estimation run at least at the start values' fit, nor come closer to it: the pooled estimate is kept",

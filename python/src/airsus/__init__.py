@@ -531,8 +531,9 @@ class GreyboxResult:
             to these runs under the estimate); None: the load as logged. Pass it to
             :func:`simulate` as ``load_ramp_s`` to validate on another run.
         trades: where the pooled estimate explained a run and output worse than the start
-            values did (by more than 0.1 NRMSE point), what was done, in words: refitted with
-            that run and output weighted more; None where nothing was traded.
+            values did (by more than 0.1 NRMSE point), what was done, in words: the refit with
+            that run and output weighted more that trades nothing (or least) is kept, else the
+            pooled estimate; None where nothing was traded.
         nrmse: DataFrame indexed by run: ``samples, height_nominal, height_estimated,
             pressure_nominal, pressure_estimated`` (percent, thesis eq 3.33).
         report: the full result, as ``airsus greybox --json`` prints it (a dict).
@@ -633,7 +634,10 @@ def greybox(
     transition time, estimated in turn with the parameters (``load_ramp="estimate"``, the
     default; ``"logged"`` keeps the steps).
     Freed parameters the runs cannot determine are kept at their nominal values and reported
-    (unless ``keep_unidentifiable``).
+    (unless ``keep_unidentifiable``). Where the pooled loss traded a run and output for the
+    others (the estimate explains it worse than the start values did, by more than 0.1 NRMSE
+    point), the parameters are refitted with it weighted more, as ``airsus greybox`` does
+    (``GreyboxResult.trades`` says what was done).
 
     Args:
         model: any model of :func:`models` (``m1``, ``m2``, ``m2x``, ``m2xh``, ``m3``,
