@@ -182,8 +182,13 @@ def test_greybox_trades_no_estimation_run_for_the_others(reference: Path) -> Non
     """Model 3 from the reference file on four runs: its pooled estimate explained two runs'
     outputs worse than the file did; it is refitted with them weighted more (issue #12)."""
     runs = [reference / name for name in ("ds1.csv", "ds3.csv", "lev1.csv", "road1.csv")]
-    fit = airsus.greybox("m3", reference / "truck.toml", runs)
+    events: list = []
+    fit = airsus.greybox("m3", reference / "truck.toml", runs, progress=events.append)
     assert fit.trades is not None and "weighted more" in fit.trades, fit.trades
+    # Each refit is announced while it runs.
+    assert any(e["event"] == "stage" and "round 1 of at most" in e["message"] for e in events), (
+        events
+    )
     for output in ("height", "pressure"):
         gained = fit.nrmse[f"{output}_estimated"] - fit.nrmse[f"{output}_nominal"]
         assert (gained >= -0.1).all(), fit.nrmse

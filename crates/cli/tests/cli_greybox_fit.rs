@@ -108,7 +108,9 @@ fn greybox_trades_no_estimation_run_for_the_others() {
         stderr.contains("refitted with them weighted more")
             && stderr.contains(
                 "it explains every estimation run and output at least as well as the start values"
-            ),
+            )
+            // Each refit is announced while it runs.
+            && stderr.contains("round 1 of at most 4"),
         "{stderr}"
     );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();

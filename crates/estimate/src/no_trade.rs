@@ -28,6 +28,7 @@ use crate::greybox::{FreeParameter, GreyboxOptions, GreyboxProblem, OutputWeight
 use crate::initial_state::PrefixOptions;
 use crate::joint::{JointEstimate, continue_jointly};
 use crate::load_ramp::{ease_runs, longest_transition_s, solver_for_ramp};
+use crate::progress::Observer;
 
 /// Refits with raised weights at most.
 pub const ROUNDS: usize = 4;
@@ -191,7 +192,8 @@ pub struct Guarded {
 /// [`TRADE_MARGIN_POINTS`], or falls least short of that (see the module). `score` scores an
 /// estimate's runs as `floors` were scored; the refits free `free` (the caller's choice: the
 /// study holds its road refit's parameters) from `joint`'s estimate, with the starts
-/// refitted where `prefix` is given.
+/// refitted where `prefix` is given. `observer` hears a stage message before each refit.
+#[allow(clippy::too_many_arguments)]
 pub fn keep_every_run(
     joint: JointEstimate,
     problem: &GreyboxProblem<'_>,
@@ -200,6 +202,7 @@ pub fn keep_every_run(
     prefix: Option<&PrefixOptions>,
     floors: &[Option<RunScore>],
     score: &dyn Fn(&JointEstimate) -> Vec<Option<RunScore>>,
+    observer: &mut dyn Observer,
 ) -> Guarded {
     let runs = &problem.runs;
     // An output the loss leaves out (weight 0) is fitted to nothing, and no weight on it can
@@ -267,6 +270,11 @@ pub fn keep_every_run(
         // held at the pooled estimate's, they favour it (on Model 3 the start values
         // themselves explained the levelling run's pressure at 76 % from them, 86.5 % from
         // their own).
+        // Each refit is a whole joint estimate (seconds to a minute): say what runs.
+        observer.stage(&format!(
+            "refitting with the traded runs weighted more ({}), round {round} of at most {ROUNDS}",
+            describe(&weights)
+        ));
         let refit = match continue_jointly(from, &refit_problem, options, prefix) {
             Ok(mut refit) => {
                 // Held starts stay held (`prefix` is `None` for them).
@@ -360,6 +368,7 @@ pub fn keep_every_run_by_fits(
     problem: &GreyboxProblem<'_>,
     options: &GreyboxOptions,
     prefix: Option<&PrefixOptions>,
+    observer: &mut dyn Observer,
 ) -> Guarded {
     let score_of = |height: Option<f64>, pressure: Option<f64>| {
         Some(RunScore {
@@ -393,7 +402,9 @@ pub fn keep_every_run_by_fits(
             .map(|f| score_of(f.height_estimated_percent, f.pressure_estimated_percent))
             .collect()
     };
-    keep_every_run(joint, problem, free, options, prefix, &floors, &score)
+    keep_every_run(
+        joint, problem, free, options, prefix, &floors, &score, observer,
+    )
 }
 
 #[cfg(test)]

@@ -7,7 +7,8 @@ use airsus_data::Run;
 use airsus_estimate::no_trade::RunScore;
 pub use airsus_estimate::no_trade::{Guarded, TRADE_MARGIN_POINTS};
 use airsus_estimate::{
-    FreeParameter, GreyboxOptions, GreyboxProblem, JointEstimate, PrefixOptions, StartMethod,
+    FreeParameter, GreyboxOptions, GreyboxProblem, JointEstimate, NoProgress, PrefixOptions,
+    StartMethod,
 };
 use airsus_model::SuspensionModel;
 use airsus_report::results::OutputFit;
@@ -102,7 +103,14 @@ pub fn keep_every_run(
     };
     let prefix_if = (initial == StartMethod::Prefix && prefix.refit_starts).then_some(prefix);
     airsus_estimate::no_trade::keep_every_run(
-        joint, problem, free, options, prefix_if, &floors, &score,
+        joint,
+        problem,
+        free,
+        options,
+        prefix_if,
+        &floors,
+        &score,
+        &mut NoProgress,
     )
 }
 

@@ -145,7 +145,7 @@ fn run_greybox(
     // command does.
     let prefix_if =
         (settings.start == StartMethod::Prefix && prefix.refit_starts).then_some(&prefix);
-    let guarded = keep_every_run_by_fits(joint, &problem, &options, prefix_if);
+    let guarded = keep_every_run_by_fits(joint, &problem, &options, prefix_if, &mut observer);
     let joint = guarded.joint;
     let start = match settings.start {
         StartMethod::Prefix => joint.describe(PrefixOptions::default().prefix_s),

@@ -323,7 +323,9 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     )?;
     // No run or output explained worse than by the start values (issue #12).
     let prefix_if = (start == StartMethod::Prefix && prefix.refit_starts).then_some(&prefix);
-    let guarded = keep_every_run_by_fits(joint, &problem, &options, prefix_if);
+    // The estimate's bar is finished: each refit is announced on a line of its own on
+    // stderr (with --json too, as the notes are).
+    let guarded = keep_every_run_by_fits(joint, &problem, &options, prefix_if, &mut StageLines);
     let joint = guarded.joint;
     for note in &joint.load_notes {
         eprintln!("{note}");
@@ -384,4 +386,13 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         eprintln!("warning: the estimation did not converge ({})", result.stop);
     }
     Ok(())
+}
+
+/// Stage messages as lines on stderr (after the estimate's progress bar has finished).
+struct StageLines;
+
+impl Observer for StageLines {
+    fn stage(&mut self, message: &str) {
+        eprintln!("{message}");
+    }
 }
