@@ -739,13 +739,15 @@ pub fn fit_and_validate(
     let started = Instant::now();
     let (initial, normalisation) = (options.initial, options.normalisation);
     let mut result = ModelResult::new(model_name);
-    let start_truck = match model_entry(model_name) {
-        Ok(entry) => {
+    // The registry's entry (none for a model outside it: nothing freed, the file's values).
+    let entry = model_entry(model_name).ok();
+    let start_truck = match entry {
+        Some(entry) => {
             let (truck, notes) = start.truck_for_protocol(entry, input, &protocol.estimation);
             result.notes.extend(notes);
             truck
         }
-        Err(_) => start.truck.clone(),
+        None => start.truck.clone(),
     };
     let nominal = match build_any_model(model_name, &start_truck) {
         Ok(m) => m,
@@ -797,7 +799,7 @@ pub fn fit_and_validate(
     // The registry's default set (thesis "Estimation 2"), plus the valve-action parameters when the
     // estimation runs have valve action and the road parameters when they have road input.
     let excitation = Excitation::of(estimation.iter().copied());
-    let free = model_entry(model_name)
+    let free = entry
         .map(|entry| entry.free_parameters(excitation, &*nominal))
         .unwrap_or_default();
     result.free = free.iter().map(|s| (*s).to_owned()).collect();
@@ -805,8 +807,8 @@ pub fn fit_and_validate(
     // below its usual magnitude starts there (why: [`raised_to_usual_magnitude`]); the
     // nominal fit stays the file's. Not the default set's: without a road the thesis models'
     // `k_f` is undetermined, and raised, Model 1's fit carried it to 6.6e5 N s/m.
-    let road_freed: Vec<&str> = match model_entry(model_name) {
-        Ok(entry) if excitation.road => free
+    let road_freed: Vec<&str> = match entry {
+        Some(entry) if excitation.road => free
             .iter()
             .copied()
             .filter(|name| entry.road_free.contains(name))
@@ -873,7 +875,7 @@ pub fn fit_and_validate(
         }
         other => other,
     };
-    let road_refit = model_entry(model_name).map_or(&[][..], |entry| entry.road_refit);
+    let road_refit = entry.map_or(&[][..], |entry| entry.road_refit);
     let fitted = fitted.map(|(joint, summary)| {
         let joint = refit_on_road(
             joint,
