@@ -111,6 +111,42 @@ impl JointEstimate {
         }
     }
 
+    /// `problem`'s runs eased over the transition times this estimate was fitted with
+    /// (`None`: fitted to them as given).
+    pub fn eased_runs(&self, problem: &GreyboxProblem<'_>) -> Option<Vec<Run>> {
+        self.transitions_s
+            .as_deref()
+            .map(|d| ease_runs(&problem.runs, d))
+    }
+
+    /// `problem` as this estimate's runs were fitted: from its starts (`problem`'s where it
+    /// has none), on `eased` (its [`Self::eased_runs`]; `None`: the runs as given), with a
+    /// solver that follows its longest transition.
+    pub fn fitted_problem<'a>(
+        &self,
+        problem: &GreyboxProblem<'a>,
+        eased: Option<&'a [Run]>,
+    ) -> GreyboxProblem<'a> {
+        GreyboxProblem {
+            start_states: if self.starts.is_empty() {
+                problem.start_states.clone()
+            } else {
+                self.starts.clone()
+            },
+            runs: match eased {
+                Some(eased) => eased.iter().collect(),
+                None => problem.runs.clone(),
+            },
+            solver: crate::load_ramp::solver_for_ramp(
+                &problem.solver,
+                self.transitions_s
+                    .as_deref()
+                    .map_or(0.0, longest_transition_s),
+            ),
+            ..problem.clone()
+        }
+    }
+
     /// One line for a report.
     pub fn describe(&self, prefix_s: f64) -> String {
         if self.starts_held {
@@ -526,24 +562,8 @@ pub fn continue_jointly(
         },
         ..problem.clone()
     };
-    let eased = previous
-        .transitions_s
-        .as_deref()
-        .map(|d| ease_runs(&started.runs, d));
-    let first_problem = GreyboxProblem {
-        runs: match &eased {
-            Some(eased) => eased.iter().collect(),
-            None => started.runs.clone(),
-        },
-        solver: crate::load_ramp::solver_for_ramp(
-            &started.solver,
-            previous
-                .transitions_s
-                .as_deref()
-                .map_or(0.0, longest_transition_s),
-        ),
-        ..started.clone()
-    };
+    let eased = previous.eased_runs(problem);
+    let first_problem = previous.fitted_problem(problem, eased.as_deref());
     let first = estimate(&first_problem, options, &mut NoProgress)?;
     // The fit from `previous`'s starts and times counts as a round after `previous`'s own:
     // the result is fitted with starts and transitions even when no further round helps.

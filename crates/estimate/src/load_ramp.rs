@@ -331,13 +331,7 @@ pub fn fit_load_transitions(
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicUsize, Ordering};
 
-    if !problem.run_weights.is_empty() && problem.run_weights.len() != problem.runs.len() {
-        return Err(EstimateError::InvalidOption(format!(
-            "{} run weights for {} runs",
-            problem.run_weights.len(),
-            problem.runs.len()
-        )));
-    }
+    problem.check_run_weights()?;
     let evaluations = AtomicUsize::new(0);
     let changes: Vec<usize> = problem
         .runs
@@ -367,14 +361,7 @@ pub fn fit_load_transitions(
                 .collect(),
             solver: solver_for_ramp(&problem.solver, longest),
             force_map: None,
-            run_weights: if problem.run_weights.is_empty() {
-                Vec::new()
-            } else {
-                picked
-                    .iter()
-                    .map(|&i| problem.run_weights.get(i).copied().unwrap_or_default())
-                    .collect()
-            },
+            run_weights: problem.run_weights_of(&picked),
             ..problem.clone()
         };
         loss_at(&fixed, only.is_none())
@@ -489,11 +476,7 @@ impl ChangeStart {
             solver: solver_for_ramp(&problem.solver, longest),
             weights: self.weights,
             force_map: None,
-            run_weights: problem
-                .run_weights
-                .get(i)
-                .map(|w| vec![*w])
-                .unwrap_or_default(),
+            run_weights: problem.run_weights_of(&[i]),
             ..problem.clone()
         };
         loss_at(&cut, false)
@@ -525,11 +508,7 @@ fn change_states(
             .clone()
             .with_load(LoadInput::Linear)
             .with_states(true),
-        run_weights: problem
-            .run_weights
-            .get(i)
-            .map(|w| vec![*w])
-            .unwrap_or_default(),
+        run_weights: problem.run_weights_of(&[i]),
         ..problem.clone()
     };
     let factors = |p: &GreyboxProblem<'_>| output_factors(p).ok()?.first().copied();

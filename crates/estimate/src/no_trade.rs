@@ -27,7 +27,6 @@
 use crate::greybox::{FreeParameter, GreyboxOptions, GreyboxProblem, OutputWeights, loss_at};
 use crate::initial_state::PrefixOptions;
 use crate::joint::{JointEstimate, continue_jointly};
-use crate::load_ramp::{ease_runs, longest_transition_s, solver_for_ramp};
 use crate::progress::Observer;
 
 /// Refits with raised weights at most.
@@ -140,30 +139,11 @@ fn restated(
             p.nominal = start.nominal;
         }
     }
-    let eased = refit
-        .transitions_s
-        .as_deref()
-        .map(|d| ease_runs(&problem.runs, d));
+    let eased = refit.eased_runs(problem);
     let unweighted = GreyboxProblem {
         model: &*refit.estimate.estimated_model,
-        runs: match &eased {
-            Some(eased) => eased.iter().collect(),
-            None => problem.runs.clone(),
-        },
-        start_states: if refit.starts.is_empty() {
-            problem.start_states.clone()
-        } else {
-            refit.starts.clone()
-        },
-        solver: solver_for_ramp(
-            &problem.solver,
-            refit
-                .transitions_s
-                .as_deref()
-                .map_or(0.0, longest_transition_s),
-        ),
         run_weights: Vec::new(),
-        ..problem.clone()
+        ..refit.fitted_problem(problem, eased.as_deref())
     };
     match loss_at(&unweighted, options.parallel) {
         Ok(loss) => {
@@ -358,6 +338,37 @@ pub fn keep_every_run(
     }
 }
 
+/// What the guard's refits free: the parameters `joint` freed (a refit of it may free
+/// others than `problem`), less those named in `held`, each with `problem`'s bounds, else
+/// `bounds_of`'s, else the model's admissible range.
+pub fn refit_free(
+    joint: &JointEstimate,
+    problem: &GreyboxProblem<'_>,
+    held: &[&str],
+    bounds_of: &dyn Fn(&str) -> Option<(f64, f64)>,
+) -> Vec<FreeParameter> {
+    joint
+        .estimate
+        .parameters
+        .iter()
+        .filter(|p| !held.contains(&p.name.as_str()))
+        .map(|p| {
+            problem
+                .free
+                .iter()
+                .find(|f| f.name == p.name)
+                .cloned()
+                .unwrap_or_else(|| {
+                    let free = FreeParameter::new(p.name.clone());
+                    match bounds_of(&p.name) {
+                        Some((lo, hi)) => free.with_bounds(lo, hi),
+                        None => free,
+                    }
+                })
+        })
+        .collect()
+}
+
 /// [`keep_every_run`] scored with the estimate's own fits ([`crate::greybox::RunFit`]):
 /// the floors are `joint`'s nominal columns (the start values, each run from its start
 /// fitted under them, the load as first fitted), a refit's scores its estimated columns.
@@ -382,19 +393,7 @@ pub fn keep_every_run_by_fits(
         .iter()
         .map(|f| score_of(f.height_nominal_percent, f.pressure_nominal_percent))
         .collect();
-    let free: Vec<FreeParameter> = joint
-        .estimate
-        .parameters
-        .iter()
-        .map(|p| {
-            problem
-                .free
-                .iter()
-                .find(|f| f.name == p.name)
-                .cloned()
-                .unwrap_or_else(|| FreeParameter::new(p.name.clone()))
-        })
-        .collect();
+    let free = refit_free(&joint, problem, &[], &|_| None);
     let score = |j: &JointEstimate| -> Vec<Option<RunScore>> {
         j.estimate
             .fits

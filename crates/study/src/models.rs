@@ -602,6 +602,29 @@ impl FeltLoad {
         }
     }
 
+    /// `run` as the models see it, simulated under `model`: from `start` (an estimation
+    /// run's, estimated with the parameters), else from a start `initial` fits to its
+    /// prefix; the solver follows the longest transition any run is eased over.
+    pub fn simulate<'r>(
+        &self,
+        model: &dyn SuspensionModel,
+        run: &'r Run,
+        start: Option<InitialState>,
+        initial: StartMethod,
+        prefix: &PrefixOptions,
+    ) -> (
+        std::borrow::Cow<'r, Run>,
+        Result<SimulationResponse, String>,
+    ) {
+        let fed = self.feed(run);
+        let load_ramp_s = Some(self.longest_s()).filter(|&longest| longest > 0.0);
+        let simulated = match start {
+            Some(start) => simulate_from(model, &fed, start, load_ramp_s),
+            None => simulate_run(model, &fed, initial, prefix, load_ramp_s),
+        };
+        (fed, simulated)
+    }
+
     /// The longest transition any run is eased over, s (0: as logged).
     pub fn longest_s(&self) -> f64 {
         self.per_run
@@ -888,6 +911,24 @@ pub fn fit_and_validate(
         );
         (joint, summary)
     });
+    // The start values as the user had them (the load as logged), each run scored once: the
+    // guard's floors and the table's nominal column.
+    let nominal_fits: Vec<(String, Option<OutputFit>)> = input
+        .runs
+        .iter()
+        .map(|run| {
+            let fit = simulate_run(&*nominal, &run.run, initial, &prefix, None)
+                .ok()
+                .and_then(|r| output_fit(&run.run, &r));
+            (run.name.clone(), fit)
+        })
+        .collect();
+    let nominal_fit = |name: &str| {
+        nominal_fits
+            .iter()
+            .find(|(run, _)| run == name)
+            .and_then(|(_, fit)| *fit)
+    };
     let estimated: Box<dyn SuspensionModel> = match fitted {
         Err(e) => {
             result.error = Some(format!(
@@ -898,10 +939,15 @@ pub fn fit_and_validate(
         Ok((joint, summary)) => {
             // No estimation run explained worse than by the start values (issue #12).
             let held = if excitation.road { road_refit } else { &[] };
+            let floors: Vec<Option<OutputFit>> = estimation
+                .iter()
+                .map(|run| nominal_fit(&run.name))
+                .collect();
             let guarded = crate::no_trade::keep_every_run(
                 joint,
                 &problem,
                 &*nominal,
+                &floors,
                 held,
                 &fit_options,
                 initial,
@@ -1023,8 +1069,6 @@ pub fn fit_and_validate(
         .collect();
     // Every run is validated with the load the models were fitted to; an estimation run
     // with each change eased over its own time.
-    let load_ramp_s = Some(felt.longest_s()).filter(|&longest| longest > 0.0);
-
     let mut truck = start_truck;
     estimated.write_parameters(&mut truck);
     let file = format!("estimated/{}_{}.toml", protocol.name, model_name);
@@ -1049,10 +1093,7 @@ pub fn fit_and_validate(
                 "validation"
             }
             .to_owned(),
-            // The start values as the user had them: the load as logged.
-            nominal: simulate_run(&*nominal, &run.run, initial, &prefix, None)
-                .ok()
-                .and_then(|r| output_fit(&run.run, &r)),
+            nominal: nominal_fit(&run.name),
             estimated: None,
             residuals: vec![],
             error: None,
@@ -1099,16 +1140,7 @@ pub fn fit_and_validate(
                     simulate_from(&*estimated, &fed, start, Some(longest).filter(|&l| l > 0.0));
                 (fed, simulated)
             }
-            (None, Some(start)) => {
-                let fed = felt.feed(&run.run);
-                let simulated = simulate_from(&*estimated, &fed, start, load_ramp_s);
-                (fed, simulated)
-            }
-            (None, None) => {
-                let fed = felt.feed(&run.run);
-                let simulated = simulate_run(&*estimated, &fed, initial, &prefix, load_ramp_s);
-                (fed, simulated)
-            }
+            (None, start) => felt.simulate(&*estimated, &run.run, start, initial, &prefix),
         };
         match simulated {
             Ok(response) => {

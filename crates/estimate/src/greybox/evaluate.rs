@@ -260,28 +260,20 @@ impl<'a> Evaluator<'a> {
             }
             _ => None,
         };
-        if !problem.run_weights.is_empty() {
-            if problem.run_weights.len() != runs.len() {
+        problem.check_run_weights()?;
+        for (run, w) in runs.iter_mut().zip(&problem.run_weights) {
+            if !(w.height.is_finite() && w.pressure.is_finite())
+                || w.height < 0.0
+                || w.pressure < 0.0
+            {
                 return Err(EstimateError::InvalidOption(format!(
-                    "{} run weights for {} runs",
-                    problem.run_weights.len(),
-                    runs.len()
+                    "run {}'s weights must be finite and non-negative, got height {} and pressure {}",
+                    run.name, w.height, w.pressure
                 )));
             }
-            for (run, w) in runs.iter_mut().zip(&problem.run_weights) {
-                if !(w.height.is_finite() && w.pressure.is_finite())
-                    || w.height < 0.0
-                    || w.pressure < 0.0
-                {
-                    return Err(EstimateError::InvalidOption(format!(
-                        "run {}'s weights must be finite and non-negative, got height {} and pressure {}",
-                        run.name, w.height, w.pressure
-                    )));
-                }
-                // After the prior's weight is set: it stays what the runs as given make it.
-                run.height_factor *= w.height;
-                run.pressure_factor *= w.pressure;
-            }
+            // After the prior's weight is set: it stays what the runs as given make it.
+            run.height_factor *= w.height;
+            run.pressure_factor *= w.pressure;
         }
         Ok(Self {
             base: model.box_clone(),

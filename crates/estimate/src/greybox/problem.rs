@@ -1,6 +1,7 @@
 //! The grey-box *problem* (what is minimised) and the *options* of the solver (how), kept
 //! apart as in argmin; [`super::estimate`] is the executor that runs them.
 
+use crate::error::EstimateError;
 use crate::submodel::{EffectiveAreaOptions, sweep_friction_n};
 use airsus_data::{EffectiveAreaLaw, ForceMap, Run};
 use airsus_model::SuspensionModel;
@@ -293,6 +294,30 @@ impl<'a> GreyboxProblem<'a> {
     pub fn with_run_weights(mut self, run_weights: Vec<OutputWeights>) -> Self {
         self.run_weights = run_weights;
         self
+    }
+
+    /// `run_weights` as one weight per run, or none at all: an error names the counts.
+    pub(crate) fn check_run_weights(&self) -> Result<(), EstimateError> {
+        if self.run_weights.is_empty() || self.run_weights.len() == self.runs.len() {
+            return Ok(());
+        }
+        Err(EstimateError::InvalidOption(format!(
+            "{} run weights for {} runs",
+            self.run_weights.len(),
+            self.runs.len()
+        )))
+    }
+
+    /// The run weights of a problem on the runs `picked` (indices into `runs`, in that
+    /// order): empty where this problem has none.
+    pub(crate) fn run_weights_of(&self, picked: &[usize]) -> Vec<OutputWeights> {
+        if self.run_weights.is_empty() {
+            return Vec::new();
+        }
+        picked
+            .iter()
+            .map(|&i| self.run_weights.get(i).copied().unwrap_or_default())
+            .collect()
     }
 
     /// Leaves the `seconds` after each logged load change out of the loss (checked with
