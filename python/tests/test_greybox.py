@@ -192,3 +192,16 @@ def test_greybox_trades_no_estimation_run_for_the_others(reference: Path) -> Non
     for output in ("height", "pressure"):
         gained = fit.nrmse[f"{output}_estimated"] - fit.nrmse[f"{output}_nominal"]
         assert (gained >= -0.1).all(), fit.nrmse
+    # The note names each run and output the pooled estimate traded, with its score.
+    assert "the pooled estimate explained lev1's height" in fit.trades, fit.trades
+
+    # allow_trades keeps the pooled estimate (as MATLAB's greyest returns it) and names each
+    # trade; no refit runs.
+    events.clear()
+    pooled = airsus.greybox(
+        "m3", reference / "truck.toml", runs, progress=events.append, allow_trades=True
+    )
+    assert pooled.trades is not None and "kept as fitted (trades allowed)" in pooled.trades
+    assert not any("round 1 of at most" in e.get("message", "") for e in events), events
+    lost = pooled.nrmse["height_estimated"] - pooled.nrmse["height_nominal"]
+    assert (lost < -0.1).any(), pooled.nrmse

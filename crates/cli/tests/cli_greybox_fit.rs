@@ -140,6 +140,42 @@ fn greybox_trades_no_estimation_run_for_the_others() {
     );
     // The loss the estimate reports is unweighted: below the start's.
     assert!(json["loss_estimated"].as_f64().unwrap() < json["loss_nominal"].as_f64().unwrap());
+    // The note names what the pooled estimate traded, with the start values' scores.
+    assert!(
+        stderr.contains("the pooled estimate explained lev1's height")
+            && stderr.contains("(start values "),
+        "{stderr}"
+    );
+
+    // `--allow-trades` keeps the pooled estimate, as MATLAB's `greyest` would return it, and
+    // names each trade: no refit runs.
+    let mut args = vec!["greybox", "--model", "m3", "--truck"];
+    let (truck, runs) = (
+        p("truck.toml"),
+        ["ds1.csv", "ds3.csv", "lev1.csv", "road1.csv"].map(p),
+    );
+    args.push(&truck);
+    for run in &runs {
+        args.extend(["--run", run.as_str()]);
+    }
+    args.extend(["--json", "--allow-trades"]);
+    let out = airsus(&args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("kept as fitted (trades allowed)")
+            && stderr.contains("lev1's height")
+            && !stderr.contains("round 1 of at most 4"),
+        "{stderr}"
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let traded = json["fits"].as_array().unwrap().iter().any(|fit| {
+        ["height", "pressure"].iter().any(|output| {
+            fit[format!("{output}_estimated_percent")].as_f64().unwrap()
+                < fit[format!("{output}_nominal_percent")].as_f64().unwrap() - 0.1
+        })
+    });
+    assert!(traded, "{json}");
 
     // An output the loss leaves out is fitted to nothing: it is not held to the start's fit
     // (no weight on it could bring it back). Model 2 fitted to the pressures alone explains

@@ -17,6 +17,10 @@
 //! the start values' fit (summed over the traded blocks, in NRMSE points) where it falls
 //! shorter than the pooled estimate, else the pooled estimate.
 //!
+//! With [`GreyboxOptions::allow_trades`] the pooled estimate is kept as fitted, each trade
+//! named. Either way [`Guarded::pooled_scores`] keeps the pooled estimate's scores beside the
+//! kept one's.
+//!
 //! Reweighting, not constraints in the solver: the scores compared are a caller's (the
 //! study's are whole runs from the start values with the load as logged), which the solver's
 //! loss need not see (it may leave the seconds after each load change out and ease the
@@ -165,6 +169,37 @@ fn restated(
 pub struct Guarded {
     pub joint: JointEstimate,
     pub note: Option<String>,
+    /// The pooled estimate's scores of each estimation run (in the problem's order) where it
+    /// traded some (`None`: it traded none): what the kept estimate is compared with.
+    pub pooled_scores: Option<Vec<Option<RunScore>>>,
+}
+
+/// Each traded block of `worse`, `"data-set 3's pressure −237.0 % (start values −202.0 %)"`,
+/// joined.
+fn describe_trades(
+    runs: &[&airsus_data::Run],
+    floors: &[Option<RunScore>],
+    scores: &[Option<RunScore>],
+    worse: &[(usize, bool)],
+) -> String {
+    let percent = |score: Option<RunScore>, height: bool| {
+        score.map_or("not simulated".to_owned(), |s| {
+            format!("{:.1} %", s.of(height))
+        })
+    };
+    worse
+        .iter()
+        .map(|&(i, height)| {
+            format!(
+                "{}'s {} {} (start values {})",
+                runs[i].name,
+                if height { "height" } else { "pressure" },
+                percent(scores.get(i).copied().flatten(), height),
+                percent(floors[i], height)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// `joint` (fitted on `problem`), or a refit of it that explains no run and output worse
@@ -208,9 +243,24 @@ pub fn keep_every_run(
     let scores = score(&joint);
     let mut worse = traded(floors, &scores);
     if worse.is_empty() {
-        return Guarded { joint, note: None };
+        return Guarded {
+            joint,
+            note: None,
+            pooled_scores: None,
+        };
+    }
+    let pooled_trades = describe_trades(runs, floors, &scores, &worse);
+    if options.allow_trades {
+        return Guarded {
+            joint,
+            note: Some(format!(
+                "the estimate explains {pooled_trades} worse than the start values did, by more than {TRADE_MARGIN_POINTS} NRMSE point: kept as fitted (trades allowed)"
+            )),
+            pooled_scores: Some(scores),
+        };
     }
     let pooled_shortfall = shortfall_points(floors, &scores);
+    let pooled_scores = Some(scores);
     let mut weights = vec![OutputWeights::default(); runs.len()];
     // Every refit's simulations, the kept one's included.
     let mut spent = Spent::default();
@@ -266,10 +316,11 @@ pub fn keep_every_run(
                 spent.charge_to(&mut joint, started.elapsed().as_secs_f64());
                 return Guarded {
                     note: Some(format!(
-                        "refitting with the traded runs weighted more ({}) failed ({e}): the pooled estimate is kept",
+                        "the pooled estimate explained {pooled_trades} worse than the start values did; refitting with them weighted more ({}) failed ({e}): the pooled estimate is kept",
                         describe(&weights)
                     )),
                     joint,
+                    pooled_scores,
                 };
             }
         };
@@ -288,13 +339,14 @@ pub fn keep_every_run(
                 started.elapsed().as_secs_f64(),
             );
             let note = format!(
-                "the pooled estimate explained some estimation runs worse than the start values did; refitted with them weighted more ({}, {round} round{}; the losses of those rounds are weighted so; {weighted}), it explains every estimation run and output at least as well as the start values, within {TRADE_MARGIN_POINTS} NRMSE point",
+                "the pooled estimate explained {pooled_trades} worse than the start values did; refitted with them weighted more ({}, {round} round{}; the losses of those rounds are weighted so; {weighted}), it explains every estimation run and output at least as well as the start values, within {TRADE_MARGIN_POINTS} NRMSE point",
                 describe(&weights),
                 if round == 1 { "" } else { "s" }
             );
             return Guarded {
                 joint: refit,
                 note: Some(note),
+                pooled_scores,
             };
         }
         let shortfall = shortfall_points(floors, &scores);
@@ -318,10 +370,11 @@ pub fn keep_every_run(
             );
             Guarded {
                 note: Some(format!(
-                    "the pooled estimate explained some estimation runs worse than the start values did ({pooled_shortfall:.1} NRMSE points short in all); refitted with them weighted more, no round kept every run at least at the start values' fit, and round {round}'s ({}; the losses of those rounds are weighted so; {weighted}) falls least short ({shortfall:.1} points) and is kept",
+                    "the pooled estimate explained {pooled_trades} worse than the start values did ({pooled_shortfall:.1} NRMSE points short in all); refitted with them weighted more, no round kept every run at least at the start values' fit, and round {round}'s ({}; the losses of those rounds are weighted so; {weighted}) falls least short ({shortfall:.1} points) and is kept",
                     describe(&weights)
                 )),
                 joint: refit,
+                pooled_scores,
             }
         }
         None => {
@@ -329,10 +382,11 @@ pub fn keep_every_run(
             spent.charge_to(&mut joint, started.elapsed().as_secs_f64());
             Guarded {
                 note: Some(format!(
-                    "refitting with the traded runs weighted up to {} did not keep every estimation run at least at the start values' fit, nor come closer to it: the pooled estimate is kept",
+                    "the pooled estimate explained {pooled_trades} worse than the start values did; refitting with them weighted up to {} did not keep every estimation run at least at the start values' fit, nor come closer to it: the pooled estimate is kept",
                     describe(&weights)
                 )),
                 joint,
+                pooled_scores,
             }
         }
     }

@@ -667,6 +667,7 @@ mod tests {
             role: role.to_owned(),
             nominal: fit(50.0, 40.0),
             estimated: est,
+            pooled: None,
             residuals: vec![ResidualSummary {
                 output: "height".to_owned(),
                 input: "wheel_load".to_owned(),
@@ -749,6 +750,7 @@ mod tests {
             load_ramp: None,
             exclude_after_load_change_s: 0.0,
             validation_transitions: None,
+            allow_trades: false,
             runs: ["data-set 1", "data-set 2", "data-set 3"]
                 .iter()
                 .enumerate()

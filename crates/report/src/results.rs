@@ -39,6 +39,11 @@ pub struct StudyResults {
     /// time, fitted with the parameters fixed) or `common`; absent in files written before.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub validation_transitions: Option<String>,
+    /// Whether a model's pooled estimate was kept where it explained an estimation run worse
+    /// than the start values did (`--allow-trades`); `false`: refitted with the traded runs
+    /// weighted more, and in files written before it was recorded.
+    #[serde(default)]
+    pub allow_trades: bool,
     pub runs: Vec<RunInfo>,
     pub submodels: SubmodelResults,
     /// One entry per estimation protocol (which runs the grey-box fits used).
@@ -271,6 +276,11 @@ pub struct RunFit {
     pub nominal: Option<OutputFit>,
     /// With the estimated parameters.
     pub estimated: Option<OutputFit>,
+    /// An estimation run's fit by the pooled estimate, where that explained some estimation
+    /// run worse than the start values did (issue #12): the estimate the guard refitted, or
+    /// kept with `--allow-trades`. Absent where it traded nothing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pooled: Option<OutputFit>,
     pub residuals: Vec<ResidualSummary>,
     pub error: Option<String>,
 }
@@ -395,6 +405,7 @@ mod tests {
             load_ramp: Some("estimate".to_owned()),
             exclude_after_load_change_s: 0.0,
             validation_transitions: None,
+            allow_trades: false,
             runs: vec![RunInfo {
                 name: "data-set 1".to_owned(),
                 file: "ds1.csv".to_owned(),
@@ -467,6 +478,7 @@ mod tests {
                             pressure_percent: 65.77,
                         }),
                         estimated: None,
+                        pooled: None,
                         residuals: vec![],
                         error: Some("failed".to_owned()),
                     }],
@@ -555,6 +567,7 @@ mod tests {
             not_identifiable_because: None,
         });
         model.runs[0].estimated = model.runs[0].nominal;
+        model.runs[0].pooled = model.runs[0].nominal;
         model.validation_transitions.push(LoadTransitions {
             run: "data-set 2".to_owned(),
             durations_s: vec![5.1],
@@ -581,6 +594,7 @@ mod tests {
             "prefix_s",
             "load_ramp",
             "validation_transitions",
+            "allow_trades",
             "findings.uses",
             "findings.uses[].best_other_than_truck",
             "findings.uses[].protocol",
@@ -639,6 +653,9 @@ mod tests {
             "protocols[].models[].runs[].nominal",
             "protocols[].models[].runs[].nominal.height_percent",
             "protocols[].models[].runs[].nominal.pressure_percent",
+            "protocols[].models[].runs[].pooled",
+            "protocols[].models[].runs[].pooled.height_percent",
+            "protocols[].models[].runs[].pooled.pressure_percent",
             "protocols[].models[].runs[].residuals",
             "protocols[].models[].runs[].residuals[].band",
             "protocols[].models[].runs[].residuals[].confidence",

@@ -154,6 +154,7 @@ mod tests {
                     height_percent: *h,
                     pressure_percent: *p,
                 }),
+                pooled: None,
                 residuals: vec![],
                 error: None,
             })

@@ -101,6 +101,10 @@ pub struct StudyOptions {
     /// time, fitted to that run with the parameters fixed (with [`LoadRamp::Estimate`]);
     /// `false`: over the common time fitted to the estimation runs.
     pub validation_transitions: bool,
+    /// Keep each model's pooled estimate where it explains an estimation run worse than the
+    /// start values did, naming the trades (`GreyboxOptions::allow_trades`); `false` (the
+    /// default): refit it with the traded runs weighted more.
+    pub allow_trades: bool,
 }
 
 /// The study's default for [`StudyOptions::exclude_after_load_change_s`]: none yet. Leaving
@@ -142,6 +146,7 @@ impl StudyOptions {
             load_ramp: LoadRamp::default(),
             exclude_after_load_change_s: DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S,
             validation_transitions: true,
+            allow_trades: false,
         }
     }
 }
@@ -348,6 +353,7 @@ pub fn run_study(
             }
             .to_owned()
         }),
+        allow_trades: options.allow_trades,
         runs: input
             .runs
             .iter()

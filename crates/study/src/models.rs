@@ -858,7 +858,9 @@ pub fn fit_and_validate(
     if let Some(map) = &input.force_map {
         problem = problem.with_force_map(map, None);
     }
-    let fit_options = GreyboxOptions::default().with_max_iterations(options.max_iterations);
+    let fit_options = GreyboxOptions::default()
+        .with_max_iterations(options.max_iterations)
+        .with_allowed_trades(options.allow_trades);
     let global = MultiStart {
         count: options.starts,
         screen: options.screen,
@@ -869,6 +871,8 @@ pub fn fit_and_validate(
     // The estimation runs' starts estimated jointly with the parameters, by run name: those
     // runs are scored from them.
     let mut joint_starts: Vec<(String, InitialState)> = Vec::new();
+    // The pooled estimate's fit of each estimation run, by run name, where it traded some.
+    let mut pooled_fits: Vec<(String, OutputFit)> = Vec::new();
     // With fitted starts, the first fit already starts every estimation run from its prefix
     // under the start values: an equilibrium-start fit drifts to compensate starts it gets
     // wrong (on the virtual truck, a valve run begun after a raise has its wall friction
@@ -953,6 +957,22 @@ pub fn fit_and_validate(
                 initial,
                 &prefix,
             );
+            if let Some(scores) = &guarded.pooled_scores {
+                pooled_fits = estimation
+                    .iter()
+                    .zip(scores)
+                    .filter_map(|(run, score)| {
+                        let score = (*score)?;
+                        Some((
+                            run.name.clone(),
+                            OutputFit {
+                                height_percent: score.height_percent,
+                                pressure_percent: score.pressure_percent,
+                            },
+                        ))
+                    })
+                    .collect();
+            }
             let joint = guarded.joint;
             // Everything reported below describes the fit whose model is validated.
             result.notes.extend(joint.load_notes.iter().cloned());
@@ -1082,6 +1102,12 @@ pub fn fit_and_validate(
             .push(format!("could not write the estimated truck file: {e}")),
     }
 
+    let pooled_fit = |name: &str| {
+        pooled_fits
+            .iter()
+            .find(|(run, _)| run == name)
+            .map(|(_, fit)| *fit)
+    };
     let mut responses = Vec::new();
     let mut validated_transitions: Vec<(String, Vec<f64>)> = Vec::new();
     for run in &input.runs {
@@ -1095,6 +1121,7 @@ pub fn fit_and_validate(
             .to_owned(),
             nominal: nominal_fit(&run.name),
             estimated: None,
+            pooled: pooled_fit(&run.name),
             residuals: vec![],
             error: None,
         };
@@ -1216,6 +1243,7 @@ mod tests {
             role: role.to_owned(),
             nominal: Some(output(nominal)),
             estimated: Some(output(estimated)),
+            pooled: None,
             residuals: vec![],
             error: None,
         }

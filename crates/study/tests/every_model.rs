@@ -113,6 +113,43 @@ fn every_thesis_model_gains_on_every_estimation_run() {
                 "{:?}",
                 model.runs
             );
+            // The pooled estimate the guard refitted is reported beside it: its fit of each
+            // estimation run in results.json, and each trade named in the note.
+            let pooled = |run: &str| {
+                model
+                    .runs
+                    .iter()
+                    .find(|f| f.run == run)
+                    .unwrap()
+                    .pooled
+                    .unwrap_or_else(|| panic!("{run}: no pooled fit"))
+            };
+            assert!(
+                pooled("levelling 1").pressure_percent < 80.0
+                    && pooled("data-set 3").pressure_percent < -202.0,
+                "{:?}",
+                model.runs
+            );
+            assert!(
+                model.notes.iter().any(|n| n
+                    .contains("the pooled estimate explained data-set 3's pressure -2")
+                    && n.contains("(start values -202.0 %)")),
+                "{:?}",
+                model.notes
+            );
+            assert!(
+                model
+                    .runs
+                    .iter()
+                    .all(|f| f.role == "estimation" || f.pooled.is_none())
+            );
+        } else {
+            // A model whose estimate traded nothing has no pooled fits to report.
+            assert!(
+                model.runs.iter().all(|f| f.pooled.is_none()),
+                "{}",
+                model.model
+            );
         }
         // Issue #14: the load filter on each model's estimated file (nothing of the truth)
         // neither fails nor runs away on the held-out runs. An issue measured Model 1's
@@ -191,4 +228,49 @@ fn model_3_keeps_the_refit_that_trades_least_where_none_trades_nothing() {
     let estimated = |run: &str| m3.run(run).and_then(|f| f.estimated).unwrap();
     assert!(estimated("data-set 3").pressure_percent > -400.0);
     assert!(estimated("levelling 1").pressure_percent > 40.0);
+}
+
+/// `--allow-trades` keeps each model's pooled estimate, as MATLAB's `greyest` returns it:
+/// Model 3 on the built-in study (seed 1, our protocol) then explains data-set 3's and the
+/// levelling run's pressure worse than its start values, and the result says so.
+#[test]
+fn model_3_keeps_its_pooled_estimate_where_trades_are_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let generated = airsus_truck::experiments::generate(&data, 1, &mut |_| {}).unwrap();
+    let input = load_study(&generated.study_valve).unwrap();
+    let options = StudyOptions {
+        models: vec!["m3".to_owned()],
+        allow_trades: true,
+        ..StudyOptions::new(vec![Protocol::from_roles(&input)])
+    };
+    let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
+    assert!(outcome.results.allow_trades);
+    let m3 = &outcome.results.protocols[0].models[0];
+    assert!(m3.error.is_none(), "{:?}", m3.error);
+    assert!(
+        m3.notes
+            .iter()
+            .any(|n| n.contains("kept as fitted (trades allowed)")
+                && n.contains("levelling 1's pressure")),
+        "{:?}",
+        m3.notes
+    );
+    let worse = worse_than_the_start(m3, 0.1);
+    assert!(
+        worse
+            .iter()
+            .any(|(run, output, ..)| run == "levelling 1" && *output == "pressure"),
+        "{worse:?}"
+    );
+    // The pooled estimate is the one kept: its fits are the estimated ones.
+    for fit in m3.runs.iter().filter(|f| f.role == "estimation") {
+        let (pooled, estimated) = (fit.pooled.unwrap(), fit.estimated.unwrap());
+        assert!(
+            (pooled.height_percent - estimated.height_percent).abs() < 1e-9
+                && (pooled.pressure_percent - estimated.pressure_percent).abs() < 1e-9,
+            "{}: {pooled:?} against {estimated:?}",
+            fit.run
+        );
+    }
 }

@@ -22,6 +22,7 @@ fn a_small_study_runs_end_to_end_and_its_results_round_trip() {
         load_ramp: airsus_study::LoadRamp::Estimate,
         exclude_after_load_change_s: airsus_study::DEFAULT_EXCLUDE_AFTER_LOAD_CHANGE_S,
         validation_transitions: true,
+        allow_trades: false,
     };
     let out = dir.path().join("out");
     let events = std::sync::Mutex::new(Vec::new());
@@ -288,6 +289,7 @@ fn a_protocol_without_estimation_runs_is_a_clear_error() {
         load_ramp: airsus_study::LoadRamp::Logged,
         exclude_after_load_change_s: 0.0,
         validation_transitions: false,
+        allow_trades: false,
     };
     let err = run_study(&input, &options, &dir.path().join("out"), &|_| {})
         .err()
@@ -370,6 +372,7 @@ fn a_study_can_start_its_runs_from_the_first_seconds_and_says_so() {
             load_ramp: airsus_study::LoadRamp::Logged,
             exclude_after_load_change_s: 0.0,
             validation_transitions: false,
+            allow_trades: false,
         };
         run_study(&input, &options, &dir.path().join(out), &|_| {}).unwrap()
     };

@@ -28,6 +28,8 @@ struct Settings {
     pressure_weight: f64,
     max_relative_std: f64,
     keep_unidentifiable: bool,
+    /// Keep the pooled estimate where it trades an estimation run (`--allow-trades`).
+    allow_trades: bool,
     normalisation: Normalisation,
     start: StartMethod,
     /// The estimation runs' starts refitted with the parameters (`joint`) or held (`prefix`).
@@ -125,6 +127,7 @@ fn run_greybox(
         } else {
             IdentifiabilityPolicy::FixAtNominal
         },
+        allow_trades: settings.allow_trades,
         ..GreyboxOptions::default()
     };
     let mut observer = ProgressObserver(progress);
@@ -184,10 +187,11 @@ fn run_greybox(
 /// "converged", "start", "load" (what easing the logged load did), "load_transitions_s" (per
 /// run, each logged change's transition time), "load_ramp_s", "trades" (what was done where
 /// the pooled estimate explained a run and output worse than the start values: refitted
-/// with it weighted more; None where nothing was traded), "truck": the truck with the
+/// with it weighted more, or named and kept with `allow_trades`; None where nothing was
+/// traded), "truck": the truck with the
 /// estimates written back (as `--out`)}`.
 #[pyfunction]
-#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None, normalisation=None, initial_state=None, load_ramp=None, force_map=None, force_map_noise_n=None))]
+#[pyo3(signature = (model, truck, runs, free, bounds=None, max_iterations=None, tolerance=None, initial=None, height_weight=None, pressure_weight=None, max_relative_std=None, keep_unidentifiable=false, progress=None, normalisation=None, initial_state=None, load_ramp=None, force_map=None, force_map_noise_n=None, allow_trades=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn greybox<'py>(
     py: Python<'py>,
@@ -209,6 +213,7 @@ pub fn greybox<'py>(
     load_ramp: Option<String>,
     force_map: Option<std::path::PathBuf>,
     force_map_noise_n: Option<f64>,
+    allow_trades: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = truck.params.clone();
     drop(truck);
@@ -256,6 +261,7 @@ pub fn greybox<'py>(
         pressure_weight: pressure_weight.unwrap_or(1.0),
         max_relative_std: max_relative_std.unwrap_or(0.5),
         keep_unidentifiable,
+        allow_trades,
         normalisation: parse_normalisation(normalisation.as_deref().unwrap_or("pooled-spread"))
             .or_py()?,
         force_map,

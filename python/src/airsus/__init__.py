@@ -533,7 +533,8 @@ class GreyboxResult:
         trades: where the pooled estimate explained a run and output worse than the start
             values did (by more than 0.1 NRMSE point), what was done, in words: the refit with
             that run and output weighted more that trades nothing (or least) is kept, else the
-            pooled estimate; None where nothing was traded.
+            pooled estimate (kept as fitted with ``allow_trades``); the pooled estimate's score
+            of each traded run and output is named. None where nothing was traded.
         nrmse: DataFrame indexed by run: ``samples, height_nominal, height_estimated,
             pressure_nominal, pressure_estimated`` (percent, thesis eq 3.33).
         report: the full result, as ``airsus greybox --json`` prints it (a dict).
@@ -618,6 +619,7 @@ def greybox(
     load_ramp: str = "estimate",
     force_map: Optional[PathLike] = None,
     force_map_noise_n: Optional[float] = None,
+    allow_trades: bool = False,
 ) -> GreyboxResult:
     """Estimate named physical parameters of a model from one or more runs at once, as
     ``airsus greybox`` does (thesis 5.2.6; MATLAB ``nlgreyest`` with simulation focus).
@@ -637,7 +639,7 @@ def greybox(
     (unless ``keep_unidentifiable``). Where the pooled loss traded a run and output for the
     others (the estimate explains it worse than the start values did, by more than 0.1 NRMSE
     point), the parameters are refitted with it weighted more, as ``airsus greybox`` does
-    (``GreyboxResult.trades`` says what was done).
+    (``GreyboxResult.trades`` says what was done), unless ``allow_trades``.
 
     Args:
         model: any model of :func:`models` (``m1``, ``m2``, ``m2x``, ``m2xh``, ``m3``,
@@ -670,6 +672,9 @@ def greybox(
             pin the area only at the heights they visit, the map holds it elsewhere.
         force_map_noise_n: the map's force error, N (default: the misfit of the truck's
             effective-area law to the map), as ``--force-map-noise-n``.
+        allow_trades: keep the pooled estimate where it explains a run and output worse than
+            the start values did (a fit as MATLAB's ``greyest`` gives it); ``trades`` names
+            each such run and output. As ``--allow-trades``.
         progress: called with a dict per event while the fit runs (the GIL is released):
             ``{"event": "stage", "message": ...}`` or ``{"event": "iteration", "round",
             "iteration", "loss", "simulations", "failed_simulations"}``.
@@ -701,6 +706,7 @@ def greybox(
         load_ramp=load_ramp,
         force_map=os.fsdecode(force_map) if force_map is not None else None,
         force_map_noise_n=None if force_map_noise_n is None else float(force_map_noise_n),
+        allow_trades=bool(allow_trades),
     )
     return GreyboxResult(native)
 

@@ -104,6 +104,9 @@ def greybox(
     progress: Progress = None,
     initial_state: Optional[str] = None,
     load_ramp: str = "estimate",
+    force_map: Optional[PathLike] = None,
+    force_map_noise_n: Optional[float] = None,
+    allow_trades: bool = False,
 ) -> GreyboxResult: ...
 
 class LinearModel:

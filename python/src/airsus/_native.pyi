@@ -72,6 +72,7 @@ def greybox(
     load_ramp: Optional[str] = None,
     force_map: Optional[str] = None,
     force_map_noise_n: Optional[float] = None,
+    allow_trades: bool = False,
 ) -> Dict[str, Any]: ...
 def ident(
     data: _RunSpec,

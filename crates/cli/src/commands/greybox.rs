@@ -149,6 +149,11 @@ pub struct GreyboxArgs {
     /// Estimate parameters found not identifiable anyway (they are only reported).
     #[arg(long)]
     pub keep_unidentifiable: bool,
+    /// Keep the pooled estimate where it explains an estimation run and output worse than
+    /// the start values did (a fit as MATLAB's `greyest` gives it), naming each such trade on
+    /// stderr. By default it is refitted with the traded runs weighted more.
+    #[arg(long)]
+    pub allow_trades: bool,
     /// A bellow force map (lab: `bellow_height_mm, pressure_kpa, force_n`) that enters the
     /// loss as a prior on the effective-area law: one residual per point, weighted as one
     /// more output of a run at its noise. The runs pin the area only at the heights they
@@ -289,6 +294,7 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
         } else {
             IdentifiabilityPolicy::FixAtNominal
         },
+        allow_trades: args.allow_trades,
         ..GreyboxOptions::default()
     };
     let mut terminal = TerminalProgress::new();

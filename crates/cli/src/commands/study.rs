@@ -87,6 +87,12 @@ pub struct StudyArgs {
     /// `--load-ramp estimate`.
     #[arg(long, value_enum, default_value_t = ValidationTransitionsArg::Fitted)]
     pub validation_transitions: ValidationTransitionsArg,
+    /// Keep each model's pooled estimate where it explains an estimation run and output
+    /// worse than the start values did (a fit as MATLAB's `greyest` gives it), naming each
+    /// such trade in the model's notes. By default it is refitted with the traded runs
+    /// weighted more, and its fits are kept in results.json as each run's `pooled`.
+    #[arg(long)]
+    pub allow_trades: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -146,6 +152,7 @@ pub fn run(args: &StudyArgs) -> anyhow::Result<()> {
         load_ramp: args.load_ramp.into(),
         exclude_after_load_change_s: args.exclude_after_load_change_s,
         validation_transitions: args.validation_transitions == ValidationTransitionsArg::Fitted,
+        allow_trades: args.allow_trades,
         ..StudyOptions::new(vec![])
     };
     let outcome = match &args.study {

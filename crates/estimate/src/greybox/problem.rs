@@ -377,6 +377,11 @@ pub struct GreyboxOptions {
     pub correlation_warning: f64,
     /// Parallelise the finite-difference Jacobian (and runs) with rayon.
     pub parallel: bool,
+    /// Keep the pooled estimate where it explains an estimation run and output worse than
+    /// the start values did, naming each such trade, instead of refitting with the traded
+    /// blocks weighted more ([`crate::no_trade`], the default). A fit as MATLAB's `greyest`
+    /// returns it, to compare with one.
+    pub allow_trades: bool,
 }
 
 impl Default for GreyboxOptions {
@@ -390,6 +395,7 @@ impl Default for GreyboxOptions {
             rcond: 1e-7,
             correlation_warning: 0.99,
             parallel: true,
+            allow_trades: false,
         }
     }
 }
@@ -397,6 +403,12 @@ impl Default for GreyboxOptions {
 impl GreyboxOptions {
     pub fn with_max_iterations(mut self, n: usize) -> Self {
         self.max_iterations = n;
+        self
+    }
+
+    /// [`Self::allow_trades`].
+    pub fn with_allowed_trades(mut self, allow: bool) -> Self {
+        self.allow_trades = allow;
         self
     }
 
