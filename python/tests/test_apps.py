@@ -240,8 +240,10 @@ def test_study_takes_the_commands_fit_options(reference: Path, tmp_path: Path) -
         exclude_after_load_change_s=10.0,
         validation_transitions="common",
         prefix_s=8.0,
+        allow_trades=True,
     )
     assert results["initial_state"] == "prefix"
+    assert results["allow_trades"] is True
     assert results["prefix_s"] == 8.0
     assert results["validation_transitions"] == "common"
     # Held starts: the notes say so (the default, joint, refits them with the parameters).

@@ -142,7 +142,8 @@ fn greybox_trades_no_estimation_run_for_the_others() {
     assert!(json["loss_estimated"].as_f64().unwrap() < json["loss_nominal"].as_f64().unwrap());
     // The note names what the pooled estimate traded, with the start values' scores.
     assert!(
-        stderr.contains("the pooled estimate explained lev1's height")
+        stderr.contains("the pooled estimate explained")
+            && stderr.contains("lev1's height -")
             && stderr.contains("(start values "),
         "{stderr}"
     );

@@ -1,6 +1,7 @@
 //! No estimation run traded: an estimate explains every estimation run and output at least
 //! as well as the start values did, within [`TRADE_MARGIN_POINTS`], or else as nearly as the
-//! refits found (issue #12, item 6).
+//! refits found (issue #12, item 6), unless the caller allows trades
+//! ([`GreyboxOptions::allow_trades`]).
 //!
 //! The grey-box loss pools the estimation runs and both outputs, so a structure that cannot
 //! explain all of them at once buys a gain on one with a loss on another. Model 3 on the
@@ -174,7 +175,7 @@ pub struct Guarded {
     pub pooled_scores: Option<Vec<Option<RunScore>>>,
 }
 
-/// Each traded block of `worse`, `"data-set 3's pressure −237.0 % (start values −202.0 %)"`,
+/// Each traded block of `worse`, `"data-set 3's pressure -237.0 % (start values -202.0 %)"`,
 /// joined.
 fn describe_trades(
     runs: &[&airsus_data::Run],
@@ -220,6 +221,8 @@ pub fn keep_every_run(
     observer: &mut dyn Observer,
 ) -> Guarded {
     let runs = &problem.runs;
+    // The start values' scores as the caller gave them, for the notes.
+    let given = floors;
     // An output the loss leaves out (weight 0) is fitted to nothing, and no weight on it can
     // bring it back: it is not held to its floor.
     let floors: Vec<Option<RunScore>> = floors
@@ -249,12 +252,12 @@ pub fn keep_every_run(
             pooled_scores: None,
         };
     }
-    let pooled_trades = describe_trades(runs, floors, &scores, &worse);
+    let pooled_trades = describe_trades(runs, given, &scores, &worse);
     if options.allow_trades {
         return Guarded {
             joint,
             note: Some(format!(
-                "the estimate explains {pooled_trades} worse than the start values did, by more than {TRADE_MARGIN_POINTS} NRMSE point: kept as fitted (trades allowed)"
+                "the pooled estimate explained {pooled_trades} worse than the start values did, by more than {TRADE_MARGIN_POINTS} NRMSE point: kept as fitted (trades allowed)"
             )),
             pooled_scores: Some(scores),
         };

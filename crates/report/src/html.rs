@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use crate::chart::{Chart, write_chart};
-use crate::results::{ProtocolResult, StudyResults};
+use crate::results::{ModelResult, OutputFit, ProtocolResult, StudyResults};
 use crate::thesis;
 
 #[derive(Debug, thiserror::Error)]
@@ -116,7 +116,7 @@ fn render_html(results: &StudyResults, charts: &[(&Chart, Result<String, String>
     );
     let _ = write!(
         h,
-        "<h1>Air suspension study</h1><p>Study: <code>{}</code> · nominal truck: <code>{}</code> · runs start: {} · airsus {} · pipeline time {:.1} s · <a href=\"results.json\">results.json</a></p>",
+        "<h1>Air suspension study</h1><p>Study: <code>{}</code> · nominal truck: <code>{}</code> · runs start: {}{} · airsus {} · pipeline time {:.1} s · <a href=\"results.json\">results.json</a></p>",
         esc(&results.study),
         esc(&results.truck),
         match results.initial_state.as_str() {
@@ -129,6 +129,11 @@ fn render_html(results: &StudyResults, charts: &[(&Chart, Result<String, String>
                 results.prefix_s
             ),
             _ => "static equilibrium at the first measured height".to_owned(),
+        },
+        if results.allow_trades {
+            " · trades allowed: a pooled estimate that explains an estimation run worse than its start values is kept"
+        } else {
+            ""
         },
         esc(&results.airsus_version),
         results.elapsed_s
@@ -600,6 +605,7 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
         for note in &m.notes {
             let _ = write!(h, "<p class=\"note\">{}</p>", esc(note));
         }
+        pooled_table(h, m);
         if let Some(file) = &m.truck_file {
             let _ = write!(
                 h,
@@ -608,6 +614,33 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
             );
         }
     }
+}
+
+/// Where the pooled estimate explained an estimation run worse than the start values did
+/// (issue #12), its fit of each estimation run beside the start values' and the kept
+/// estimate's.
+fn pooled_table(h: &mut String, m: &ModelResult) {
+    let pooled: Vec<_> = m.runs.iter().filter(|r| r.pooled.is_some()).collect();
+    if pooled.is_empty() {
+        return;
+    }
+    h.push_str("<table><tr><th>estimation run</th><th>start values height / pressure</th><th>pooled estimate</th><th>kept estimate</th></tr>");
+    let pair = |fit: Option<OutputFit>| {
+        fit.map_or("–".to_owned(), |f| {
+            format!("{:.1} / {:.1}", f.height_percent, f.pressure_percent)
+        })
+    };
+    for r in pooled {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+            esc(&r.run),
+            pair(r.nominal),
+            pair(r.pooled),
+            pair(r.estimated)
+        );
+    }
+    h.push_str("</table>");
 }
 
 fn figures(h: &mut String, charts: &[(&Chart, Result<String, String>)]) {
@@ -848,6 +881,27 @@ mod tests {
                 }],
             },
         ]
+    }
+
+    #[test]
+    fn a_pooled_estimate_is_shown_beside_the_kept_one_and_allowed_trades_are_said() {
+        let dir = tempfile::tempdir().unwrap();
+        let plain = write_report(&dir.path().join("plain"), &results(), &[]).unwrap();
+        let plain = std::fs::read_to_string(&plain.html).unwrap();
+        assert!(!plain.contains("<th>pooled estimate</th>") && !plain.contains("trades allowed"));
+        let mut traded = results();
+        traded.allow_trades = true;
+        traded.protocols[0].models[0].runs[0].pooled = Some(OutputFit {
+            height_percent: 12.34,
+            pressure_percent: -45.67,
+        });
+        let files = write_report(&dir.path().join("traded"), &traded, &[]).unwrap();
+        let html = std::fs::read_to_string(&files.html).unwrap();
+        assert!(
+            html.contains("<th>pooled estimate</th>") && html.contains("12.3 / -45.7"),
+            "the pooled fit is tabled"
+        );
+        assert!(html.contains("trades allowed: a pooled estimate"));
     }
 
     #[test]

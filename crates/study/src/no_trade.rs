@@ -43,7 +43,8 @@ pub fn estimation_scores(
 /// `joint` (fitted on `problem`), or a refit of it that explains no estimation run and
 /// output worse than `nominal`, the start values, did (`floors`: their scores, per run of
 /// `problem`, as the study scores them) beyond [`TRADE_MARGIN_POINTS`], or falls least
-/// short of that ([`airsus_estimate::no_trade::keep_every_run`], scored as the study scores). The
+/// short of that ([`airsus_estimate::no_trade::keep_every_run`], scored as the study scores;
+/// `joint` itself, its trades named, with [`GreyboxOptions::allow_trades`]). The
 /// parameters named in `held` stay at `joint`'s values: the study's road refit fits them on
 /// the road runs alone, because fitted with the other runs they absorb what those leave
 /// unexplained (the `truck` structure's tire stiffness came out 10-20 % low), and its notes

@@ -131,9 +131,12 @@ fn every_thesis_model_gains_on_every_estimation_run() {
                 model.runs
             );
             assert!(
-                model.notes.iter().any(|n| n
-                    .contains("the pooled estimate explained data-set 3's pressure -2")
-                    && n.contains("(start values -202.0 %)")),
+                model
+                    .notes
+                    .iter()
+                    .any(|n| n.contains("the pooled estimate explained")
+                        && n.contains("data-set 3's pressure -2")
+                        && n.contains("(start values -202.0 %)")),
                 "{:?}",
                 model.notes
             );
@@ -141,7 +144,9 @@ fn every_thesis_model_gains_on_every_estimation_run() {
                 model
                     .runs
                     .iter()
-                    .all(|f| f.role == "estimation" || f.pooled.is_none())
+                    .all(|f| f.role == "estimation" || f.pooled.is_none()),
+                "{:?}",
+                model.runs
             );
         } else {
             // A model whose estimate traded nothing has no pooled fits to report.

@@ -359,7 +359,7 @@ fn run_the_study(
 /// `study` is None). Returns `{"results": path of results.json, "report": path of report.html,
 /// "notes", "chart_failures"}`.
 #[pyfunction]
-#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, screen=None, variant=None, load_ramp=None, exclude_after_load_change_s=None, validation_transitions=None, prefix_s=None))]
+#[pyo3(signature = (study_file, out, models=None, max_iterations=None, seed=None, progress=None, initial_state=None, normalisation=None, starts=None, screen=None, variant=None, load_ramp=None, exclude_after_load_change_s=None, validation_transitions=None, prefix_s=None, allow_trades=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn study<'py>(
     py: Python<'py>,
@@ -378,6 +378,7 @@ pub fn study<'py>(
     exclude_after_load_change_s: Option<f64>,
     validation_transitions: Option<String>,
     prefix_s: Option<f64>,
+    allow_trades: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let prefix_s = airsus_estimate::check_prefix_s(
         prefix_s.unwrap_or(airsus_estimate::initial_state::DEFAULT_PREFIX_S),
@@ -429,6 +430,7 @@ pub fn study<'py>(
         load_ramp,
         exclude_after_load_change_s,
         validation_transitions,
+        allow_trades,
         ..StudyOptions::new(vec![])
     };
     let builtin = (seed.unwrap_or(1), variant.unwrap_or(0));

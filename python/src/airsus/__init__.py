@@ -1037,6 +1037,7 @@ def study(
     exclude_after_load_change_s: float = 0.0,
     validation_transitions: str = "fitted",
     prefix_s: float = 10.0,
+    allow_trades: bool = False,
 ) -> Dict[str, Any]:
     """Run the whole thesis pipeline, as ``airsus study STUDY.toml --out OUT``: submodel fits,
     grey-box estimation of every model, validation with residual analysis on every run, and
@@ -1072,6 +1073,11 @@ def study(
             estimation runs), as ``--validation-transitions``.
         prefix_s: length of the prefix every run's start is fitted to, s, as
             ``--prefix-s`` (recorded as ``prefix_s`` in the results).
+        allow_trades: keep each model's pooled estimate where it explains an estimation run
+            and output worse than the start values did, naming each trade in the model's
+            notes, as ``--allow-trades`` (recorded as ``allow_trades``). By default it is
+            refitted with the traded runs weighted more; either way each estimation run's
+            ``pooled`` fit is kept where the pooled estimate traded.
         progress: called with a dict per event (the GIL is released while the study runs):
             ``{"event": "stage", "message": ...}`` or ``{"event": "model_done", "protocol",
             "model", "seconds", "done", "total"}``.
@@ -1096,6 +1102,7 @@ def study(
         exclude_after_load_change_s=float(exclude_after_load_change_s),
         validation_transitions=validation_transitions,
         prefix_s=float(prefix_s),
+        allow_trades=bool(allow_trades),
     )
     with open(native["results"], encoding="utf-8") as f:
         results: Dict[str, Any] = json.load(f)
