@@ -44,7 +44,7 @@ pub use greybox::{
     ForceMapPrior, FreeParameter, GreyboxEstimate, GreyboxOptions, GreyboxProblem,
     IdentifiabilityPolicy, InitialChoice, MultiStart, MultiStartSummary, Normalisation,
     OutputWeights, StopReason, check_force_map_noise_n, check_load_change_exclusion_s, estimate,
-    estimate_multistart, loss_at,
+    estimate_multistart, estimate_multistart_capped, loss_at,
 };
 pub use initial_state::{
     EstimatedStart, PrefixOptions, StartChoice, StartMethod, check_prefix_s,

@@ -6,8 +6,8 @@ mod common;
 use airsus_data::Run;
 use airsus_data::TruckParameters;
 use airsus_estimate::{
-    GreyboxEstimate, GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, estimate,
-    estimate_multistart,
+    GreyboxEstimate, GreyboxOptions, GreyboxProblem, MultiStart, NoProgress, StopReason, estimate,
+    estimate_multistart, estimate_multistart_capped,
 };
 use airsus_model::SuspensionModel;
 use airsus_model::build_model;
@@ -152,4 +152,38 @@ fn a_screened_stage_starts_local_fits_only_where_the_design_beats_the_start() {
     assert_eq!(summary.losses.len(), summary.starts - summary.failed);
     assert_eq!(summary.losses[0], best.loss_estimated);
     reaches_the_truths_optimum(&best, &reference, &free);
+}
+
+/// A lone start's fit, which the alternation continues, may stop at a cap; where other starts
+/// run, every fit runs to the options' limit: the starts are compared at their optima (capped
+/// alike, a drawn start that had not reached its optimum lost to the nominal one).
+#[test]
+fn only_a_lone_start_is_capped() {
+    let (truck, _, steps, pulses) = measured_runs();
+    let free = ["p0", "m2", "rflow1", "rflow2", "a1"];
+    let options = GreyboxOptions::default();
+    let start = fifty_percent_off(&truck);
+    let off = GreyboxProblem::new(&*start, &[&steps, &pulses], &free);
+    let ms = MultiStart {
+        count: 3,
+        spread: 0.5,
+        seed: 3,
+        screen: 0,
+    };
+
+    let lone = MultiStart { count: 1, ..ms };
+    let (capped, summary) =
+        estimate_multistart_capped(&off, &options, &lone, 2, &mut NoProgress).unwrap();
+    assert_eq!(summary.starts, 1);
+    assert_eq!(capped.stop, StopReason::MaxIterations { iterations: 2 });
+    let plain = estimate(&off, &options, &mut NoProgress).unwrap();
+    assert!(plain.stop.is_converged(), "{:?}", plain.stop);
+    assert!(capped.loss_estimated > plain.loss_estimated);
+
+    let (best, several) =
+        estimate_multistart_capped(&off, &options, &ms, 2, &mut NoProgress).unwrap();
+    let (uncapped, reference) = estimate_multistart(&off, &options, &ms, &mut NoProgress).unwrap();
+    assert_eq!(several.starts, 3);
+    assert_eq!(several.losses, reference.losses);
+    assert_eq!(best.loss_estimated, uncapped.loss_estimated);
 }

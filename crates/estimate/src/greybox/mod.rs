@@ -34,7 +34,9 @@ pub use evaluate::{HEIGHT_RESOLUTION_M, PRESSURE_RESOLUTION_PA};
 pub use identifiability::{
     CorrelatedPair, JacobianAnalysis, NotIdentifiable, Stage, Unidentifiable,
 };
-pub use multistart::{MultiStart, MultiStartSummary, estimate_multistart};
+pub use multistart::{
+    MultiStart, MultiStartSummary, estimate_multistart, estimate_multistart_capped,
+};
 pub use problem::{
     ForceMapPrior, FreeParameter, GreyboxOptions, GreyboxProblem, IdentifiabilityPolicy,
     InitialChoice, Normalisation, OutputWeights, check_force_map_noise_n,
