@@ -474,7 +474,10 @@ pub fn estimation_start(
 /// [`LoadRamp::Estimate`] and logged load changes, [`estimate_jointly_with_transitions`] from
 /// the one time [`fit_load_ramp`] fits under the first fit). What `airsus greybox`, Python's
 /// `greybox` and the study run. The problem's own starts are replaced for `Prefix`; for
-/// `Equilibrium` with the load as logged the joint estimate's rounds are empty.
+/// `Equilibrium` with the load as logged the joint estimate's rounds are empty. Where the
+/// alternation of starts follows and the global stage runs no start but the nominal one,
+/// the first fit is held to [`JOINT_REFIT_ITERATIONS`] per screening round (the rounds refit
+/// from it); where no round improves on it, it is finished with `options`.
 pub fn estimate_with_starts(
     problem: &GreyboxProblem<'_>,
     options: &GreyboxOptions,
@@ -494,26 +497,22 @@ pub fn estimate_with_starts(
             }
         }
     };
-    // Where the alternation follows, the first fit is only its start: every round refits all
-    // the parameters from new starts and load transitions. Where it is the only start of the
-    // global stage, it is capped as a round's refit is. Measured on the built-in study, the `truck` structure's first fit (valve protocol)
+    // Where the alternation of starts follows (it always runs), the first fit is only its
+    // start: every round refits all the parameters from new starts and load transitions.
+    // Where it is the only start of the global stage, it is capped as a round's refit is.
+    // Measured on the built-in study, the `truck` structure's first fit (valve protocol)
     // took 46 iterations, 3,292 simulations, a third of its estimate's work, for a loss the
     // first round then cut from 5.4e-3 to 1.6e-3 from new starts; capped, the study took
     // 116 s of CPU instead of 129, every estimate ended at the same or a lower loss (the
     // thesis protocol's `truck` 2.82e-4 → 2.41e-4), and the valve protocol's scores were the
     // same to 0.1 point.
-    let follows = (method == StartMethod::Prefix && prefix.refit_starts)
-        || (load == LoadRamp::Estimate
-            && started
-                .runs
-                .iter()
-                .any(|r| !logged_load_changes(r).is_empty()));
+    let follows = method == StartMethod::Prefix && prefix.refit_starts;
     let lone_iterations = if follows {
         JOINT_REFIT_ITERATIONS.min(options.max_iterations)
     } else {
         options.max_iterations
     };
-    let (first, summary) = crate::greybox::estimate_multistart_capped(
+    let (mut first, mut summary) = crate::greybox::estimate_multistart_capped(
         &started,
         options,
         multistart,
@@ -521,12 +520,21 @@ pub fn estimate_with_starts(
         observer,
     )?;
     // Only a lone start's fit is capped (the global stage compares its starts at their optima).
-    let capped = summary.starts == 1 && lone_iterations < options.max_iterations;
+    let mut capped = summary.starts == 1 && lone_iterations < options.max_iterations;
     let mut notes = Vec::new();
-    let common_s = match load {
+    let mut common_s = match load {
         LoadRamp::Logged => None,
         LoadRamp::Estimate => common_load_ramp(&first, &started, &mut notes),
     };
+    if capped && load == LoadRamp::Estimate && common_s.is_none() {
+        // Whether easing the logged load helps (and the alternation fits each change's
+        // transition) is decided under a finished fit, as it was before the cap.
+        finish_first_fit(&mut first, &started, options);
+        summary.losses = vec![first.loss_estimated];
+        capped = false;
+        notes.clear();
+        common_s = common_load_ramp(&first, &started, &mut notes);
+    }
     let prefix_if = (method == StartMethod::Prefix && prefix.refit_starts).then_some(prefix);
     let held = method == StartMethod::Prefix && !prefix.refit_starts;
     let mut joint = match (prefix_if, common_s) {
@@ -542,9 +550,15 @@ pub fn estimate_with_starts(
         ),
     };
     if capped && joint.rounds.is_empty() {
-        // No round replaced the capped first fit (easing the load did not help, or no
-        // round improved on it): it is finished, as an uncapped first fit would have been.
-        finish_first_fit(&mut joint, &started, options);
+        // No round of the alternation improved on the capped first fit: it is finished, as
+        // an uncapped first fit would have been, and the load's common transition time
+        // (for other runs) fitted again under it.
+        finish_first_fit(&mut joint.estimate, &started, options);
+        summary.losses = vec![joint.estimate.loss_estimated];
+        if load == LoadRamp::Estimate {
+            notes.clear();
+            common_s = common_load_ramp(&joint.estimate, &started, &mut notes);
+        }
     }
     joint.starts_held = held;
     joint.load_ramp_s = common_s;
@@ -555,18 +569,15 @@ pub fn estimate_with_starts(
     Ok((joint, summary))
 }
 
-/// `joint`'s estimate, a first fit of `started` stopped at the first fit's cap, continued
-/// with `options` from where it stopped (kept where it explains the runs better), and
-/// restated against the start values.
+/// `first`, a fit of `started` held to the first fit's cap, continued with `options` from
+/// its estimate (whatever it stopped on: at the cap, or screened at a point short of its
+/// optimum), kept where it explains the runs at least as well, and restated against the
+/// start values; the work of both counted.
 fn finish_first_fit(
-    joint: &mut JointEstimate,
+    first: &mut GreyboxEstimate,
     started: &GreyboxProblem<'_>,
     options: &GreyboxOptions,
 ) {
-    let first = &joint.estimate;
-    if !matches!(first.stop, crate::greybox::StopReason::MaxIterations { .. }) {
-        return;
-    }
     let from_first = GreyboxProblem {
         model: &*first.estimated_model,
         ..started.clone()
@@ -574,8 +585,7 @@ fn finish_first_fit(
     let Ok(mut finished) = estimate(&from_first, options, &mut NoProgress) else {
         return;
     };
-    let first = &mut joint.estimate;
-    if finished.loss_estimated < first.loss_estimated {
+    if finished.loss_estimated <= first.loss_estimated {
         StartValues::of(first).restate(&mut finished);
         finished.simulations += first.simulations;
         finished.failed_simulations += first.failed_simulations;

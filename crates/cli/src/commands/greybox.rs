@@ -130,7 +130,8 @@ pub struct GreyboxArgs {
     /// Local fits of the global stage at most: the nominal point's, and fits from a Latin
     /// hypercube over nominal ± `--start-spread` inside the bounds (its first points, or with
     /// `--screen` the best screened points that beat the nominal one); the best kept (1: the
-    /// plain local fit).
+    /// plain local fit; where it is the only one and the alternation of starts follows, it
+    /// is held to a round's 15 iterations).
     #[arg(long, default_value_t = 1)]
     pub starts: usize,
     /// Points of the Latin hypercube screened by their loss (one simulation of each run
@@ -345,9 +346,14 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     let result = joint.estimate;
     if args.starts > 1 {
         eprintln!(
-            "global stage: {}, best from start {}; local optima's losses {}",
+            "global stage: {}, best from start {}; {} {}",
             global.describe(),
             global.best_start,
+            if global.starts == 1 {
+                "no design point beat the start; its fit's loss"
+            } else {
+                "local optima's losses"
+            },
             global
                 .losses
                 .iter()

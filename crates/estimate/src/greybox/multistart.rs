@@ -7,7 +7,8 @@
 //! its nominal ± `spread` (relative), inside its bounds: the admissible ranges are
 //! deliberately wide (they exclude nonsense, not unlikely values), and a start anywhere in
 //! them mostly does not simulate. Start 0 is the nominal point itself, so the result is never
-//! worse than the plain local fit. The starts run in parallel (rayon); each is a complete
+//! worse than the plain local fit (where other starts run; a lone start may be held to a cap,
+//! [`estimate_multistart_capped`]). The starts run in parallel (rayon); each is a complete
 //! [`estimate`], with its own identifiability screen.
 //!
 //! With [`MultiStart::screen`] the design is first screened, the way MATLAB's `GlobalSearch`
@@ -39,7 +40,8 @@ const SCREEN_MIN_STEPS: usize = 10_000;
 /// How many starts, how far apart.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MultiStart {
-    /// Local fits at most, the nominal one included (1: the plain local fit).
+    /// Local fits at most, the nominal one included (1: the plain local fit, or one held to
+    /// a cap, [`estimate_multistart_capped`]).
     pub count: usize,
     /// Half-width of each parameter's range around its nominal value, relative.
     pub spread: f64,
@@ -71,7 +73,8 @@ pub struct MultiStartSummary {
     /// Local fits run, the nominal one included.
     pub starts: usize,
     pub failed: usize,
-    /// The local optima's losses (mean squared normalised residual), best first.
+    /// The local optima's losses (mean squared normalised residual), best first; a lone
+    /// start held to a cap ([`estimate_multistart_capped`]): its loss there.
     pub losses: Vec<f64>,
     /// Which start (0 = nominal) gave the result.
     pub best_start: usize,
@@ -185,9 +188,11 @@ pub fn estimate_multistart_capped(
             ms.count, ms.spread
         )));
     }
+    // Before the screen spends its simulations.
+    super::check_options(options)?;
     let lone_options = options
         .clone()
-        .with_max_iterations(lone_max_iterations.clamp(1, options.max_iterations.max(1)));
+        .with_max_iterations(lone_max_iterations.max(1).min(options.max_iterations));
     if ms.count == 1 {
         let nominal = estimate(problem, &lone_options, observer)?;
         let summary = MultiStartSummary {
@@ -208,8 +213,8 @@ pub fn estimate_multistart_capped(
         }
         Some(model)
     };
-    // The nominal point's loss by the screen's measure; where even that fails (it fitted,
-    // but a run no longer simulates alone), no screen: the nominal fit is the result.
+    // The nominal point's loss by the screen's measure; where even that fails (a run does
+    // not simulate alone), no screen: the nominal fit is the result.
     let screen_reference = (ms.screen > 0)
         .then(|| loss_and_steps_at(problem, true).ok())
         .flatten();
