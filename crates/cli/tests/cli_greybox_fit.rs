@@ -86,22 +86,18 @@ fn greybox_improves_the_fit_and_writes_a_truck_file_that_loads_back() {
 fn greybox_trades_no_estimation_run_for_the_others() {
     let dir = generated();
     let p = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
-    let out = airsus(&[
-        "greybox",
-        "--model",
-        "m3",
-        "--truck",
-        &p("truck.toml"),
-        "--run",
-        &p("ds1.csv"),
-        "--run",
-        &p("ds3.csv"),
-        "--run",
-        &p("lev1.csv"),
-        "--run",
-        &p("road1.csv"),
-        "--json",
-    ]);
+    let (truck, ds1, ds3, lev1, road1) = (
+        p("truck.toml"),
+        p("ds1.csv"),
+        p("ds3.csv"),
+        p("lev1.csv"),
+        p("road1.csv"),
+    );
+    let mut m3 = vec![
+        "greybox", "--model", "m3", "--truck", &truck, "--run", &ds1, "--run", &ds3, "--run",
+        &lev1, "--run", &road1, "--json",
+    ];
+    let out = airsus(&m3);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(
@@ -132,7 +128,7 @@ fn greybox_trades_no_estimation_run_for_the_others() {
         .iter()
         .find(|p| p["name"] == "a0")
         .unwrap();
-    let file = airsus_data::read_truck(std::path::Path::new(&p("truck.toml"))).unwrap();
+    let file = airsus_data::read_truck(std::path::Path::new(&truck)).unwrap();
     let model = airsus_model::build_model("m3", &file.parameters).unwrap();
     assert_eq!(
         a0["nominal"].as_f64().unwrap(),
@@ -150,17 +146,8 @@ fn greybox_trades_no_estimation_run_for_the_others() {
 
     // `--allow-trades` keeps the pooled estimate, as MATLAB's `greyest` would return it, and
     // names each trade: no refit runs.
-    let mut args = vec!["greybox", "--model", "m3", "--truck"];
-    let (truck, runs) = (
-        p("truck.toml"),
-        ["ds1.csv", "ds3.csv", "lev1.csv", "road1.csv"].map(p),
-    );
-    args.push(&truck);
-    for run in &runs {
-        args.extend(["--run", run.as_str()]);
-    }
-    args.extend(["--json", "--allow-trades"]);
-    let out = airsus(&args);
+    m3.push("--allow-trades");
+    let out = airsus(&m3);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(
@@ -187,11 +174,11 @@ fn greybox_trades_no_estimation_run_for_the_others() {
         "--model",
         "m2",
         "--truck",
-        &p("truck.toml"),
+        &truck,
         "--run",
-        &p("ds1.csv"),
+        &ds1,
         "--run",
-        &p("ds3.csv"),
+        &ds3,
         "--height-weight",
         "0",
         "--json",

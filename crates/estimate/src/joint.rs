@@ -506,8 +506,8 @@ pub fn estimate_with_starts(
     // 116 s of CPU instead of 129, every estimate ended at the same or a lower loss (the
     // thesis protocol's `truck` 2.82e-4 → 2.41e-4), and the valve protocol's scores were the
     // same to 0.1 point.
-    let follows = method == StartMethod::Prefix && prefix.refit_starts;
-    let lone_iterations = if follows {
+    let prefix_if = (method == StartMethod::Prefix && prefix.refit_starts).then_some(prefix);
+    let lone_iterations = if prefix_if.is_some() {
         JOINT_REFIT_ITERATIONS.min(options.max_iterations)
     } else {
         options.max_iterations
@@ -526,16 +526,19 @@ pub fn estimate_with_starts(
         LoadRamp::Logged => None,
         LoadRamp::Estimate => common_load_ramp(&first, &started, &mut notes),
     };
+    // Whether easing the logged load helps (and the alternation fits each change's
+    // transition) is decided under a finished fit, as it was before the cap.
     if capped && load == LoadRamp::Estimate && common_s.is_none() {
-        // Whether easing the logged load helps (and the alternation fits each change's
-        // transition) is decided under a finished fit, as it was before the cap.
-        finish_first_fit(&mut first, &started, options);
-        summary.losses = vec![first.loss_estimated];
+        common_s = finish_first_fit(
+            &mut first,
+            &started,
+            options,
+            load,
+            &mut summary,
+            &mut notes,
+        );
         capped = false;
-        notes.clear();
-        common_s = common_load_ramp(&first, &started, &mut notes);
     }
-    let prefix_if = (method == StartMethod::Prefix && prefix.refit_starts).then_some(prefix);
     let held = method == StartMethod::Prefix && !prefix.refit_starts;
     let mut joint = match (prefix_if, common_s) {
         (None, None) if held => JointEstimate::single(first, started.start_states.clone()),
@@ -549,16 +552,17 @@ pub fn estimate_with_starts(
             LoadTransitionsFit::common(&started.runs, tau),
         ),
     };
+    // No round of the alternation improved on the capped first fit: it is finished, as an
+    // uncapped first fit would have been.
     if capped && joint.rounds.is_empty() {
-        // No round of the alternation improved on the capped first fit: it is finished, as
-        // an uncapped first fit would have been, and the load's common transition time
-        // (for other runs) fitted again under it.
-        finish_first_fit(&mut joint.estimate, &started, options);
-        summary.losses = vec![joint.estimate.loss_estimated];
-        if load == LoadRamp::Estimate {
-            notes.clear();
-            common_s = common_load_ramp(&joint.estimate, &started, &mut notes);
-        }
+        common_s = finish_first_fit(
+            &mut joint.estimate,
+            &started,
+            options,
+            load,
+            &mut summary,
+            &mut notes,
+        );
     }
     joint.starts_held = held;
     joint.load_ramp_s = common_s;
@@ -572,31 +576,39 @@ pub fn estimate_with_starts(
 /// `first`, a fit of `started` held to the first fit's cap, continued with `options` from
 /// its estimate (whatever it stopped on: at the cap, or screened at a point short of its
 /// optimum), kept where it explains the runs at least as well, and restated against the
-/// start values; the work of both counted.
+/// start values; the work of both counted. The global stage's loss becomes the kept fit's,
+/// and with [`LoadRamp::Estimate`] the load's common transition time is fitted again under
+/// it (its note replacing `notes`): the time returned (`None`: the load as logged).
 fn finish_first_fit(
     first: &mut GreyboxEstimate,
     started: &GreyboxProblem<'_>,
     options: &GreyboxOptions,
-) {
+    load: LoadRamp,
+    summary: &mut crate::greybox::MultiStartSummary,
+    notes: &mut Vec<String>,
+) -> Option<f64> {
     let from_first = GreyboxProblem {
         model: &*first.estimated_model,
         ..started.clone()
     };
-    let Ok(mut finished) = estimate(&from_first, options, &mut NoProgress) else {
-        return;
-    };
-    if finished.loss_estimated <= first.loss_estimated {
-        StartValues::of(first).restate(&mut finished);
-        finished.simulations += first.simulations;
-        finished.failed_simulations += first.failed_simulations;
-        finished.iterations += first.iterations;
-        finished.elapsed_s += first.elapsed_s;
-        *first = finished;
-    } else {
-        first.simulations += finished.simulations;
-        first.failed_simulations += finished.failed_simulations;
-        first.iterations += finished.iterations;
-        first.elapsed_s += finished.elapsed_s;
+    if let Ok(mut other) = estimate(&from_first, options, &mut NoProgress) {
+        if other.loss_estimated <= first.loss_estimated {
+            StartValues::of(first).restate(&mut other);
+            std::mem::swap(first, &mut other);
+        }
+        // `other` is now the fit not kept: its work counts too.
+        first.simulations += other.simulations;
+        first.failed_simulations += other.failed_simulations;
+        first.iterations += other.iterations;
+        first.elapsed_s += other.elapsed_s;
+    }
+    summary.losses = vec![first.loss_estimated];
+    match load {
+        LoadRamp::Logged => None,
+        LoadRamp::Estimate => {
+            notes.clear();
+            common_load_ramp(first, started, notes)
+        }
     }
 }
 

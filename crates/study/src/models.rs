@@ -634,6 +634,14 @@ impl FeltLoad {
     }
 }
 
+/// The fit listed for run `name` in `fits` (by run name); `None` where it is not listed or
+/// has none.
+fn fit_of(fits: &[(String, Option<OutputFit>)], name: &str) -> Option<OutputFit> {
+    fits.iter()
+        .find(|(run, _)| run == name)
+        .and_then(|(_, fit)| *fit)
+}
+
 pub(crate) fn output_fit(run: &Run, response: &SimulationResponse) -> Option<OutputFit> {
     let measured = run.outputs.as_ref()?;
     Some(OutputFit {
@@ -872,7 +880,7 @@ pub fn fit_and_validate(
     // runs are scored from them.
     let mut joint_starts: Vec<(String, InitialState)> = Vec::new();
     // The pooled estimate's fit of each estimation run, by run name, where it traded some.
-    let mut pooled_fits: Vec<(String, OutputFit)> = Vec::new();
+    let mut pooled_fits: Vec<(String, Option<OutputFit>)> = Vec::new();
     // With fitted starts, the first fit already starts every estimation run from its prefix
     // under the start values: an equilibrium-start fit drifts to compensate starts it gets
     // wrong (on the virtual truck, a valve run begun after a raise has its wall friction
@@ -927,12 +935,6 @@ pub fn fit_and_validate(
             (run.name.clone(), fit)
         })
         .collect();
-    let nominal_fit = |name: &str| {
-        nominal_fits
-            .iter()
-            .find(|(run, _)| run == name)
-            .and_then(|(_, fit)| *fit)
-    };
     let estimated: Box<dyn SuspensionModel> = match fitted {
         Err(e) => {
             result.error = Some(format!(
@@ -945,7 +947,7 @@ pub fn fit_and_validate(
             let held = if excitation.road { road_refit } else { &[] };
             let floors: Vec<Option<OutputFit>> = estimation
                 .iter()
-                .map(|run| nominal_fit(&run.name))
+                .map(|run| fit_of(&nominal_fits, &run.name))
                 .collect();
             let guarded = crate::no_trade::keep_every_run(
                 joint,
@@ -957,22 +959,7 @@ pub fn fit_and_validate(
                 initial,
                 &prefix,
             );
-            if let Some(scores) = &guarded.pooled_scores {
-                pooled_fits = estimation
-                    .iter()
-                    .zip(scores)
-                    .filter_map(|(run, score)| {
-                        let score = (*score)?;
-                        Some((
-                            run.name.clone(),
-                            OutputFit {
-                                height_percent: score.height_percent,
-                                pressure_percent: score.pressure_percent,
-                            },
-                        ))
-                    })
-                    .collect();
-            }
+            pooled_fits = crate::no_trade::pooled_fits(&guarded, &estimation);
             let joint = guarded.joint;
             // Everything reported below describes the fit whose model is validated.
             result.notes.extend(joint.load_notes.iter().cloned());
@@ -1102,12 +1089,6 @@ pub fn fit_and_validate(
             .push(format!("could not write the estimated truck file: {e}")),
     }
 
-    let pooled_fit = |name: &str| {
-        pooled_fits
-            .iter()
-            .find(|(run, _)| run == name)
-            .map(|(_, fit)| *fit)
-    };
     let mut responses = Vec::new();
     let mut validated_transitions: Vec<(String, Vec<f64>)> = Vec::new();
     for run in &input.runs {
@@ -1119,9 +1100,9 @@ pub fn fit_and_validate(
                 "validation"
             }
             .to_owned(),
-            nominal: nominal_fit(&run.name),
+            nominal: fit_of(&nominal_fits, &run.name),
             estimated: None,
-            pooled: pooled_fit(&run.name),
+            pooled: fit_of(&pooled_fits, &run.name),
             residuals: vec![],
             error: None,
         };

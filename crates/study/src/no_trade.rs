@@ -90,3 +90,21 @@ fn run_score(fit: OutputFit) -> RunScore {
         pressure_percent: fit.pressure_percent,
     }
 }
+
+/// The pooled estimate's fit of each of `runs` (the guarded problem's), by run name, where
+/// it traded some ([`Guarded::pooled_scores`]; empty where it traded none).
+pub fn pooled_fits(guarded: &Guarded, runs: &[&Run]) -> Vec<(String, Option<OutputFit>)> {
+    let Some(scores) = &guarded.pooled_scores else {
+        return Vec::new();
+    };
+    runs.iter()
+        .zip(scores)
+        .map(|(run, score)| {
+            let fit = score.map(|s| OutputFit {
+                height_percent: s.height_percent,
+                pressure_percent: s.pressure_percent,
+            });
+            (run.name.clone(), fit)
+        })
+        .collect()
+}

@@ -7,6 +7,7 @@
 mod common;
 
 use airsus_apps::weigh::{EkfTuning, weigh_ekf};
+use airsus_report::results::StudyResults;
 use airsus_study::{Protocol, StudyOptions, load_study, run_study};
 use common::{estimated_weigher, generated_run, scored};
 
@@ -35,25 +36,40 @@ fn worse_than_the_start(
     worse
 }
 
-#[test]
-fn every_thesis_model_gains_on_every_estimation_run() {
+/// Our protocol's study of `models` on member `variant` of the virtual truck family (seed 1;
+/// 0: the built-in truck), with `allow_trades`; the folder holds `data/` and `out/`.
+fn valve_study(
+    variant: u32,
+    models: &[&str],
+    allow_trades: bool,
+) -> (tempfile::TempDir, StudyResults) {
     let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("data");
-    let generated = airsus_truck::experiments::generate(&data, 1, &mut |_| {}).unwrap();
+    let generated = airsus_truck::experiments::generate_variant(
+        &dir.path().join("data"),
+        1,
+        variant,
+        &mut |_| {},
+    )
+    .unwrap();
     let input = load_study(&generated.study_valve).unwrap();
     let options = StudyOptions {
-        models: ["m1", "m2", "m2x", "m2xh", "m3"]
-            .map(str::to_owned)
-            .to_vec(),
+        models: models.iter().map(|m| (*m).to_owned()).collect(),
+        allow_trades,
         ..StudyOptions::new(vec![Protocol::from_roles(&input)])
     };
     let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
-    let protocol = &outcome.results.protocols[0];
+    (dir, outcome.results)
+}
+
+#[test]
+fn every_thesis_model_gains_on_every_estimation_run() {
+    let (dir, results) = valve_study(0, &["m1", "m2", "m2x", "m2xh", "m3"], false);
+    let data = dir.path().join("data");
+    let protocol = &results.protocols[0];
     let estimation_runs = ["data-set 1", "data-set 3", "levelling 1", "road 1"];
     // Model 3's OE is identified on the estimation run whose load and pressure are the least
     // correlated, and the submodel report says which.
-    let oe = outcome
-        .results
+    let oe = results
         .submodels
         .fits
         .iter()
@@ -201,16 +217,8 @@ fn every_thesis_model_gains_on_every_estimation_run() {
 /// load and pressure does not see (only the start's offset sets it), no weight brings back.
 #[test]
 fn model_3_keeps_the_refit_that_trades_least_where_none_trades_nothing() {
-    let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("data");
-    let generated = airsus_truck::experiments::generate_variant(&data, 1, 1, &mut |_| {}).unwrap();
-    let input = load_study(&generated.study_valve).unwrap();
-    let options = StudyOptions {
-        models: vec!["m3".to_owned()],
-        ..StudyOptions::new(vec![Protocol::from_roles(&input)])
-    };
-    let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
-    let m3 = &outcome.results.protocols[0].models[0];
+    let (_dir, results) = valve_study(1, &["m3"], false);
+    let m3 = &results.protocols[0].models[0];
     assert!(m3.error.is_none(), "{:?}", m3.error);
     assert!(
         m3.notes
@@ -240,18 +248,9 @@ fn model_3_keeps_the_refit_that_trades_least_where_none_trades_nothing() {
 /// levelling run's pressure worse than its start values, and the result says so.
 #[test]
 fn model_3_keeps_its_pooled_estimate_where_trades_are_allowed() {
-    let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("data");
-    let generated = airsus_truck::experiments::generate(&data, 1, &mut |_| {}).unwrap();
-    let input = load_study(&generated.study_valve).unwrap();
-    let options = StudyOptions {
-        models: vec!["m3".to_owned()],
-        allow_trades: true,
-        ..StudyOptions::new(vec![Protocol::from_roles(&input)])
-    };
-    let outcome = run_study(&input, &options, &dir.path().join("out"), &|_| {}).unwrap();
-    assert!(outcome.results.allow_trades);
-    let m3 = &outcome.results.protocols[0].models[0];
+    let (_dir, results) = valve_study(0, &["m3"], true);
+    assert!(results.allow_trades);
+    let m3 = &results.protocols[0].models[0];
     assert!(m3.error.is_none(), "{:?}", m3.error);
     assert!(
         m3.notes
