@@ -143,12 +143,16 @@ fn jacobian_full(
     fd_step: f64,
 ) -> (nalgebra::DMatrix<f64>, Vec<usize>) {
     let (part, failed) = ev.jacobian(z, cols, r, fd_step);
-    (full_columns(&part, cols, z.len()), failed)
+    (full_columns(part.as_view(), cols, z.len()), failed)
 }
 
 /// `part`'s columns (those of `cols`) placed at their parameter indices among `n`, the
 /// others zero.
-fn full_columns(part: &nalgebra::DMatrix<f64>, cols: &[usize], n: usize) -> nalgebra::DMatrix<f64> {
+fn full_columns(
+    part: nalgebra::DMatrixView<'_, f64>,
+    cols: &[usize],
+    n: usize,
+) -> nalgebra::DMatrix<f64> {
     let mut j = nalgebra::DMatrix::zeros(part.nrows(), n);
     for (k, &c) in cols.iter().enumerate() {
         j.set_column(c, &part.column(k));
@@ -341,14 +345,16 @@ pub fn estimate(
         };
         // The screen's Jacobian at the nominal point is the solver's first where it starts
         // there (the columns depend only on the point).
-        let start_jacobian = (z == z0).then(|| ColumnsAt {
-            z: z0.clone(),
-            columns: j0.select_columns(&active),
-            failed: failed0
-                .iter()
-                .copied()
-                .filter(|c| active.contains(c))
-                .collect(),
+        let start_jacobian = (z == z0).then(|| {
+            ColumnsAt::new(
+                z0.clone(),
+                j0.select_columns(&active),
+                failed0
+                    .iter()
+                    .copied()
+                    .filter(|c| active.contains(c))
+                    .collect(),
+            )
         });
         let outcome = fit(
             &ev,
@@ -366,7 +372,7 @@ pub fn estimate(
 
         observer.stage("Jacobian at the estimate");
         let (j, failed) = match outcome.jacobian {
-            Some(known) => (full_columns(&known.columns, &active, n), known.failed),
+            Some(known) => (full_columns(known.data(), &active, n), known.failed),
             None => jacobian_full(&ev, &z, &active, &residuals, options.fd_step),
         };
         lambda_post = noise_variance_from_residuals(&residuals, &blocks, active.len());

@@ -5,7 +5,7 @@ use std::cell::{Cell, RefCell};
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
 use nalgebra::storage::Owned;
-use nalgebra::{DMatrix, DVector, Dyn};
+use nalgebra::{DMatrix, DMatrixView, DVector, Dyn};
 
 use super::evaluate::Evaluator;
 use super::result::StopReason;
@@ -43,8 +43,26 @@ pub(crate) struct FitOutcome {
 /// columns whose simulations failed ([`Evaluator::jacobian`]).
 pub(crate) struct ColumnsAt {
     pub z: Vec<f64>,
-    pub columns: DMatrix<f64>,
+    /// The data rows, then (as the solver keeps it) zero rows where its penalty rows go.
+    columns: DMatrix<f64>,
+    data_rows: usize,
     pub failed: Vec<usize>,
+}
+
+impl ColumnsAt {
+    pub fn new(z: Vec<f64>, columns: DMatrix<f64>, failed: Vec<usize>) -> Self {
+        Self {
+            z,
+            data_rows: columns.nrows(),
+            columns,
+            failed,
+        }
+    }
+
+    /// The data Jacobian: a row per data residual, a column per active parameter.
+    pub fn data(&self) -> DMatrixView<'_, f64> {
+        self.columns.rows(0, self.data_rows)
+    }
 }
 
 struct Cached {
@@ -170,32 +188,43 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for LmFit<'_, '_, '_> {
             simulations: self.ev.simulations(),
             failed_simulations: self.ev.failures(),
         });
+        let p = self.active.len();
+        // The solver's matrix is the data rows then a penalty row per active parameter; it
+        // consumes it, so the columns kept for the caller are a copy.
         let known = self
             .last_jacobian
             .borrow()
             .as_ref()
             .filter(|known| known.z == self.z)
-            .map(|known| known.columns.clone());
-        let jd = match known {
-            Some(columns) => columns,
+            .map(|known| {
+                if known.columns.nrows() == n_data + p {
+                    known.columns.clone()
+                } else {
+                    let mut j = DMatrix::zeros(n_data + p, p);
+                    j.rows_mut(0, n_data).copy_from(&known.data());
+                    j
+                }
+            });
+        let mut j = match known {
+            Some(j) => j,
             None => {
-                let (columns, failed) = self.ev.jacobian(
+                let (columns, failed) = self.ev.jacobian_padded(
                     &self.z,
                     &self.active,
                     &r.as_slice()[..n_data],
                     self.settings.fd_step,
+                    p,
                 );
-                *self.last_jacobian.borrow_mut() = Some(ColumnsAt {
+                let kept = ColumnsAt {
                     z: self.z.clone(),
                     columns: columns.clone(),
+                    data_rows: n_data,
                     failed,
-                });
+                };
+                *self.last_jacobian.borrow_mut() = Some(kept);
                 columns
             }
         };
-        let p = self.active.len();
-        let mut j = DMatrix::zeros(n_data + p, p);
-        j.rows_mut(0, n_data).copy_from(&jd);
         for (k, &c) in self.active.iter().enumerate() {
             let (lo, hi) = self.ev.params[c].z_range();
             if self.z[c] < lo || self.z[c] > hi {
