@@ -411,8 +411,8 @@ impl<'a> Evaluator<'a> {
         self.residuals_at_into(z, &mut out).then_some(out)
     }
 
-    /// [`Self::residuals_at`] written into `out` (length [`Self::n_data`]); whether every run
-    /// simulated. `out` is left unspecified where one did not.
+    /// [`Self::residuals_at`] written into `out` (length [`Self::n_data`]); whether the model
+    /// accepted the values and every run simulated. `out` is left unspecified where not.
     fn residuals_at_into(&self, z: &[f64], out: &mut [f64]) -> bool {
         let theta = self.theta(z);
         match self.simulate(&theta) {
@@ -423,7 +423,7 @@ impl<'a> Evaluator<'a> {
 
     /// Forward-difference Jacobian `∂r/∂z` of the data residuals at `z` for the columns
     /// `cols` (indices into the freed parameters), given the residuals `r0` at `z`.
-    /// Columns are computed in parallel (rayon). The step is `+fd_step`, or `−fd_step` where
+    /// Columns are computed in parallel (rayon) unless the evaluator is serial. The step is `+fd_step`, or `−fd_step` where
     /// that would leave the box; if the simulation fails, the other direction is tried; if
     /// both fail, the column is zero, counted, and returned in the list of failed columns
     /// (freed-parameter indices: the identifiability screen then says the model does not
@@ -441,7 +441,8 @@ impl<'a> Evaluator<'a> {
     /// [`Self::jacobian`] with `pad` rows of zeros below the data rows (where the solver puts
     /// its penalty rows). Each column is simulated straight into its place in the matrix: the
     /// data Jacobian of the `truck` structure on two 25-min runs is 60,000 rows by 17
-    /// columns, and a column per run allocated, zeroed and copied in took a tenth of its fit.
+    /// columns, and a fresh vector per column, allocated, zeroed, then gathered into the
+    /// matrix and copied again below the penalty rows, took a tenth of its fit.
     pub fn jacobian_padded(
         &self,
         z: &[f64],
@@ -451,6 +452,11 @@ impl<'a> Evaluator<'a> {
         pad: usize,
     ) -> (DMatrix<f64>, Vec<usize>) {
         let m = r0.len();
+        debug_assert_eq!(
+            m,
+            self.n_data(),
+            "the residuals at z are the data residuals"
+        );
         let rows = m + pad;
         let mut jac = DMatrix::zeros(rows, cols.len());
         if rows == 0 || cols.is_empty() {

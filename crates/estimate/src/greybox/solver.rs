@@ -197,7 +197,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for LmFit<'_, '_, '_> {
             .as_ref()
             .filter(|known| known.z == self.z)
             .map(|known| {
-                if known.columns.nrows() == n_data + p {
+                if known.data_rows == n_data && known.columns.nrows() == n_data + p {
                     known.columns.clone()
                 } else {
                     let mut j = DMatrix::zeros(n_data + p, p);
