@@ -192,6 +192,33 @@ pub fn loss_at(problem: &GreyboxProblem<'_>, parallel: bool) -> Result<f64, Esti
     loss_and_steps_at(problem, parallel).map(|(loss, _)| loss)
 }
 
+/// Each run's sum of squared normalised residuals at `problem`'s model as it stands (the
+/// runs normalised together, as [`loss_at`] normalises them); infinite for a run that does
+/// not simulate. One simulation of each run.
+pub(crate) fn run_losses_at(
+    problem: &GreyboxProblem<'_>,
+    parallel: bool,
+) -> Result<Vec<f64>, EstimateError> {
+    let mut ev = as_it_stands(problem)?;
+    ev.parallel = parallel;
+    let responses = ev.simulate(&[])?;
+    let mut residuals = vec![0.0; ev.n_data()];
+    ev.residuals_into(&[], &responses, 0.0, &mut residuals);
+    let blocks = ev.blocks();
+    Ok(responses
+        .iter()
+        .enumerate()
+        .map(|(r, response)| match response {
+            Ok(_) => blocks[2 * r..2 * r + 2]
+                .iter()
+                .flat_map(|block| &residuals[block.clone()])
+                .map(|v| v * v)
+                .sum(),
+            Err(_) => f64::INFINITY,
+        })
+        .collect())
+}
+
 /// [`loss_at`], and the most solver steps (accepted and rejected) any run took.
 pub(crate) fn loss_and_steps_at(
     problem: &GreyboxProblem<'_>,
