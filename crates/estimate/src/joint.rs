@@ -19,7 +19,7 @@
 //! half as long again.
 
 use airsus_data::Run;
-use airsus_model::SuspensionModel;
+use airsus_model::{InitialCondition, SuspensionModel};
 use airsus_sim::InitialState;
 
 use crate::error::EstimateError;
@@ -470,7 +470,9 @@ pub fn estimation_start(
 
 /// A grey-box estimate whose runs start by `method` and whose logged load is fed as `load`
 /// says: the multi-start fit (from starts fitted to each run's first seconds under the start
-/// values, for `Prefix`), then the alternation ([`estimate_jointly`]; with
+/// values, for `Prefix`; where the starts are refitted with the parameters and those starts
+/// explain the runs far worse than the problem's own, from the problem's own:
+/// [`no_worse_than_equilibrium`]), then the alternation ([`estimate_jointly`]; with
 /// [`LoadRamp::Estimate`] and logged load changes, [`estimate_jointly_with_transitions`] from
 /// the one time [`fit_load_ramp`] fits under the first fit). What `airsus greybox`, Python's
 /// `greybox` and the study run. The problem's own starts are replaced for `Prefix`; for
@@ -488,20 +490,24 @@ pub fn estimate_with_starts(
     observer: &mut dyn crate::progress::Observer,
 ) -> Result<(JointEstimate, crate::greybox::MultiStartSummary), EstimateError> {
     let mut start_notes = Vec::new();
-    let mut start_simulations = 0;
+    let (mut start_simulations, mut start_failed) = (0, 0);
     let started = match method {
         StartMethod::Equilibrium => problem.clone(),
         StartMethod::Prefix => {
             estimation_start(problem.initial, Some(method))?;
             let fitted = prefix_starts(problem.model, &problem.runs, prefix);
-            start_simulations = 2 * problem.runs.len();
+            // Held starts are what the estimate is reported as fitted from: kept as fitted.
+            let start_states = if prefix.refit_starts {
+                let checked = no_worse_than_equilibrium(problem, fitted, options.parallel);
+                start_simulations = checked.simulations;
+                start_failed = checked.failed;
+                start_notes.extend(checked.note);
+                checked.starts
+            } else {
+                fitted
+            };
             GreyboxProblem {
-                start_states: no_worse_than_equilibrium(
-                    problem,
-                    fitted,
-                    options.parallel,
-                    &mut start_notes,
-                ),
+                start_states,
                 ..problem.clone()
             }
         }
@@ -529,6 +535,7 @@ pub fn estimate_with_starts(
         observer,
     )?;
     first.simulations += start_simulations;
+    first.failed_simulations += start_failed;
     // Only a lone start's fit is capped (the global stage compares its starts at their optima).
     let mut capped = summary.starts == 1 && lone_iterations < options.max_iterations;
     let mut notes = Vec::new();
@@ -588,13 +595,22 @@ pub fn estimate_with_starts(
 /// runs' prefixes may reach before the first fit is started from the problem's own
 /// ([`no_worse_than_equilibrium`]). Not 1: a run that does start at rest is explained a
 /// shade worse by a start fitted to its noisy prefix (Model 2 at the truth, on its own
-/// synthetic runs: 0.05 % worse), and the prefix starts are what the default is for.
+/// synthetic runs: 0.06 % worse), and the prefix starts are what the default is for.
 const FITTED_STARTS_MAX_LOSS_RATIO: f64 = 2.0;
+
+/// The starts [`no_worse_than_equilibrium`] chose, and what choosing cost.
+struct CheckedStarts {
+    starts: Vec<Option<InitialState>>,
+    note: Option<String>,
+    simulations: usize,
+    failed: usize,
+}
 
 /// `fitted` (each run's start fitted to its first seconds under `problem`'s start values),
 /// unless those starts explain the runs more than [`FITTED_STARTS_MAX_LOSS_RATIO`] times
-/// worse, summed over the whole runs, than the problem's own starts (static equilibrium,
-/// unless the caller gave them): then the problem's own, with a note.
+/// worse, summed over the whole runs, than the problem's own starts (static equilibrium at
+/// the first measured height, unless the caller gave starts): then the problem's own, each
+/// written out (so that a run is scored from the start it was fitted from), with a note.
 ///
 /// Why: a start fitted to a prefix under start values far from the data's explains the
 /// prefix by moving the states from equilibrium (the gas amount, the lever), and the rest of
@@ -603,37 +619,59 @@ const FITTED_STARTS_MAX_LOSS_RATIO: f64 = 2.0;
 /// moved: Model 2 started 50 % off in `p0`, `m2`, `rflow1`, `rflow2`, `a1` and 10-50 % in
 /// `p1`, `ig` (the reference truck's load steps and valve pulses) ended there at loss 845,
 /// its runs at −273 % and −11,073 % height NRMSE, where from equilibrium starts it reaches
-/// the truth's optimum (loss 0.0024). Its prefix starts explained the runs 200 times worse
-/// than the equilibrium (loss 198,001 against 995). Replaced on the run where they did
-/// worse than its own start alone (the valve pulses), the fit ended at loss 0.087; the
-/// load steps' prefix start explained its own run better, and held the parameters away.
-/// The alternation refits the starts once the parameters have moved.
+/// the optimum of a fit started at the truth (loss 0.0011). Its prefix starts' sum of
+/// squares was 1.4e9 against the equilibrium's 7.2e6. Replaced on the run where they did
+/// worse than its own start alone (the valve pulses), the fit ended at loss 0.087: the load
+/// steps' prefix start explained its own run better, and held the parameters away. The
+/// alternation refits the starts once the parameters have moved.
 fn no_worse_than_equilibrium(
     problem: &GreyboxProblem<'_>,
     fitted: Vec<Option<InitialState>>,
     parallel: bool,
-    notes: &mut Vec<String>,
-) -> Vec<Option<InitialState>> {
-    let own: Vec<Option<InitialState>> = (0..problem.runs.len())
-        .map(|i| problem.start_states.get(i).cloned().flatten())
+) -> CheckedStarts {
+    let own: Vec<Option<InitialState>> = problem
+        .runs
+        .iter()
+        .enumerate()
+        .map(|(i, run)| {
+            problem.start_states.get(i).cloned().flatten().or_else(|| {
+                run.outputs
+                    .as_ref()
+                    .and_then(|o| o.sensor_height_m.first())
+                    .map(|&h| {
+                        InitialState::Equilibrium(InitialCondition::SensorHeight { height_m: h })
+                    })
+            })
+        })
         .collect();
-    let with_fitted = GreyboxProblem {
-        start_states: fitted.clone(),
-        ..problem.clone()
+    let losses = |starts: &[Option<InitialState>]| {
+        crate::greybox::run_losses_at(
+            &GreyboxProblem {
+                start_states: starts.to_vec(),
+                ..problem.clone()
+            },
+            parallel,
+        )
     };
-    let with_own = GreyboxProblem {
-        start_states: own.clone(),
-        ..problem.clone()
+    let kept = |starts, simulations, failed| CheckedStarts {
+        starts,
+        note: None,
+        simulations,
+        failed,
     };
-    let (Ok(fitted_losses), Ok(own_losses)) = (
-        crate::greybox::run_losses_at(&with_fitted, parallel),
-        crate::greybox::run_losses_at(&with_own, parallel),
-    ) else {
-        return fitted;
+    let (Ok(fitted_losses), Ok(own_losses)) = (losses(&fitted), losses(&own)) else {
+        // A problem that does not evaluate: the fit says why.
+        return kept(fitted, 0, 0);
     };
+    let failed = fitted_losses
+        .iter()
+        .chain(&own_losses)
+        .filter(|l| l.is_infinite())
+        .count();
+    let simulations = 2 * problem.runs.len();
     let total = |losses: &[f64]| losses.iter().sum::<f64>();
     if !(total(&fitted_losses) > FITTED_STARTS_MAX_LOSS_RATIO * total(&own_losses)) {
-        return fitted;
+        return kept(fitted, simulations, failed);
     }
     let runs: Vec<String> = (0..problem.runs.len())
         .filter(|&i| fitted[i].is_some())
@@ -644,16 +682,20 @@ fn no_worse_than_equilibrium(
             )
         })
         .collect();
-    notes.push(format!(
-        "the starts fitted to the runs' first seconds under the start values explained the runs more than {FITTED_STARTS_MAX_LOSS_RATIO} times worse than {} (sum of squares: {}): the first fit starts the runs so, and the rounds after it refit the starts under its parameters",
-        if problem.start_states.iter().any(Option::is_some) {
-            "the starts given"
-        } else {
-            "the static equilibrium"
-        },
-        runs.join("; ")
-    ));
-    own
+    let own_described = if problem.start_states.iter().any(Option::is_some) {
+        "the starts given"
+    } else {
+        "the static equilibrium at each run's first height"
+    };
+    CheckedStarts {
+        note: Some(format!(
+            "under the start values, the starts fitted to the runs' first seconds explained the runs more than {FITTED_STARTS_MAX_LOSS_RATIO} times worse than {own_described} (sum of squares: {}): the first fit starts the runs from {own_described}, and the rounds after it refit the starts under its parameters",
+            runs.join("; ")
+        )),
+        starts: own,
+        simulations,
+        failed,
+    }
 }
 
 /// `first`, a fit of `started` held to the first fit's cap, continued with `options` from

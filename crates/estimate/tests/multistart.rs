@@ -247,7 +247,7 @@ fn starts_fitted_under_far_off_values_do_not_hold_the_fit_there() {
     .unwrap();
     assert!(
         joint.load_notes.iter().any(|n| n.starts_with(
-            "the starts fitted to the runs' first seconds under the start values explained the runs more than 2 times worse than the static equilibrium"
+            "under the start values, the starts fitted to the runs' first seconds explained the runs more than 2 times worse than the static equilibrium at each run's first height"
         ) && n.contains("valve pulses")),
         "{:?}",
         joint.load_notes
@@ -270,6 +270,28 @@ fn starts_fitted_under_far_off_values_do_not_hold_the_fit_there() {
             "{name}: {got} from far off, {want} from the truth"
         );
     }
+    // Held starts (`--initial-state prefix`) are what the estimate says it was fitted from:
+    // they are kept as fitted.
+    let held = PrefixOptions {
+        refit_starts: false,
+        ..PrefixOptions::default()
+    };
+    let (from_held, _) = estimate_with_starts(
+        &off,
+        &options,
+        &lone,
+        StartMethod::Prefix,
+        &held,
+        LoadRamp::Logged,
+        &mut NoProgress,
+    )
+    .unwrap();
+    assert!(from_held.starts_held);
+    assert!(
+        from_held.load_notes.is_empty(),
+        "{:?}",
+        from_held.load_notes
+    );
     // Every run explained as from the truth: the valve pulses' height within a point.
     for (fit, reference) in joint.estimate.fits.iter().zip(&reference.estimate.fits) {
         let (got, want) = (
