@@ -94,6 +94,10 @@ pub struct JointEstimate {
     pub load_ramp_s: Option<f64>,
     /// What the load easing did, one line each, for a report.
     pub load_notes: Vec<String>,
+    /// What the check of the estimation runs' starts did, one line each, for a report
+    /// (starts fitted under far-off start values not used for the first fit:
+    /// [`estimate_with_starts`]).
+    pub start_notes: Vec<String>,
     /// The estimation runs' starts were fitted once to their prefixes under the start values
     /// and held ([`PrefixOptions::refit_starts`] false), not refitted with the parameters.
     pub starts_held: bool,
@@ -109,6 +113,7 @@ impl JointEstimate {
             transitions_s: None,
             load_ramp_s: None,
             load_notes: vec![],
+            start_notes: vec![],
             starts_held: false,
         }
     }
@@ -400,6 +405,7 @@ fn alternate(
         transitions_s: current_durations,
         load_ramp_s: None,
         load_notes: Vec::new(),
+        start_notes: Vec::new(),
         starts_held: false,
     }
 }
@@ -586,8 +592,8 @@ pub fn estimate_with_starts(
     if common_s.is_some() {
         refit_common_ramp(&mut joint, &started, &mut notes);
     }
-    start_notes.append(&mut notes);
-    joint.load_notes = start_notes;
+    joint.load_notes = notes;
+    joint.start_notes = start_notes;
     Ok((joint, summary))
 }
 
@@ -864,6 +870,7 @@ pub fn continue_jointly(
         }
     }
     joint.load_notes = notes;
+    joint.start_notes.clone_from(&previous.start_notes);
     Ok(joint)
 }
 

@@ -216,9 +216,9 @@ fn starts_fitted_under_far_off_values_do_not_hold_the_fit_there() {
     )
     .unwrap();
     assert!(
-        reference.load_notes.is_empty(),
+        reference.start_notes.is_empty(),
         "{:?}",
-        reference.load_notes
+        reference.start_notes
     );
 
     let start = perturbed(
@@ -246,11 +246,11 @@ fn starts_fitted_under_far_off_values_do_not_hold_the_fit_there() {
     )
     .unwrap();
     assert!(
-        joint.load_notes.iter().any(|n| n.starts_with(
+        joint.start_notes.iter().any(|n| n.starts_with(
             "under the start values, the starts fitted to the runs' first seconds explained the runs more than 2 times worse than the static equilibrium at each run's first height"
         ) && n.contains("valve pulses")),
         "{:?}",
-        joint.load_notes
+        joint.start_notes
     );
     let (got, want) = (
         joint.estimate.loss_estimated,
@@ -288,9 +288,9 @@ fn starts_fitted_under_far_off_values_do_not_hold_the_fit_there() {
     .unwrap();
     assert!(from_held.starts_held);
     assert!(
-        from_held.load_notes.is_empty(),
+        from_held.start_notes.is_empty(),
         "{:?}",
-        from_held.load_notes
+        from_held.start_notes
     );
     // Every run explained as from the truth: the valve pulses' height within a point.
     for (fit, reference) in joint.estimate.fits.iter().zip(&reference.estimate.fits) {

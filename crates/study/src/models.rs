@@ -962,6 +962,7 @@ pub fn fit_and_validate(
             pooled_fits = crate::no_trade::pooled_fits(&guarded, &estimation);
             let joint = guarded.joint;
             // Everything reported below describes the fit whose model is validated.
+            result.notes.extend(joint.start_notes.iter().cloned());
             result.notes.extend(joint.load_notes.iter().cloned());
             if initial == StartMethod::Prefix || joint.transitions_s.is_some() {
                 result.notes.push(joint.describe(prefix.prefix_s));

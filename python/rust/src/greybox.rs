@@ -154,6 +154,13 @@ fn run_greybox(
         StartMethod::Prefix => joint.describe(PrefixOptions::default().prefix_s),
         StartMethod::Equilibrium => "every run starts in static equilibrium".to_owned(),
     };
+    let start = joint
+        .start_notes
+        .iter()
+        .chain(std::iter::once(&start))
+        .cloned()
+        .collect::<Vec<_>>()
+        .join("\n");
     let load = joint.load_notes.join("\n");
     let load_transitions_s = joint
         .fitted_transitions_s()

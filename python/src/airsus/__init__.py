@@ -522,7 +522,8 @@ class GreyboxResult:
         stop_reason: why the solver stopped, as the command prints it.
         converged: whether that is a (local) minimum.
         start: how the runs started, in words (for prefix starts, the joint estimate's
-            rounds).
+            rounds; first, where the starts fitted under the start values were not used for
+            the first fit, why).
         load: what easing the logged load did, in words ("" when the runs have no load
             changes or ``load_ramp="logged"``).
         load_transitions_s: per run (in the order given), each logged load change's own

@@ -334,7 +334,7 @@ pub fn run(args: &GreyboxArgs) -> anyhow::Result<()> {
     // stderr (with --json too, as the notes are).
     let guarded = keep_every_run_by_fits(joint, &problem, &options, prefix_if, &mut StageLines);
     let joint = guarded.joint;
-    for note in &joint.load_notes {
+    for note in joint.start_notes.iter().chain(&joint.load_notes) {
         eprintln!("{note}");
     }
     if start == StartMethod::Prefix || joint.transitions_s.is_some() {
