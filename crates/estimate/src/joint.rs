@@ -19,7 +19,7 @@
 //! half as long again.
 
 use airsus_data::Run;
-use airsus_model::{InitialCondition, SuspensionModel};
+use airsus_model::SuspensionModel;
 use airsus_sim::InitialState;
 
 use crate::error::EstimateError;
@@ -641,12 +641,10 @@ fn no_worse_than_equilibrium(
         .enumerate()
         .map(|(i, run)| {
             problem.start_states.get(i).cloned().flatten().or_else(|| {
-                run.outputs
-                    .as_ref()
-                    .and_then(|o| o.sensor_height_m.first())
-                    .map(|&h| {
-                        InitialState::Equilibrium(InitialCondition::SensorHeight { height_m: h })
-                    })
+                problem
+                    .initial
+                    .condition(run)
+                    .map(InitialState::Equilibrium)
             })
         })
         .collect();

@@ -206,16 +206,22 @@ fn starts_fitted_under_far_off_values_do_not_hold_the_fit_there() {
         count: 1,
         ..MultiStart::default()
     };
-    let (reference, _) = estimate_with_starts(
-        &at_truth,
-        &options,
-        &lone,
-        StartMethod::Prefix,
-        &PrefixOptions::default(),
-        LoadRamp::Logged,
-        &mut NoProgress,
-    )
-    .unwrap();
+    // One start, starts fitted to the runs' prefixes, as `greybox` and the study fit.
+    let fit = |problem: &GreyboxProblem<'_>, prefix: &PrefixOptions, load: LoadRamp| {
+        estimate_with_starts(
+            problem,
+            &options,
+            &lone,
+            StartMethod::Prefix,
+            prefix,
+            load,
+            &mut NoProgress,
+        )
+        .unwrap()
+        .0
+    };
+    let joint_starts = PrefixOptions::default();
+    let reference = fit(&at_truth, &joint_starts, LoadRamp::Logged);
     assert!(
         reference.start_notes.is_empty(),
         "{:?}",
@@ -236,16 +242,7 @@ fn starts_fitted_under_far_off_values_do_not_hold_the_fit_there() {
         ],
     );
     let off = GreyboxProblem::new(&*start, &[&steps, &pulses], &free);
-    let (joint, _) = estimate_with_starts(
-        &off,
-        &options,
-        &lone,
-        StartMethod::Prefix,
-        &PrefixOptions::default(),
-        LoadRamp::Logged,
-        &mut NoProgress,
-    )
-    .unwrap();
+    let joint = fit(&off, &joint_starts, LoadRamp::Logged);
     assert!(
         joint.start_notes.iter().any(|n| n.starts_with(
             "under the start values, the starts fitted to the runs' first seconds explained the runs more than 2 times worse than the static equilibrium at each run's first height"
@@ -275,16 +272,7 @@ fn starts_fitted_under_far_off_values_do_not_hold_the_fit_there() {
     // round's 15 iterations (loss 0.0042 there), is finished before easing is judged, and the
     // finished fit is the optimum: no round improves on it. (Not finished, two rounds of
     // the alternation reach the same optimum from the capped fit.)
-    let (eased, _) = estimate_with_starts(
-        &off,
-        &options,
-        &lone,
-        StartMethod::Prefix,
-        &PrefixOptions::default(),
-        LoadRamp::Estimate,
-        &mut NoProgress,
-    )
-    .unwrap();
+    let eased = fit(&off, &joint_starts, LoadRamp::Estimate);
     let got = eased.estimate.loss_estimated;
     assert!(
         got <= want * (1.0 + 1e-3),
@@ -302,16 +290,7 @@ fn starts_fitted_under_far_off_values_do_not_hold_the_fit_there() {
         refit_starts: false,
         ..PrefixOptions::default()
     };
-    let (from_held, _) = estimate_with_starts(
-        &off,
-        &options,
-        &lone,
-        StartMethod::Prefix,
-        &held,
-        LoadRamp::Logged,
-        &mut NoProgress,
-    )
-    .unwrap();
+    let from_held = fit(&off, &held, LoadRamp::Logged);
     assert!(from_held.starts_held);
     assert!(
         from_held.start_notes.is_empty(),

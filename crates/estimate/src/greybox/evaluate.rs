@@ -14,7 +14,7 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use airsus_data::{EffectiveAreaLaw, ForceMap, Run};
-use airsus_model::{InitialCondition, ModelError, SuspensionModel};
+use airsus_model::{ModelError, SuspensionModel};
 use airsus_sim::{
     InitialState, InputSeries, SimError, SimulationProblem, SimulationResponse, SolverOptions,
     simulate,
@@ -22,7 +22,7 @@ use airsus_sim::{
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use super::problem::{ForceMapPrior, GreyboxProblem, InitialChoice, Normalisation};
+use super::problem::{ForceMapPrior, GreyboxProblem, Normalisation};
 use crate::error::EstimateError;
 
 /// Sensor resolutions (SPEC §1), the floors of the normalisation: a run whose height or
@@ -423,11 +423,12 @@ impl<'a> Evaluator<'a> {
 
     /// Forward-difference Jacobian `∂r/∂z` of the data residuals at `z` for the columns
     /// `cols` (indices into the freed parameters), given the residuals `r0` at `z`.
-    /// Columns are computed in parallel (rayon) unless the evaluator is serial. The step is `+fd_step`, or `−fd_step` where
-    /// that would leave the box; if the simulation fails, the other direction is tried; if
-    /// both fail, the column is zero, counted, and returned in the list of failed columns
-    /// (freed-parameter indices: the identifiability screen then says the model does not
-    /// simulate there, not that the outputs do not depend on the parameter).
+    /// Columns are computed in parallel (rayon) unless the evaluator is serial. The step is
+    /// `+fd_step`, or `−fd_step` where that would leave the box; if the simulation fails,
+    /// the other direction is tried; if both fail, the column is zero, counted, and
+    /// returned in the list of failed columns (freed-parameter indices: the identifiability
+    /// screen then says the model does not simulate there, not that the outputs do not
+    /// depend on the parameter).
     pub fn jacobian(
         &self,
         z: &[f64],
@@ -550,14 +551,10 @@ fn run_data<'a>(
         }
     }
     let inputs = InputSeries::from_run(run).map_err(|e| invalid(e.to_string()))?;
-    let ic = match problem.initial {
-        InitialChoice::SensorHeight => InitialCondition::SensorHeight {
-            height_m: outputs.sensor_height_m[0],
-        },
-        InitialChoice::BellowPressure => InitialCondition::BellowPressure {
-            gauge_pa: outputs.bellow_gauge_pa[0],
-        },
-    };
+    let ic = problem
+        .initial
+        .condition(run)
+        .ok_or_else(|| invalid("it has no first measured sample".to_owned()))?;
     // The spread normalisation is pooled over all runs afterwards (Evaluator::new).
     Ok(RunData {
         name: run.name.clone(),

@@ -192,6 +192,20 @@ pub fn loss_at(problem: &GreyboxProblem<'_>, parallel: bool) -> Result<f64, Esti
     loss_and_steps_at(problem, parallel).map(|(loss, _)| loss)
 }
 
+/// `problem`'s model as it stands, each run simulated once (in parallel if `parallel`), and
+/// the normalised residuals of those simulations (0 for a run that did not simulate).
+fn residuals_as_it_stands<'a>(
+    problem: &GreyboxProblem<'a>,
+    parallel: bool,
+) -> Result<(Evaluator<'a>, Responses, Vec<f64>), EstimateError> {
+    let mut ev = as_it_stands(problem)?;
+    ev.parallel = parallel;
+    let responses = ev.simulate(&[])?;
+    let mut residuals = vec![0.0; ev.n_data()];
+    ev.residuals_into(&[], &responses, 0.0, &mut residuals);
+    Ok((ev, responses, residuals))
+}
+
 /// Each run's sum of squared normalised residuals at `problem`'s model as it stands (the
 /// runs normalised together, as [`loss_at`] normalises them); infinite for a run that does
 /// not simulate. One simulation of each run.
@@ -199,11 +213,7 @@ pub(crate) fn run_losses_at(
     problem: &GreyboxProblem<'_>,
     parallel: bool,
 ) -> Result<Vec<f64>, EstimateError> {
-    let mut ev = as_it_stands(problem)?;
-    ev.parallel = parallel;
-    let responses = ev.simulate(&[])?;
-    let mut residuals = vec![0.0; ev.n_data()];
-    ev.residuals_into(&[], &responses, 0.0, &mut residuals);
+    let (ev, responses, residuals) = residuals_as_it_stands(problem, parallel)?;
     let blocks = ev.blocks();
     Ok(responses
         .iter()
@@ -224,13 +234,8 @@ pub(crate) fn loss_and_steps_at(
     problem: &GreyboxProblem<'_>,
     parallel: bool,
 ) -> Result<(f64, usize), EstimateError> {
-    let mut ev = as_it_stands(problem)?;
-    ev.parallel = parallel;
-    let responses = ev.simulate(&[])?;
+    let (ev, responses, residuals) = residuals_as_it_stands(problem, parallel)?;
     all_simulated(&ev, &responses)?;
-    let n_data = ev.n_data();
-    let mut residuals = vec![0.0; n_data];
-    ev.residuals_into(&[], &responses, 0.0, &mut residuals);
     let steps = responses
         .iter()
         .flatten()
@@ -238,7 +243,7 @@ pub(crate) fn loss_and_steps_at(
         .max()
         .unwrap_or(0);
     Ok((
-        residuals.iter().map(|r| r * r).sum::<f64>() / n_data as f64,
+        residuals.iter().map(|r| r * r).sum::<f64>() / residuals.len() as f64,
         steps,
     ))
 }

@@ -4,7 +4,7 @@
 use crate::error::EstimateError;
 use crate::submodel::{EffectiveAreaOptions, sweep_friction_n};
 use airsus_data::{EffectiveAreaLaw, ForceMap, Run};
-use airsus_model::SuspensionModel;
+use airsus_model::{InitialCondition, SuspensionModel};
 use airsus_sim::{InitialState, SolverOptions};
 
 /// One freed parameter: a short name of the model (SPEC §5, `parameter_info`) and optional
@@ -45,6 +45,22 @@ pub enum InitialChoice {
     SensorHeight,
     /// The first measured bellow pressure.
     BellowPressure,
+}
+
+impl InitialChoice {
+    /// What fixes `run`'s static equilibrium: its first measured height or pressure; `None`
+    /// where the run has no measured outputs.
+    pub(crate) fn condition(self, run: &Run) -> Option<InitialCondition> {
+        let outputs = run.outputs.as_ref()?;
+        Some(match self {
+            Self::SensorHeight => InitialCondition::SensorHeight {
+                height_m: *outputs.sensor_height_m.first()?,
+            },
+            Self::BellowPressure => InitialCondition::BellowPressure {
+                gauge_pa: *outputs.bellow_gauge_pa.first()?,
+            },
+        })
+    }
 }
 
 /// How the residuals are made dimensionless and weighed against each other.
