@@ -33,6 +33,11 @@ def test_greybox_recovers_a_parameter(reference: Path, short_run: Path) -> None:
     assert fit.estimates.loc["p0", "estimate"] == pytest.approx(truth["p0"], abs=1e-4)
     assert fit.estimates.loc["p0", "nominal"] == nominal["p0"]
     assert bool(fit.estimates.loc["p0", "identifiable"])
+    # Both standard deviations: as if white, and with residuals correlated in time.
+    assert fit.estimates.loc["p0", "std"] > 0
+    assert fit.estimates.loc["p0", "std_correlated"] > 0
+    reported = fit.report["parameters"][0]["std_correlated"]
+    assert reported == fit.estimates.loc["p0", "std_correlated"]
     assert fit.truck["p0"] == fit.estimates.loc["p0", "estimate"]
     assert fit.truck["m2"] == nominal["m2"], "only the freed parameter moves"
     assert fit.trades is None, "nothing was traded: one run, one parameter"

@@ -573,15 +573,17 @@ fn protocol_section(h: &mut String, results: &StudyResults, p: &ProtocolResult) 
             let _ = write!(h, "<p class=\"error\">This model failed: {}</p>", esc(e));
         }
         if !m.estimates.is_empty() {
-            h.push_str("<table><tr><th>parameter</th><th>nominal</th><th>estimate</th><th>± std</th><th>unit</th><th>determined by the runs</th></tr>");
+            h.push_str("<table><tr><th>parameter</th><th>nominal</th><th>estimate</th><th>± std</th><th>± std, correlated residuals</th><th>unit</th><th>determined by the runs</th></tr>");
             for e in &m.estimates {
                 let _ = write!(
                     h,
-                    "<tr><td>{}</td><td class=\"num\">{:.5e}</td><td class=\"num\">{:.5e}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td></tr>",
+                    "<tr><td>{}</td><td class=\"num\">{:.5e}</td><td class=\"num\">{:.5e}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td></tr>",
                     esc(&e.name),
                     e.nominal,
                     e.estimate,
                     e.std.map_or("–".to_owned(), |s| format!("{s:.2e}")),
+                    e.std_correlated
+                        .map_or("–".to_owned(), |s| format!("{s:.2e}")),
                     esc(&e.unit),
                     if e.identifiable {
                         "yes".to_owned()
@@ -724,6 +726,7 @@ mod tests {
                     nominal: 520.0,
                     estimate: 561.0,
                     std: Some(3.0),
+                    std_correlated: Some(30.0),
                     identifiable: true,
                     not_identifiable_because: None,
                 },
@@ -733,6 +736,7 @@ mod tests {
                     nominal: 2.5e6,
                     estimate: 2.5e6,
                     std: None,
+                    std_correlated: None,
                     identifiable: false,
                     not_identifiable_because: Some(
                         "no sensitivity: the outputs do not depend on it in these runs".to_owned(),

@@ -232,7 +232,12 @@ pub struct ParameterEstimate {
     pub unit: String,
     pub nominal: f64,
     pub estimate: f64,
+    /// One standard deviation as if the residuals were white.
     pub std: Option<f64>,
+    /// One standard deviation allowing for residuals correlated in time (overlapping batch
+    /// means): the honest one where a model's misfit is slow, as it mostly is.
+    #[serde(default)]
+    pub std_correlated: Option<f64>,
     /// False when the estimation runs cannot determine it; it is then kept at its start
     /// value: the nominal one, or the draw of the global stage's start that won.
     pub identifiable: bool,
@@ -563,6 +568,7 @@ mod tests {
             nominal: 520.0,
             estimate: 560.0,
             std: Some(3.0),
+            std_correlated: Some(30.0),
             identifiable: true,
             not_identifiable_because: None,
         });
@@ -626,6 +632,7 @@ mod tests {
             "protocols[].models[].estimates[].not_identifiable_because",
             "protocols[].models[].estimates[].nominal",
             "protocols[].models[].estimates[].std",
+            "protocols[].models[].estimates[].std_correlated",
             "protocols[].models[].estimates[].unit",
             "protocols[].models[].estimation_time_s",
             "protocols[].models[].failed_simulations",

@@ -1051,6 +1051,7 @@ pub fn fit_and_validate(
                     nominal: nominal.parameter(&p.name).unwrap_or(p.nominal),
                     estimate: p.estimate,
                     std: p.std,
+                    std_correlated: p.std_correlated,
                     identifiable: !est.is_not_identifiable(&p.name),
                     not_identifiable_because: est
                         .identifiability
@@ -1238,6 +1239,7 @@ mod tests {
             nominal: 1.0,
             estimate,
             std: (status == ParameterStatus::Estimated).then_some(0.01),
+            std_correlated: (status == ParameterStatus::Estimated).then_some(0.1),
             lower: 0.0,
             upper: 10.0,
             status,

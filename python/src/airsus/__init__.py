@@ -517,8 +517,11 @@ class GreyboxResult:
 
     Attributes:
         truck: the truck with the estimates written back (what ``--out`` writes).
-        estimates: DataFrame indexed by parameter: ``unit, nominal, estimate, std, min, max,
-            status, identifiable`` (``std`` NaN where fixed, at a bound or undetermined).
+        estimates: DataFrame indexed by parameter: ``unit, nominal, estimate, std,
+            std_correlated, min, max, status, identifiable`` (``std`` as if the residuals
+            were white, ``std_correlated`` allowing for residuals correlated in time, the
+            honest one where a model's misfit is slow; both NaN where fixed, at a bound or
+            undetermined).
         stop_reason: why the solver stopped, as the command prints it.
         converged: whether that is a (local) minimum.
         start: how the runs started, in words (for prefix starts, the joint estimate's
@@ -562,6 +565,7 @@ class GreyboxResult:
                 "nominal": [_num(p["nominal"]) for p in parameters],
                 "estimate": [_num(p["estimate"]) for p in parameters],
                 "std": [_num(p["std"]) for p in parameters],
+                "std_correlated": [_num(p.get("std_correlated")) for p in parameters],
                 "min": [_num(p["lower"]) for p in parameters],
                 "max": [_num(p["upper"]) for p in parameters],
                 "status": [p["status"] for p in parameters],

@@ -71,7 +71,7 @@ pub(crate) struct RunData<'a> {
 }
 
 impl RunData<'_> {
-    fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.height.len()
     }
 

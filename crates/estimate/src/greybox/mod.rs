@@ -44,7 +44,7 @@ pub use problem::{
 };
 pub use result::{
     Correlation, EstimatedParameter, GreyboxEstimate, IdentifiabilityReport, ParameterStatus,
-    RunFit, StopReason,
+    ResidualBatches, RunFit, StopReason,
 };
 
 use airsus_validate::nrmse_percent;
@@ -53,7 +53,9 @@ use crate::error::EstimateError;
 use crate::progress::Observer;
 pub(crate) use evaluate::measurement_noise;
 use evaluate::{Evaluator, Responses, noise_variance_from_data};
-use identifiability::{Screen, analyse, correlation, linearise, select_identifiable};
+use identifiability::{
+    Screen, analyse, correlated_covariance, correlation, linearise, select_identifiable,
+};
 use solver::{ColumnsAt, FitSettings, fit};
 
 /// After a fit, parameters found undetermined are fixed and the rest refitted, at most this
@@ -488,7 +490,7 @@ pub fn estimate(
 
     // Uncertainty of the estimated parameters at the final point.
     observer.stage("uncertainty and report");
-    let (after, cov) = match (&final_j, active.is_empty()) {
+    let (after, cov, correlated) = match (&final_j, active.is_empty()) {
         (Some(j), false) => {
             let live: Vec<usize> = active
                 .iter()
@@ -510,9 +512,18 @@ pub fn estimate(
                 &lambda_post,
                 options.rcond,
             );
-            (Some(after), lin.covariance.map(|c| (live, c)))
+            // The same sandwich with residuals correlated in time allowed for.
+            let correlated = correlated_covariance(
+                &j.select_columns(&live),
+                &residuals,
+                &blocks,
+                &lambda_post,
+                ev.runs.len(),
+                options.rcond,
+            );
+            (Some(after), lin.covariance.map(|c| (live, c)), correlated)
         }
-        _ => (None, None),
+        _ => (None, None, None),
     };
     let theta = ev.theta(&z);
     let mut parameters = Vec::with_capacity(n);
@@ -520,11 +531,15 @@ pub fn estimate(
         let flagged = not_identifiable.iter().any(|m| m.name == p.name);
         let (lo, hi) = p.z_range();
         let at_bound = z[i] <= lo + 1e-9 || z[i] >= hi - 1e-9;
-        let std = cov.as_ref().and_then(|(live, c)| {
-            live.iter()
-                .position(|&l| l == i)
-                .map(|k| p.scale * c[(k, k)].sqrt())
-        });
+        let column = cov
+            .as_ref()
+            .and_then(|(live, _)| live.iter().position(|&l| l == i));
+        let std = column
+            .zip(cov.as_ref())
+            .map(|(k, (_, c))| p.scale * c[(k, k)].sqrt());
+        let std_correlated = column
+            .zip(correlated.as_ref())
+            .map(|(k, c)| p.scale * c.covariance[(k, k)].sqrt());
         let status = if flagged && fix {
             ParameterStatus::FixedNotIdentifiable
         } else if flagged {
@@ -541,6 +556,10 @@ pub fn estimate(
             estimate: theta[i],
             std: match status {
                 ParameterStatus::Estimated | ParameterStatus::NotIdentifiable => std,
+                _ => None,
+            },
+            std_correlated: match status {
+                ParameterStatus::Estimated | ParameterStatus::NotIdentifiable => std_correlated,
                 _ => None,
             },
             lower: p.lower,
@@ -596,6 +615,19 @@ pub fn estimate(
         loss_nominal: loss0 / n_data as f64,
         loss_estimated: r_final.iter().map(|r| r * r).sum::<f64>() / n_data as f64,
         gradient_norm,
+        residual_batches: correlated
+            .map(|c| {
+                ev.runs
+                    .iter()
+                    .zip(c.batch_samples)
+                    .map(|(run, batch_samples)| ResidualBatches {
+                        run: run.name.clone(),
+                        samples: run.len(),
+                        batch_samples,
+                    })
+                    .collect()
+            })
+            .unwrap_or_default(),
         elapsed_s: started.elapsed().as_secs_f64(),
         estimated_model,
     })

@@ -95,9 +95,15 @@ pub struct EstimatedParameter {
     pub unit: String,
     pub nominal: f64,
     pub estimate: f64,
-    /// One standard deviation (module docs of `identifiability`); `None` when fixed, at a
-    /// bound or undetermined.
+    /// One standard deviation (module docs of `identifiability`) as if the residuals were
+    /// white; `None` when fixed, at a bound or undetermined.
     pub std: Option<f64>,
+    /// One standard deviation allowing for residuals correlated in time (overlapping batch
+    /// means of the scores, [`GreyboxEstimate::residual_batches`]): what a model's slow
+    /// misfit leaves of the white `std`'s 15,000 independent samples per run. Coarse (a run
+    /// holds few correlation times) and biased low, but on the virtual truck 5-50 times the
+    /// white one, which understates the uncertainty by that much. `None` where `std` is.
+    pub std_correlated: Option<f64>,
     pub lower: f64,
     pub upper: f64,
     pub status: ParameterStatus,
@@ -134,6 +140,15 @@ pub struct Correlation {
     pub values: Vec<Vec<f64>>,
 }
 
+/// The batches [`EstimatedParameter::std_correlated`] summed one run's scores over.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResidualBatches {
+    pub run: String,
+    pub samples: usize,
+    /// Samples per (overlapping) batch: Andrews' bandwidth for the run's score series.
+    pub batch_samples: usize,
+}
+
 /// The result of [`super::estimate`].
 #[derive(Debug, Serialize)]
 pub struct GreyboxEstimate {
@@ -159,6 +174,9 @@ pub struct GreyboxEstimate {
     /// coordinates (a parameter's offset from nominal in units of its scale); `None` when no
     /// parameter was left free or the final Jacobian is missing.
     pub gradient_norm: Option<f64>,
+    /// Per estimation run, how [`EstimatedParameter::std_correlated`] was estimated; empty
+    /// where it was not.
+    pub residual_batches: Vec<ResidualBatches>,
     pub elapsed_s: f64,
     /// The model with the estimated parameters (write it back with
     /// [`SuspensionModel::write_parameters`]).
@@ -257,8 +275,8 @@ impl fmt::Display for GreyboxEstimate {
         writeln!(f)?;
         writeln!(
             f,
-            "{:<8} {:>14} {:>14} {:>12} {:>8}  status",
-            "param", "nominal", "estimate", "± std", "unit"
+            "{:<8} {:>14} {:>14} {:>12} {:>12} {:>8}  status",
+            "param", "nominal", "estimate", "± std", "± std corr.", "unit"
         )?;
         for p in &self.parameters {
             let status = match p.status {
@@ -269,13 +287,26 @@ impl fmt::Display for GreyboxEstimate {
             };
             writeln!(
                 f,
-                "{:<8} {:>14.6e} {:>14.6e} {:>12} {:>8}  {}",
+                "{:<8} {:>14.6e} {:>14.6e} {:>12} {:>12} {:>8}  {}",
                 p.name,
                 p.nominal,
                 p.estimate,
                 p.std.map_or_else(|| "—".to_owned(), |s| format!("{s:.3e}")),
+                p.std_correlated
+                    .map_or_else(|| "—".to_owned(), |s| format!("{s:.3e}")),
                 p.unit,
                 status
+            )?;
+        }
+        if !self.residual_batches.is_empty() {
+            writeln!(
+                f,
+                "(± std: white residuals; ± std corr.: residuals correlated in time allowed for, overlapping batches of {})",
+                self.residual_batches
+                    .iter()
+                    .map(|b| format!("{} of {} samples in {}", b.batch_samples, b.samples, b.run))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             )?;
         }
         let id = &self.identifiability;
