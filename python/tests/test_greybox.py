@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pandas as pd
@@ -33,9 +34,10 @@ def test_greybox_recovers_a_parameter(reference: Path, short_run: Path) -> None:
     assert fit.estimates.loc["p0", "estimate"] == pytest.approx(truth["p0"], abs=1e-4)
     assert fit.estimates.loc["p0", "nominal"] == nominal["p0"]
     assert bool(fit.estimates.loc["p0", "identifiable"])
-    # Both standard deviations: as if white, and with residuals correlated in time.
-    assert fit.estimates.loc["p0", "std"] > 0
-    assert fit.estimates.loc["p0", "std_correlated"] > 0
+    # Both standard deviations: as if white, and with residuals correlated in time (here
+    # of the solver's round-off: the data are noise-free).
+    assert math.isfinite(fit.estimates.loc["p0", "std"])
+    assert math.isfinite(fit.estimates.loc["p0", "std_correlated"])
     reported = fit.report["parameters"][0]["std_correlated"]
     assert reported == fit.estimates.loc["p0", "std_correlated"]
     assert fit.truck["p0"] == fit.estimates.loc["p0", "estimate"]

@@ -36,7 +36,7 @@ fn greybox_improves_the_fit_and_writes_a_truck_file_that_loads_back() {
     assert!(text.contains("\"m2\""), "{text}");
     // Model 2 leaves the virtual truck's creep, heat and friction, slow misfit: allowing for
     // residuals correlated in time, its parameters are several times less certain (seen:
-    // 10-24 times the white standard deviation).
+    // 12-21 times the white standard deviation).
     for p in json["parameters"].as_array().unwrap() {
         let (white, correlated) = (p["std"].as_f64(), p["std_correlated"].as_f64());
         if p["status"] == "estimated" {

@@ -207,7 +207,7 @@ fn a_model_short_of_the_truck_reports_the_uncertainty_its_slow_misfit_leaves() {
     let batches = &result.residual_batches[0];
     assert!(
         text.contains(&format!(
-            "overlapping batches of {} of 6001 samples in load steps",
+            "batches of {} of 6001 samples in load steps",
             batches.batch_samples
         )),
         "{text}"

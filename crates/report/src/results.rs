@@ -234,9 +234,9 @@ pub struct ParameterEstimate {
     pub estimate: f64,
     /// One standard deviation as if the residuals were white.
     pub std: Option<f64>,
-    /// One standard deviation allowing for residuals correlated in time (overlapping batch
-    /// means): the honest one where a model's misfit is slow, as it mostly is.
-    #[serde(default)]
+    /// One standard deviation allowing for residuals correlated in time (Newey–West over
+    /// each estimation run): the one to believe where a model's misfit is slow, as it mostly
+    /// is; biased low by up to a quarter.
     pub std_correlated: Option<f64>,
     /// False when the estimation runs cannot determine it; it is then kept at its start
     /// value: the nominal one, or the draw of the global stage's start that won.

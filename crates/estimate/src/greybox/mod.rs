@@ -506,20 +506,16 @@ pub fn estimate(
                 options.rcond,
                 options.correlation_warning,
             );
-            let lin = linearise(
-                &j.select_columns(&live),
-                &blocks,
-                &lambda_post,
-                options.rcond,
-            );
+            let live_j = j.select_columns(&live);
+            let lin = linearise(&live_j, &blocks, &lambda_post, options.rcond);
             // The same sandwich with residuals correlated in time allowed for.
             let correlated = correlated_covariance(
-                &j.select_columns(&live),
+                &live_j,
+                &lin,
                 &residuals,
                 &blocks,
                 &lambda_post,
                 ev.runs.len(),
-                options.rcond,
             );
             (Some(after), lin.covariance.map(|c| (live, c)), correlated)
         }
@@ -620,10 +616,11 @@ pub fn estimate(
                 ev.runs
                     .iter()
                     .zip(c.batch_samples)
-                    .map(|(run, batch_samples)| ResidualBatches {
+                    .map(|(run, (batch_samples, longest))| ResidualBatches {
                         run: run.name.clone(),
                         samples: run.len(),
                         batch_samples,
+                        longest,
                     })
                     .collect()
             })

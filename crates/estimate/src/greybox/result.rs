@@ -98,11 +98,12 @@ pub struct EstimatedParameter {
     /// One standard deviation (module docs of `identifiability`) as if the residuals were
     /// white; `None` when fixed, at a bound or undetermined.
     pub std: Option<f64>,
-    /// One standard deviation allowing for residuals correlated in time (overlapping batch
-    /// means of the scores, [`GreyboxEstimate::residual_batches`]): what a model's slow
-    /// misfit leaves of the white `std`'s 15,000 independent samples per run. Coarse (a run
-    /// holds few correlation times) and biased low, but on the virtual truck 5-50 times the
-    /// white one, which understates the uncertainty by that much. `None` where `std` is.
+    /// One standard deviation allowing for residuals correlated in time (Newey–West over
+    /// each run, [`GreyboxEstimate::residual_batches`]), where `std` takes each sample as
+    /// independent: a model's slow misfit carries far less information than as many
+    /// independent samples would. On the built-in study 1-46 times `std` (about 1 for the
+    /// `truck` structure at its noise floor). Biased low by up to a quarter, and coarse where
+    /// a run holds few correlation times. `None` where `std` is.
     pub std_correlated: Option<f64>,
     pub lower: f64,
     pub upper: f64,
@@ -145,8 +146,11 @@ pub struct Correlation {
 pub struct ResidualBatches {
     pub run: String,
     pub samples: usize,
-    /// Samples per (overlapping) batch: Andrews' bandwidth for the run's score series.
+    /// Samples per (sliding) batch: Andrews' bandwidth for the run's score series.
     pub batch_samples: usize,
+    /// Whether that is the longest allowed, a quarter of the run (shorter than the
+    /// bandwidth asked for: the run is short against its residuals' correlation).
+    pub longest: bool,
 }
 
 /// The result of [`super::estimate`].
@@ -301,10 +305,20 @@ impl fmt::Display for GreyboxEstimate {
         if !self.residual_batches.is_empty() {
             writeln!(
                 f,
-                "(± std: white residuals; ± std corr.: residuals correlated in time allowed for, overlapping batches of {})",
+                "(± std: white residuals; ± std corr.: residuals correlated in time allowed for, batches of {})",
                 self.residual_batches
                     .iter()
-                    .map(|b| format!("{} of {} samples in {}", b.batch_samples, b.samples, b.run))
+                    .map(|b| format!(
+                        "{} of {} samples in {}{}",
+                        b.batch_samples,
+                        b.samples,
+                        b.run,
+                        if b.longest {
+                            " (the longest allowed)"
+                        } else {
+                            ""
+                        }
+                    ))
                     .collect::<Vec<_>>()
                     .join(", ")
             )?;
