@@ -16,9 +16,10 @@
 //! short of the truck leaves is mostly slow misfit, correlated over tens of seconds, and the
 //! estimate also reports standard deviations with the middle matrix estimated from the
 //! residuals' own correlation in time ([`correlated_covariance`],
-//! `EstimatedParameter::std_correlated`): on the built-in study 1-46 times the white ones. The screen below uses
-//! the white covariance, as it did before the correlated one was measured: freezing on the
-//! correlated one would fix more parameters of every model that misses the truck.
+//! `EstimatedParameter::std_correlated`): on the built-in study 1-46 times the white ones.
+//! The screen below uses the white covariance, as it did before the correlated one was
+//! measured: freezing on the correlated one would fix more parameters of every model that
+//! misses the truck.
 //!
 //! A freed parameter is reported as not identifiable from the given runs when
 //! 1. **no sensitivity**: its Jacobian column is zero (the outputs do not depend on it at
