@@ -46,6 +46,18 @@ pub const JOINT_ROUNDS_WITH_TRANSITIONS: usize = 10;
 /// A round that gains less than this share of the loss ends the alternation.
 pub const JOINT_MIN_GAIN: f64 = 0.01;
 
+/// Each refit of the alternation stops once its next step can gain less than this share of
+/// the loss (MINPACK `ftol`, [`GreyboxOptions::loss_tolerance`]): the next round's starts and
+/// transition times move the loss by more (the `truck` structure's rounds on the reference
+/// truck: 1 %), and a round that gains under [`JOINT_MIN_GAIN`] ends the alternation. At
+/// the solver's default 1e-8 the refits ran to their iteration cap, the last iterations
+/// gaining as little as 0.002 % each. Measured on the built-in study: 13 % fewer simulations (valve
+/// protocol `m2xh` 5,524 → 3,016, `truck` 9,837 → 9,296), the valve protocol's held-out
+/// scores within 0.4 points; the thesis protocol's, whose one estimation run leaves flat
+/// optima, moved both ways (mean held-out NRMSE `truck` 84.2 → 88.9 %, `m2x` −3.4 → −0.4,
+/// `m2xh` 26.5 → 25.8, `m1` −9.4 → −9.7).
+pub const JOINT_REFIT_LOSS_TOLERANCE: f64 = JOINT_MIN_GAIN / 10.0;
+
 /// Iterations of each refit: it starts next to the point it refines. Also those of the first
 /// fit where the alternation follows it and it is the global stage's only start
 /// ([`estimate_with_starts`]).
@@ -294,9 +306,12 @@ fn alternate(
     let mut current = first;
     let mut current_starts = problem.start_states.clone();
     let mut current_durations = durations_s;
-    let refit_options = options
+    let mut refit_options = options
         .clone()
         .with_max_iterations(options.max_iterations.min(JOINT_REFIT_ITERATIONS));
+    // Not tighter than the caller asked for.
+    refit_options.loss_tolerance =
+        Some(JOINT_REFIT_LOSS_TOLERANCE.max(options.loss_tolerance.unwrap_or(options.tolerance)));
     let mut rounds = Vec::new();
     // Every simulation of the alternation is counted in the result, not only the last fit's.
     let (mut simulations, mut failed) = (current.simulations, current.failed_simulations);

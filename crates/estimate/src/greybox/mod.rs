@@ -70,6 +70,11 @@ fn check_options(o: &GreyboxOptions) -> Result<(), EstimateError> {
     if !(o.tolerance.is_finite() && o.tolerance > 0.0) {
         return bad(format!("tolerance must be positive, got {}", o.tolerance));
     }
+    if let Some(t) = o.loss_tolerance
+        && !(t.is_finite() && t > 0.0 && t < 1.0)
+    {
+        return bad(format!("loss_tolerance must be in (0, 1), got {t}"));
+    }
     if !(o.fd_step.is_finite() && o.fd_step > 0.0 && o.fd_step < 0.5) {
         return bad(format!("fd_step must be in (0, 0.5), got {}", o.fd_step));
     }
@@ -372,6 +377,7 @@ pub fn estimate(
         let settings = FitSettings {
             fd_step: options.fd_step,
             tolerance: options.tolerance,
+            loss_tolerance: options.loss_tolerance.unwrap_or(options.tolerance),
             max_iterations: options.max_iterations,
             fail_value,
             kappa,

@@ -379,6 +379,10 @@ pub struct GreyboxOptions {
     /// Relative tolerance on the loss decrease and on the scaled parameter step (MINPACK
     /// `ftol`, `xtol`).
     pub tolerance: f64,
+    /// The loss decrease's alone (MINPACK `ftol`) where it differs from `tolerance`: a fit
+    /// stops once its next step can gain less than this share of the loss. `None`:
+    /// `tolerance`. The alternation's refits use [`crate::joint::JOINT_REFIT_LOSS_TOLERANCE`].
+    pub loss_tolerance: Option<f64>,
     /// Forward-difference step in scaled coordinates (a fraction of each parameter's scale,
     /// usually its nominal magnitude).
     pub fd_step: f64,
@@ -405,6 +409,7 @@ impl Default for GreyboxOptions {
         Self {
             max_iterations: 100,
             tolerance: 1e-8,
+            loss_tolerance: None,
             fd_step: 1e-4,
             policy: IdentifiabilityPolicy::default(),
             max_relative_std: 0.5,

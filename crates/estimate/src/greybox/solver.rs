@@ -17,7 +17,10 @@ const FAILING_TRIALS_NOT_CONVERGED: usize = 3;
 
 pub(crate) struct FitSettings {
     pub fd_step: f64,
+    /// MINPACK's `xtol` and `gtol`.
     pub tolerance: f64,
+    /// MINPACK's `ftol`.
+    pub loss_tolerance: f64,
     pub max_iterations: usize,
     /// Residual value of every sample of a run that failed to simulate.
     pub fail_value: f64,
@@ -278,7 +281,7 @@ pub(crate) fn fit(
     // The evaluation budget (MINPACK maxfev = patience·(n+1)) is generous: the iteration
     // budget is the limit users set; this only catches a trust region that never accepts.
     let lm = LevenbergMarquardt::new()
-        .with_ftol(settings.tolerance)
+        .with_ftol(settings.loss_tolerance)
         .with_xtol(settings.tolerance)
         .with_gtol(settings.tolerance)
         .with_patience(4 * settings.max_iterations.max(1));
