@@ -410,18 +410,32 @@ fn malformed_problems_are_typed_errors() {
         e(GreyboxProblem::new(&*model, &[&no_outputs], &["m2"])),
         EstimateError::InvalidRun { .. }
     ));
-    let bad_options = GreyboxOptions {
-        fd_step: 0.0,
-        ..GreyboxOptions::default()
-    };
-    assert!(matches!(
-        estimate(
-            &GreyboxProblem::new(&*model, &[&steps], &["m2"]),
-            &bad_options,
-            &mut NoProgress
-        ),
-        Err(EstimateError::InvalidOption(_))
-    ));
+    for bad_options in [
+        GreyboxOptions {
+            fd_step: 0.0,
+            ..GreyboxOptions::default()
+        },
+        GreyboxOptions {
+            loss_tolerance: Some(0.0),
+            ..GreyboxOptions::default()
+        },
+        GreyboxOptions {
+            loss_tolerance: Some(1.0),
+            ..GreyboxOptions::default()
+        },
+    ] {
+        assert!(
+            matches!(
+                estimate(
+                    &GreyboxProblem::new(&*model, &[&steps], &["m2"]),
+                    &bad_options,
+                    &mut NoProgress
+                ),
+                Err(EstimateError::InvalidOption(_))
+            ),
+            "{bad_options:?}"
+        );
+    }
     // A start that does not simulate (a wheel load below the unsprung mass) is an error.
     let mut light = steps.clone();
     light

@@ -662,7 +662,9 @@ def greybox(
             action, and ``road_free`` (the damper table's scale) when a run has road input.
         bounds: ``{name: (lower, upper)}`` narrowing a freed parameter's admissible range.
         max_iterations: Levenberg-Marquardt iterations per fit round (default 100).
-        tolerance: relative tolerance on loss decrease and scaled step (default 1e-8).
+        tolerance: relative tolerance on loss decrease and scaled step (default 1e-8); the
+            rounds that refit the starts with the parameters stop at a 0.1 % loss decrease
+            where this is tighter.
         initial: ``"height"`` or ``"pressure"``: what fixes each run's initial equilibrium.
         height_weight, pressure_weight: weights of the two outputs (0 leaves one out).
         max_relative_std: relative standard deviation above which a parameter counts as not

@@ -157,7 +157,8 @@ pub(crate) fn linearise(
         .map(|vt| vt.transpose())
         .unwrap_or_else(|| DMatrix::identity(n, n));
     let s_max = s.first().copied().unwrap_or(0.0);
-    let full_rank = n > 0 && s.iter().all(|&x| x > rcond * s_max && x > 0.0);
+    // Fewer rows than columns: fewer singular values than parameters, never full rank.
+    let full_rank = n > 0 && s.len() == n && s.iter().all(|&x| x > rcond * s_max && x > 0.0);
     let covariance = full_rank.then(|| {
         // (JnᵀJn)⁻¹ = V S⁻² Vᵀ
         let s_inv2 = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
@@ -208,8 +209,8 @@ pub(crate) struct CorrelatedCovariance {
 /// the Newey–West (Bartlett kernel) estimator of each run's score series `g` (height and
 /// pressure of a sample together; runs independent of each other), summed as batches of `b`
 /// samples sliding over the run and past its ends. With white residuals only `k = m`
-/// remains, `Σ_k r_k² J_kᵀ J_k`: [`linearise`]'s with each sample's own residual as its noise
-/// level. Why: what a model short of the truck leaves of a run is mostly not the sensors'
+/// remains in expectation, `Σ_k g_k g_kᵀ`: [`linearise`]'s with each sample's own residuals
+/// as its noise level. Why: what a model short of the truck leaves of a run is mostly not the sensors'
 /// noise but slow misfit (creep, heat, a law's shape), correlated over tens to hundreds of
 /// seconds; the white covariance takes each sample as independent, and on the built-in study
 /// this one came out 1-46 times as large (about 1 for the `truck` structure at its noise
@@ -217,7 +218,8 @@ pub(crate) struct CorrelatedCovariance {
 ///
 /// The batch length `b` is Andrews' (1991) AR(1) plug-in bandwidth for the Bartlett kernel
 /// (`1.1447 (α̂ n)^{1/3}`, `α̂` from an AR(1) fit of each score component, centred per run),
-/// at least 1 and at most a run's samples over [`RUN_SAMPLES_PER_LONGEST_BATCH`].
+/// at least 1 and at most a run's samples over [`RUN_SAMPLES_PER_LONGEST_BATCH`] (at least
+/// 1 sample).
 /// Assumptions: the residuals are stationary within a run and their correlation dies out
 /// within a batch. The kernel's weights fall off inside a batch, and the fit has taken the
 /// scores' sum to zero, so the estimate is biased low, by roughly `b/n` (up to a quarter at
@@ -245,6 +247,10 @@ pub(crate) fn correlated_covariance(
         return None;
     }
     let norms = &lin.norms;
+    debug_assert!(
+        (0..n).all(|c| (j.column(c).norm() - norms[c]).abs() <= 1e-9 * norms[c]),
+        "`lin` is the linearisation of `j`"
+    );
     // (JnᵀJn)⁻¹ = V S⁻² Vᵀ from `linearise`'s SVD (full rank: it has a covariance).
     let s_inv2 = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
         n,
@@ -272,7 +278,7 @@ pub(crate) fn correlated_covariance(
         let longest = (samples / RUN_SAMPLES_PER_LONGEST_BATCH).max(1);
         let wanted = bartlett_bandwidth(&scores).ceil();
         let b = (wanted as usize).clamp(1, longest);
-        batch_samples.push((b, wanted >= longest as f64 && b > 1));
+        batch_samples.push((b, wanted > longest as f64));
         // Every window of `b` samples that overlaps the run, from the one ending at its first
         // sample to the one starting at its last: each sample lies in exactly `b` of them.
         let mut sum = nalgebra::DVector::zeros(n);

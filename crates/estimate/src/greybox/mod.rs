@@ -62,7 +62,7 @@ use solver::{ColumnsAt, FitSettings, fit};
 /// many rounds in all.
 const MAX_ROUNDS: usize = 3;
 
-fn check_options(o: &GreyboxOptions) -> Result<(), EstimateError> {
+pub(crate) fn check_options(o: &GreyboxOptions) -> Result<(), EstimateError> {
     let bad = |s: String| Err(EstimateError::InvalidOption(s));
     if o.max_iterations == 0 {
         return bad("max_iterations must be at least 1".to_owned());

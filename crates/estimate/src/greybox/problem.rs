@@ -376,12 +376,14 @@ pub enum IdentifiabilityPolicy {
 pub struct GreyboxOptions {
     /// Levenberg–Marquardt iterations (Jacobian evaluations) per fit, at least 1.
     pub max_iterations: usize,
-    /// Relative tolerance on the loss decrease and on the scaled parameter step (MINPACK
-    /// `ftol`, `xtol`).
+    /// Relative tolerance on the scaled parameter step and on the gradient's angle to the
+    /// residuals (MINPACK `xtol`, `gtol`), and on the loss decrease where `loss_tolerance`
+    /// is `None`.
     pub tolerance: f64,
-    /// The loss decrease's alone (MINPACK `ftol`) where it differs from `tolerance`: a fit
-    /// stops once its next step can gain less than this share of the loss. `None`:
-    /// `tolerance`. The alternation's refits use [`crate::joint::JOINT_REFIT_LOSS_TOLERANCE`].
+    /// On the loss decrease alone (MINPACK `ftol`), in (0, 1): a fit stops once a step gains,
+    /// and is predicted to gain, less than this share of the sum of squares. `None`:
+    /// `tolerance`. The alternation's refits use
+    /// [`crate::joint::JOINT_REFIT_LOSS_TOLERANCE`] where this is tighter.
     pub loss_tolerance: Option<f64>,
     /// Forward-difference step in scaled coordinates (a fraction of each parameter's scale,
     /// usually its nominal magnitude).

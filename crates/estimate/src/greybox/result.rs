@@ -148,8 +148,8 @@ pub struct ResidualBatches {
     pub samples: usize,
     /// Samples per (sliding) batch: Andrews' bandwidth for the run's score series.
     pub batch_samples: usize,
-    /// Whether that is the longest allowed, a quarter of the run (shorter than the
-    /// bandwidth asked for: the run is short against its residuals' correlation).
+    /// Whether the bandwidth asked for was longer than allowed (a quarter of the run, at
+    /// least 1 sample), and cut: the run is short against its residuals' correlation.
     pub longest: bool,
 }
 
@@ -314,7 +314,7 @@ impl fmt::Display for GreyboxEstimate {
                         b.samples,
                         b.run,
                         if b.longest {
-                            " (the longest allowed)"
+                            " (cut to the longest allowed)"
                         } else {
                             ""
                         }
