@@ -210,16 +210,16 @@ pub(crate) struct CorrelatedCovariance {
 /// pressure of a sample together; runs independent of each other), summed as batches of `b`
 /// samples sliding over the run and past its ends. With white residuals only `k = m`
 /// remains in expectation, `Σ_k g_k g_kᵀ`: [`linearise`]'s with each sample's own residuals
-/// as its noise level. Why: what a model short of the truck leaves of a run is mostly not the sensors'
-/// noise but slow misfit (creep, heat, a law's shape), correlated over tens to hundreds of
-/// seconds; the white covariance takes each sample as independent, and on the built-in study
-/// this one came out 1-46 times as large (about 1 for the `truck` structure at its noise
-/// floor, the most for the models furthest from the truck).
+/// as its noise level. Why: what a model short of the truck leaves of a run is mostly not the
+/// sensors' noise but slow misfit (creep, heat, a law's shape), correlated over tens to
+/// hundreds of seconds; the white covariance takes each sample as independent, and on the
+/// built-in study this one came out 1-46 times as large (about 1 for the `truck` structure
+/// at its noise floor, the most for the models furthest from the truck).
 ///
 /// The batch length `b` is Andrews' (1991) AR(1) plug-in bandwidth for the Bartlett kernel
 /// (`1.1447 (α̂ n)^{1/3}`, `α̂` from an AR(1) fit of each score component, centred per run),
-/// at least 1 and at most a run's samples over [`RUN_SAMPLES_PER_LONGEST_BATCH`] (at least
-/// 1 sample).
+/// at least 1 and at most a run's samples over [`RUN_SAMPLES_PER_LONGEST_BATCH`] (that cap at
+/// least 1).
 /// Assumptions: the residuals are stationary within a run and their correlation dies out
 /// within a batch. The kernel's weights fall off inside a batch, and the fit has taken the
 /// scores' sum to zero, so the estimate is biased low, by roughly `b/n` (up to a quarter at
