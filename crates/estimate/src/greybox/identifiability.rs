@@ -121,8 +121,20 @@ pub(crate) struct Linearised {
     pub singular_values: Vec<f64>,
     /// Right singular vectors (columns), in column-normalised coordinates.
     pub v: DMatrix<f64>,
+    /// `(JnᵀJn)⁻¹ = V S⁻² Vᵀ` (column-normalised) if `Jn` has full numerical rank: the
+    /// sandwich's bread, for [`correlated_covariance`] too.
+    pub gram_inverse: Option<DMatrix<f64>>,
     /// `C_z` if the normalised Jacobian has full numerical rank.
     pub covariance: Option<DMatrix<f64>>,
+}
+
+/// [`analyse`]'s linearisation of the columns it could analyse, kept for the caller.
+pub(crate) struct LiveColumns {
+    /// Their indices among the Jacobian's columns.
+    pub columns: Vec<usize>,
+    /// Those columns.
+    pub j: DMatrix<f64>,
+    pub lin: Linearised,
 }
 
 /// SVD of `J D⁻¹` and the sandwich covariance (module docs). Zero columns must be removed
@@ -139,6 +151,7 @@ pub(crate) fn linearise(
             norms: Vec::new(),
             singular_values: Vec::new(),
             v: DMatrix::zeros(0, 0),
+            gram_inverse: None,
             covariance: None,
         };
     }
@@ -159,19 +172,21 @@ pub(crate) fn linearise(
     let s_max = s.first().copied().unwrap_or(0.0);
     // Fewer rows than columns: fewer singular values than parameters, never full rank.
     let full_rank = n > 0 && s.len() == n && s.iter().all(|&x| x > rcond * s_max && x > 0.0);
-    let covariance = full_rank.then(|| {
-        // (JnᵀJn)⁻¹ = V S⁻² Vᵀ
+    // (JnᵀJn)⁻¹ = V S⁻² Vᵀ
+    let gram_inverse = full_rank.then(|| {
         let s_inv2 = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
             n,
             s.iter().map(|x| 1.0 / (x * x)),
         ));
-        let a_inv = &v * s_inv2 * v.transpose();
+        &v * s_inv2 * v.transpose()
+    });
+    let covariance = gram_inverse.as_ref().map(|a_inv| {
         let mut b = DMatrix::zeros(n, n);
         for (range, &l) in blocks.iter().zip(lambda) {
             let jb = jn.rows(range.start, range.len());
             b += l * jb.transpose() * jb;
         }
-        let cw = &a_inv * b * &a_inv;
+        let cw = a_inv * b * a_inv;
         // back to z: C_z = D⁻¹ C_w D⁻¹
         DMatrix::from_fn(n, n, |r, c| cw[(r, c)] / (norms[r] * norms[c]))
     });
@@ -179,6 +194,7 @@ pub(crate) fn linearise(
         norms,
         singular_values: s,
         v,
+        gram_inverse,
         covariance,
     }
 }
@@ -225,7 +241,7 @@ pub(crate) struct CorrelatedCovariance {
 /// scores' sum to zero, so the estimate is biased low, by roughly `b/n` (up to a quarter at
 /// the longest batch), and coarse where a run holds few correlation times. Rows after the
 /// runs' (the force-map prior) are independent points, counted as in [`linearise`]. `None`
-/// where `lin` has no covariance (rank-deficient) or the rows do not match the runs.
+/// where `lin` is rank-deficient (no covariance) or the rows do not match the runs.
 pub(crate) fn correlated_covariance(
     j: &DMatrix<f64>,
     lin: &Linearised,
@@ -235,10 +251,9 @@ pub(crate) fn correlated_covariance(
     runs: usize,
 ) -> Option<CorrelatedCovariance> {
     let n = j.ncols();
-    lin.covariance.as_ref()?;
+    let a_inv = lin.gram_inverse.as_ref()?;
     if n == 0
         || lin.norms.len() != n
-        || lin.singular_values.len() != n
         || residuals.len() != j.nrows()
         || blocks.len() < 2 * runs
         || lambda.len() != blocks.len()
@@ -251,12 +266,6 @@ pub(crate) fn correlated_covariance(
         (0..n).all(|c| (j.column(c).norm() - norms[c]).abs() <= 1e-9 * norms[c]),
         "`lin` is the linearisation of `j`"
     );
-    // (JnᵀJn)⁻¹ = V S⁻² Vᵀ from `linearise`'s SVD (full rank: it has a covariance).
-    let s_inv2 = DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
-        n,
-        lin.singular_values.iter().map(|x| 1.0 / (x * x)),
-    ));
-    let a_inv = &lin.v * s_inv2 * lin.v.transpose();
     let normalised = |row: usize, c: usize| j[(row, c)] / norms[c];
 
     let mut omega = DMatrix::zeros(n, n);
@@ -300,7 +309,7 @@ pub(crate) fn correlated_covariance(
             omega.ger(l, &jr, &jr, 1.0);
         }
     }
-    let cw = &a_inv * omega * &a_inv;
+    let cw = a_inv * omega * a_inv;
     Some(CorrelatedCovariance {
         covariance: DMatrix::from_fn(n, n, |r, c| cw[(r, c)] / (norms[r] * norms[c])),
         batch_samples,
@@ -351,7 +360,9 @@ pub(crate) fn correlation(cov: &DMatrix<f64>) -> DMatrix<f64> {
     })
 }
 
-/// The report for the columns `cols` of `j` (named `names[cols[i]]`).
+/// The report for the columns `cols` of `j` (named `names[cols[i]]`), and its linearisation
+/// of those with some sensitivity (`None` where none has any): the estimate's covariances
+/// are those of the same matrix.
 pub(crate) fn analyse(
     j: &DMatrix<f64>,
     cols: &[usize],
@@ -360,7 +371,7 @@ pub(crate) fn analyse(
     lambda: &[f64],
     rcond: f64,
     correlation_warning: f64,
-) -> JacobianAnalysis {
+) -> (JacobianAnalysis, Option<LiveColumns>) {
     let sub = j.select_columns(cols);
     let parameters: Vec<String> = cols.iter().map(|&c| names[c].clone()).collect();
     let sensitivities: Vec<f64> = (0..sub.ncols()).map(|c| sub.column(c).norm()).collect();
@@ -369,7 +380,7 @@ pub(crate) fn analyse(
         .filter(|&c| sensitivities[c] > 0.0)
         .collect();
     if live.is_empty() {
-        return JacobianAnalysis {
+        let analysis = JacobianAnalysis {
             relative_std: vec![f64::INFINITY; parameters.len()],
             singular_values: vec![0.0; parameters.len()],
             condition_number: f64::INFINITY,
@@ -377,8 +388,10 @@ pub(crate) fn analyse(
             sensitivities,
             high_correlations: Vec::new(),
         };
+        return (analysis, None);
     }
-    let lin = linearise(&sub.select_columns(&live), blocks, lambda, rcond);
+    let live_j = sub.select_columns(&live);
+    let lin = linearise(&live_j, blocks, lambda, rcond);
     let mut singular_values = lin.singular_values.clone();
     singular_values.extend(std::iter::repeat_n(0.0, sub.ncols() - live.len()));
     let s_max = singular_values.first().copied().unwrap_or(0.0);
@@ -407,14 +420,20 @@ pub(crate) fn analyse(
             }
         }
     }
-    JacobianAnalysis {
+    let analysis = JacobianAnalysis {
         parameters,
         sensitivities,
         singular_values,
         condition_number,
         relative_std,
         high_correlations,
-    }
+    };
+    let kept = LiveColumns {
+        columns: live.iter().map(|&c| cols[c]).collect(),
+        j: live_j,
+        lin,
+    };
+    (analysis, Some(kept))
 }
 
 /// Settings of [`select_identifiable`].

@@ -54,7 +54,7 @@ use crate::progress::Observer;
 pub(crate) use evaluate::measurement_noise;
 use evaluate::{Evaluator, Responses, noise_variance_from_data};
 use identifiability::{
-    Screen, analyse, correlated_covariance, correlation, linearise, select_identifiable,
+    LiveColumns, Screen, analyse, correlated_covariance, correlation, select_identifiable,
 };
 use solver::{ColumnsAt, FitSettings, fit};
 
@@ -330,7 +330,7 @@ pub fn estimate(
     observer.stage("Jacobian at the nominal point");
     let (j0, failed0) = ev.jacobian(&z0, &all, &r0, options.fd_step);
     let lambda_data = noise_variance_from_data(&ev);
-    let before = analyse(
+    let (before, _) = analyse(
         &j0,
         &all,
         &names,
@@ -498,12 +498,9 @@ pub fn estimate(
     observer.stage("uncertainty and report");
     let (after, cov, correlated) = match (&final_j, active.is_empty()) {
         (Some(j), false) => {
-            let live: Vec<usize> = active
-                .iter()
-                .copied()
-                .filter(|&c| j.column(c).norm() > 0.0)
-                .collect();
-            let after = analyse(
+            // The report's analysis and the covariances are of the same matrix, linearised
+            // once.
+            let (after, kept) = analyse(
                 j,
                 &active,
                 &names,
@@ -512,18 +509,25 @@ pub fn estimate(
                 options.rcond,
                 options.correlation_warning,
             );
-            let live_j = j.select_columns(&live);
-            let lin = linearise(&live_j, &blocks, &lambda_post, options.rcond);
-            // The same sandwich with residuals correlated in time allowed for.
-            let correlated = correlated_covariance(
-                &live_j,
-                &lin,
-                &residuals,
-                &blocks,
-                &lambda_post,
-                ev.runs.len(),
-            );
-            (Some(after), lin.covariance.map(|c| (live, c)), correlated)
+            match kept {
+                Some(LiveColumns { columns, j, lin }) => {
+                    // The same sandwich with residuals correlated in time allowed for.
+                    let correlated = correlated_covariance(
+                        &j,
+                        &lin,
+                        &residuals,
+                        &blocks,
+                        &lambda_post,
+                        ev.runs.len(),
+                    );
+                    (
+                        Some(after),
+                        lin.covariance.map(|c| (columns, c)),
+                        correlated,
+                    )
+                }
+                None => (Some(after), None, None),
+            }
         }
         _ => (None, None, None),
     };
@@ -551,19 +555,18 @@ pub fn estimate(
         } else {
             ParameterStatus::Estimated
         };
+        // Fixed or at a bound: no standard deviation.
+        let reported = matches!(
+            status,
+            ParameterStatus::Estimated | ParameterStatus::NotIdentifiable
+        );
         parameters.push(EstimatedParameter {
             name: p.name.clone(),
             unit: p.unit.clone(),
             nominal: p.nominal,
             estimate: theta[i],
-            std: match status {
-                ParameterStatus::Estimated | ParameterStatus::NotIdentifiable => std,
-                _ => None,
-            },
-            std_correlated: match status {
-                ParameterStatus::Estimated | ParameterStatus::NotIdentifiable => std_correlated,
-                _ => None,
-            },
+            std: std.filter(|_| reported),
+            std_correlated: std_correlated.filter(|_| reported),
             lower: p.lower,
             upper: p.upper,
             status,
